@@ -1,0 +1,284 @@
+//! Equations of state of nitrogen: ideal gas and Benedict-Webb-Rubin.
+//!
+//! All quantities are per unit *mass* and SI at this interface (kg/m^3, K,
+//! Pa, J/(kg K)). The BWR constant sets are published in molar, non-SI units
+//! and are evaluated in their own units internally; converting the constants
+//! instead would be a second place for unit mistakes to hide.
+//!
+//! The ideal-gas heat capacity `c_v0(T)` shared by every model is NIST's
+//! Shomate fit for N2 (Chase, NIST-JANAF Thermochemical Tables, 1998), which
+//! the tests check against CoolProp's ideal-gas part.
+
+use crate::error::{check_range, Error, Result};
+
+/// Molar mass of nitrogen (N2), g/mol (= kg/kmol).
+pub const N2_MOLAR_MASS_G_PER_MOL: f64 = 28.0134;
+/// Molar gas constant, J/(mol K) (CODATA 2018, exact).
+pub const MOLAR_GAS_CONSTANT_J_PER_MOL_K: f64 = 8.314_462_618;
+/// Specific gas constant of N2, J/(kg K).
+pub const N2_GAS_CONSTANT_J_PER_KG_K: f64 =
+    MOLAR_GAS_CONSTANT_J_PER_MOL_K / (N2_MOLAR_MASS_G_PER_MOL * 1e-3);
+
+/// Valid pressure range of the density solve, Pa (the unit works in 2-110 MPa).
+pub const PRESSURE_RANGE_PA: (f64, f64) = (1.0e3, 3.0e8);
+/// Valid temperature range of every model, K.
+pub const TEMPERATURE_RANGE_K: (f64, f64) = (60.0, 1000.0);
+/// Valid density range, kg/m^3 (liquid nitrogen is about 800 kg/m^3).
+pub const DENSITY_RANGE_KG_M3: (f64, f64) = (0.0, 1000.0);
+
+/// Thermodynamic properties at one (density, temperature) state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GasProps {
+    /// Pressure, Pa.
+    pub p_pa: f64,
+    /// `(dp/dT)` at constant density, Pa/K.
+    pub dp_dt_pa_per_k: f64,
+    /// `(dp/drho)` at constant temperature, Pa m^3/kg.
+    pub dp_drho_pa_m3_per_kg: f64,
+    /// Isochoric specific heat capacity (real gas), J/(kg K).
+    pub cv_j_per_kg_k: f64,
+}
+
+/// An equation of state: everything the energy equation needs.
+///
+/// Implementors provide [`EquationOfState::props`]; the density solve is
+/// shared. Inputs are not range-checked here (this sits on the integrator's
+/// hot path); callers validate once at the boundary.
+pub trait EquationOfState {
+    /// Pressure, its derivatives and `c_v` at density `rho_kg_m3` and
+    /// temperature `t_k`.
+    fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps;
+
+    /// Pressure in Pa at density `rho_kg_m3` and temperature `t_k`.
+    fn pressure_pa(&self, rho_kg_m3: f64, t_k: f64) -> f64 {
+        self.props(rho_kg_m3, t_k).p_pa
+    }
+
+    /// Density in kg/m^3 at pressure `p_pa` and temperature `t_k`.
+    ///
+    /// A Newton iteration kept inside a bracket that always contains the
+    /// root; where a Newton step would leave the bracket (or the slope is not
+    /// positive) it bisects instead, so it cannot diverge or cycle. It gives
+    /// up with [`Error::NoConvergence`] after a fixed number of iterations.
+    ///
+    /// ```
+    /// use hp_core::gas::{EquationOfState, Gas};
+    /// let rho = Gas::Ideal.density_kg_m3(1.0e7, 300.0).unwrap();
+    /// assert!((Gas::Ideal.pressure_pa(rho, 300.0) / 1.0e7 - 1.0).abs() < 1e-12);
+    /// ```
+    fn density_kg_m3(&self, p_pa: f64, t_k: f64) -> Result<f64> {
+        check_range("p_pa", p_pa, PRESSURE_RANGE_PA.0, PRESSURE_RANGE_PA.1)?;
+        check_range("t_k", t_k, TEMPERATURE_RANGE_K.0, TEMPERATURE_RANGE_K.1)?;
+        solve_density(|rho| self.props(rho, t_k), p_pa)
+    }
+}
+
+fn solve_density(props: impl Fn(f64) -> GasProps, p_pa: f64) -> Result<f64> {
+    const MAX_ITERATIONS: usize = 100;
+    let fail = Error::NoConvergence { what: "density from pressure and temperature", target: p_pa };
+    // Bracket [lo, hi] with p(lo) < p_pa < p(hi); p(0) = 0 < p_pa.
+    let mut lo = 0.0_f64;
+    let mut hi = DENSITY_RANGE_KG_M3.1;
+    let p_hi = props(hi).p_pa;
+    if !(p_hi > p_pa) {
+        return Err(fail);
+    }
+    // Start from the ideal gas: accurate to a few per cent where the unit works.
+    let t_guess = props(1.0);
+    let mut rho = if t_guess.dp_drho_pa_m3_per_kg > 0.0 {
+        (p_pa / t_guess.dp_drho_pa_m3_per_kg).clamp(0.0, hi)
+    } else {
+        0.5 * hi
+    };
+    for _ in 0..MAX_ITERATIONS {
+        let s = props(rho);
+        let residual = s.p_pa - p_pa;
+        if !residual.is_finite() {
+            return Err(fail);
+        }
+        if residual > 0.0 {
+            hi = rho;
+        } else {
+            lo = rho;
+        }
+        if libm::fabs(residual) <= 1e-12 * p_pa {
+            return Ok(rho);
+        }
+        let newton = rho - residual / s.dp_drho_pa_m3_per_kg;
+        let next = if s.dp_drho_pa_m3_per_kg > 0.0 && newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if libm::fabs(next - rho) <= 1e-14 * rho {
+            return Ok(next);
+        }
+        rho = next;
+    }
+    Err(fail)
+}
+
+/// Ideal-gas isobaric molar heat capacity of N2, J/(mol K): NIST's Shomate
+/// equation (two temperature bands, 100-500 K and 500-2000 K).
+pub fn cp0_molar_j_per_mol_k(t_k: f64) -> f64 {
+    let (a, b, c, d, e) = if t_k <= 500.0 {
+        (28.98641, 1.853978, -9.647459, 16.63537, 0.000117)
+    } else {
+        (19.50583, 19.88705, -8.598535, 1.369784, 0.527601)
+    };
+    let t = t_k * 1e-3;
+    a + t * (b + t * (c + t * d)) + e / (t * t)
+}
+
+/// Ideal-gas isochoric specific heat capacity of N2, J/(kg K).
+pub fn cv0_j_per_kg_k(t_k: f64) -> f64 {
+    (cp0_molar_j_per_mol_k(t_k) - MOLAR_GAS_CONSTANT_J_PER_MOL_K) / (N2_MOLAR_MASS_G_PER_MOL * 1e-3)
+}
+
+/// Nitrogen as an ideal gas with temperature-dependent `c_v0(T)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct IdealGas;
+
+impl EquationOfState for IdealGas {
+    fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
+        let r = N2_GAS_CONSTANT_J_PER_KG_K;
+        GasProps {
+            p_pa: rho_kg_m3 * r * t_k,
+            dp_dt_pa_per_k: rho_kg_m3 * r,
+            dp_drho_pa_m3_per_kg: r * t_k,
+            cv_j_per_kg_k: cv0_j_per_kg_k(t_k),
+        }
+    }
+}
+
+/// One published set of Benedict-Webb-Rubin constants, in the set's own
+/// units: molar density in mol/L (= kmol/m^3), pressure in `pressure_unit_pa`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BwrConstants {
+    /// Gas constant in the set's units.
+    pub r: f64,
+    pub a0: f64,
+    pub b0: f64,
+    pub c0: f64,
+    pub a: f64,
+    pub b: f64,
+    pub c: f64,
+    pub alpha: f64,
+    pub gamma: f64,
+    /// One pressure unit of the set, in Pa.
+    pub pressure_unit_pa: f64,
+}
+
+/// Cooper & Goldfrank (1967) nitrogen, in atm, L, mol, K.
+pub const BWR_COOPER_GOLDFRANK: BwrConstants = BwrConstants {
+    r: 0.082_056_16,
+    a0: 1.19250,
+    b0: 0.0458000,
+    c0: 5.8891e3,
+    a: 0.0149000,
+    b: 1.98154e-3,
+    c: 548.064,
+    alpha: 2.91545e-4,
+    gamma: 7.5e-3,
+    pressure_unit_pa: 101_325.0,
+};
+
+/// The textbook nitrogen set (kPa, m^3, kmol, K), as tabulated in
+/// engineering thermodynamics texts.
+pub const BWR_TEXTBOOK: BwrConstants = BwrConstants {
+    r: 8.314,
+    a0: 106.73,
+    b0: 0.04074,
+    c0: 8.164e5,
+    a: 2.54,
+    b: 0.002328,
+    c: 7.379e4,
+    alpha: 1.272e-4,
+    gamma: 0.0053,
+    pressure_unit_pa: 1_000.0,
+};
+
+/// Benedict-Webb-Rubin nitrogen with a chosen constant set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bwr {
+    pub constants: BwrConstants,
+}
+
+impl EquationOfState for Bwr {
+    fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
+        let k = &self.constants;
+        let d = rho_kg_m3 / N2_MOLAR_MASS_G_PER_MOL; // mol/L
+        let t = t_k;
+        let t2 = t * t;
+        let t3 = t2 * t;
+        let d2 = d * d;
+        let d3 = d2 * d;
+        let gd2 = k.gamma * d2;
+        let e = libm::exp(-gd2);
+        let rt = k.r * t;
+        let p = rt * d
+            + (k.b0 * rt - k.a0 - k.c0 / t2) * d2
+            + (k.b * rt - k.a) * d3
+            + k.a * k.alpha * d3 * d3
+            + (k.c * d3 / t2) * (1.0 + gd2) * e;
+        let dp_dt = k.r * d + (k.b0 * k.r + 2.0 * k.c0 / t3) * d2 + k.b * k.r * d3
+            - (2.0 * k.c * d3 / t3) * (1.0 + gd2) * e;
+        let dp_dd = rt
+            + 2.0 * (k.b0 * rt - k.a0 - k.c0 / t2) * d
+            + 3.0 * (k.b * rt - k.a) * d2
+            + 6.0 * k.a * k.alpha * d3 * d2
+            + (k.c / t2) * (3.0 * d2 + 3.0 * gd2 * d2 - 2.0 * gd2 * gd2 * d2) * e;
+        // Residual c_v from the Helmholtz energy: -T d2(a_res)/dT2.
+        let cv_res = 6.0 * k.c0 * d / t3 - (6.0 * k.c / (k.gamma * t3)) * (1.0 - (1.0 + 0.5 * gd2) * e);
+        let energy_unit_j_per_mol = k.pressure_unit_pa * 1e-3; // (set pressure) x (L/mol)
+        let kg_per_mol = N2_MOLAR_MASS_G_PER_MOL * 1e-3;
+        GasProps {
+            p_pa: p * k.pressure_unit_pa,
+            dp_dt_pa_per_k: dp_dt * k.pressure_unit_pa,
+            dp_drho_pa_m3_per_kg: dp_dd * k.pressure_unit_pa / N2_MOLAR_MASS_G_PER_MOL,
+            cv_j_per_kg_k: cv0_j_per_kg_k(t) + cv_res * energy_unit_j_per_mol / kg_per_mol,
+        }
+    }
+}
+
+/// The selectable gas models.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Gas {
+    /// Ideal gas, `p = rho R T`, with `c_v0(T)`.
+    Ideal,
+    /// BWR with the Cooper & Goldfrank constants: best below 30 MPa.
+    BwrCooperGoldfrank,
+    /// BWR with the textbook constants: best over the whole 2-110 MPa range.
+    #[default]
+    BwrTextbook,
+}
+
+impl Gas {
+    /// Every model, for tables and sweeps.
+    pub const ALL: [Gas; 3] = [Gas::Ideal, Gas::BwrCooperGoldfrank, Gas::BwrTextbook];
+
+    /// Stable short name (used on the command line and in files).
+    pub fn name(self) -> &'static str {
+        match self {
+            Gas::Ideal => "ideal",
+            Gas::BwrCooperGoldfrank => "bwr-cg",
+            Gas::BwrTextbook => "bwr-textbook",
+        }
+    }
+
+    /// The model with short name `name`, if any.
+    pub fn from_name(name: &str) -> Option<Gas> {
+        Gas::ALL.into_iter().find(|g| g.name() == name)
+    }
+}
+
+impl EquationOfState for Gas {
+    #[inline]
+    fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
+        match self {
+            Gas::Ideal => IdealGas.props(rho_kg_m3, t_k),
+            Gas::BwrCooperGoldfrank => Bwr { constants: BWR_COOPER_GOLDFRANK }.props(rho_kg_m3, t_k),
+            Gas::BwrTextbook => Bwr { constants: BWR_TEXTBOOK }.props(rho_kg_m3, t_k),
+        }
+    }
+}
