@@ -10,6 +10,8 @@
 //! the CAN codec and the firmware. The logic is being written.
 #![no_std]
 
+pub mod can;
+
 /// The driver's mode switch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[repr(u8)]
