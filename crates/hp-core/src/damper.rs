@@ -1,0 +1,205 @@
+//! The damper pack and the valve orifices.
+//!
+//! The damper pack between the strut and accumulator S is an orifice with a
+//! bleed below a blow-off pressure (the sealing washer on Belleville
+//! springs), and opens along a linear slope above it. Valve 5 open bypasses
+//! the pack; rather than a second parallel orifice solved for a common
+//! pressure drop, each valve state has its own measured-style curve, which is
+//! how damper characteristics are specified and what a rig identifies.
+
+use crate::error::{check_range, Result};
+
+/// One branch of the damper characteristic: pressure drop over flow
+/// magnitude `q` (m^3/s): `R q + K q^2` below the blow-off pressure, then
+/// `p_b + S (q - q_b)` above it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DamperCurve {
+    /// Laminar (bleed) coefficient R, Pa s/m^3.
+    pub bleed_pa_s_per_m3: f64,
+    /// Turbulent (orifice) coefficient K, Pa s^2/m^6.
+    pub orifice_pa_s2_per_m6: f64,
+    /// Blow-off pressure drop p_b, Pa.
+    pub blowoff_pa: f64,
+    /// Slope above blow-off S, Pa s/m^3.
+    pub blowoff_slope_pa_s_per_m3: f64,
+}
+
+impl DamperCurve {
+    /// The curve that gives the strut force `F(v) = c1 v + c2 v^2` up to the
+    /// blow-off force, then `F_b + slope (v - v_b)`, for strut velocity `v`
+    /// and piston area `area_m2` (force = area x pressure drop, flow = area x
+    /// velocity): how damper characteristics are usually specified.
+    ///
+    /// ```
+    /// use hp_core::damper::DamperCurve;
+    /// let c = DamperCurve::from_strut(2e-3, 12_000.0, 64_000.0, 7_000.0, 16_000.0);
+    /// let v = 0.1;
+    /// let force = 2e-3 * c.pressure_drop_pa(2e-3 * v);
+    /// assert!((force - (12_000.0 * v + 64_000.0 * v * v)).abs() < 1e-6);
+    /// ```
+    pub fn from_strut(area_m2: f64, c1_n_s_per_m: f64, c2_n_s2_per_m2: f64, blowoff_n: f64, slope_n_s_per_m: f64) -> Self {
+        DamperCurve {
+            bleed_pa_s_per_m3: c1_n_s_per_m / (area_m2 * area_m2),
+            orifice_pa_s2_per_m6: c2_n_s2_per_m2 / (area_m2 * area_m2 * area_m2),
+            blowoff_pa: blowoff_n / area_m2,
+            blowoff_slope_pa_s_per_m3: slope_n_s_per_m / (area_m2 * area_m2),
+        }
+    }
+
+    /// Checks every coefficient is finite and within physical bounds.
+    pub fn validate(&self) -> Result<()> {
+        check_range("bleed_pa_s_per_m3", self.bleed_pa_s_per_m3, 0.0, 1e14)?;
+        check_range("orifice_pa_s2_per_m6", self.orifice_pa_s2_per_m6, 0.0, 1e18)?;
+        check_range("blowoff_pa", self.blowoff_pa, 0.0, 1e9)?;
+        check_range("blowoff_slope_pa_s_per_m3", self.blowoff_slope_pa_s_per_m3, 1e3, 1e14)?;
+        if self.bleed_pa_s_per_m3 == 0.0 && self.orifice_pa_s2_per_m6 == 0.0 {
+            // A curve with no resistance below blow-off cannot be inverted.
+            check_range("bleed_pa_s_per_m3", self.bleed_pa_s_per_m3, 1e3, 1e14)?;
+        }
+        Ok(())
+    }
+
+    /// Flow at which the orifice branch reaches the blow-off pressure, m^3/s.
+    fn blowoff_flow_m3_s(&self) -> f64 {
+        solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, self.blowoff_pa)
+    }
+
+    /// Pressure drop for a flow magnitude `q_m3_s >= 0`, Pa.
+    pub fn pressure_drop_pa(&self, q_m3_s: f64) -> f64 {
+        let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
+        if orifice <= self.blowoff_pa {
+            orifice
+        } else {
+            self.blowoff_pa + self.blowoff_slope_pa_s_per_m3 * (q_m3_s - self.blowoff_flow_m3_s())
+        }
+    }
+
+    /// Flow magnitude for a pressure drop `dp_pa >= 0`, m^3/s (the inverse of
+    /// [`DamperCurve::pressure_drop_pa`]).
+    pub fn flow_m3_s(&self, dp_pa: f64) -> f64 {
+        if dp_pa <= self.blowoff_pa {
+            solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa)
+        } else {
+            self.blowoff_flow_m3_s() + (dp_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3
+        }
+    }
+}
+
+/// Positive root q of `r q + k q^2 = dp`, in the cancellation-free form.
+fn solve_quadratic_flow(r: f64, k: f64, dp: f64) -> f64 {
+    if dp <= 0.0 {
+        return 0.0;
+    }
+    let disc = libm::sqrt(r * r + 4.0 * k * dp);
+    let denom = r + disc;
+    if denom > 0.0 {
+        2.0 * dp / denom
+    } else {
+        0.0
+    }
+}
+
+/// The two-state damper: a curve per valve-5 state and flow direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Damper {
+    /// Valve 5 closed (high damping), compression (flow out of the strut).
+    pub on_compression: DamperCurve,
+    /// Valve 5 closed, rebound (flow into the strut).
+    pub on_rebound: DamperCurve,
+    /// Valve 5 open (bypass, low damping), compression.
+    pub off_compression: DamperCurve,
+    /// Valve 5 open, rebound.
+    pub off_rebound: DamperCurve,
+}
+
+impl Damper {
+    /// Checks every curve.
+    pub fn validate(&self) -> Result<()> {
+        self.on_compression.validate()?;
+        self.on_rebound.validate()?;
+        self.off_compression.validate()?;
+        self.off_rebound.validate()
+    }
+
+    /// Signed pressure drop from strut to accumulator for a signed flow out
+    /// of the strut `q_m3_s`, with valve 5 open by the fraction
+    /// `bypass_open` (0 = closed = damper on, 1 = open), Pa.
+    pub fn pressure_drop_pa(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
+        let (on, off) = if q_m3_s >= 0.0 {
+            (&self.on_compression, &self.off_compression)
+        } else {
+            (&self.on_rebound, &self.off_rebound)
+        };
+        let q = libm::fabs(q_m3_s);
+        let dp = blend(on.pressure_drop_pa(q), off.pressure_drop_pa(q), bypass_open);
+        libm::copysign(dp, q_m3_s)
+    }
+
+    /// Signed flow out of the strut that a signed pressure drop `dp_pa`
+    /// (strut minus accumulator) drives, m^3/s: the inverse of
+    /// [`Damper::pressure_drop_pa`]. Used when the strut cavitates (its
+    /// pressure is then pinned at the vapour pressure and the flow is what
+    /// the pack passes) and when oil compliance makes the strut pressure a
+    /// state.
+    pub fn flow_m3_s(&self, dp_pa: f64, bypass_open: f64) -> f64 {
+        let (on, off) = if dp_pa >= 0.0 {
+            (&self.on_compression, &self.off_compression)
+        } else {
+            (&self.on_rebound, &self.off_rebound)
+        };
+        let dp = libm::fabs(dp_pa);
+        let q = if bypass_open <= 0.0 {
+            on.flow_m3_s(dp)
+        } else if bypass_open >= 1.0 {
+            off.flow_m3_s(dp)
+        } else {
+            // The blended curve is monotonic: bisect on it. 60 halvings of a
+            // bracket that holds both pure curves' flows reach machine precision.
+            let mut lo = 0.0;
+            let mut hi = on.flow_m3_s(dp).max(off.flow_m3_s(dp));
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if blend(on.pressure_drop_pa(mid), off.pressure_drop_pa(mid), bypass_open) > dp {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        libm::copysign(q, dp_pa)
+    }
+}
+
+#[inline]
+fn blend(on: f64, off: f64, bypass_open: f64) -> f64 {
+    on + (off - on) * bypass_open
+}
+
+/// A turbulent orifice (valve 6), regularised near zero pressure difference
+/// so that the flow is smooth (laminar-like) there instead of having an
+/// infinite slope, which explicit integration could not follow.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Orifice {
+    /// Discharge coefficient times flow area, m^2.
+    pub flow_area_m2: f64,
+    /// Pressure difference below which the flow turns laminar, Pa.
+    pub transition_pa: f64,
+}
+
+impl Orifice {
+    /// Checks the parameters.
+    pub fn validate(&self) -> Result<()> {
+        check_range("flow_area_m2", self.flow_area_m2, 0.0, 1e-2)?;
+        check_range("transition_pa", self.transition_pa, 1.0, 1e7)?;
+        Ok(())
+    }
+
+    /// Flow from side 1 to side 2 for a pressure difference `p1 - p2`, m^3/s:
+    /// `Cd A sqrt(2/rho) dp / (dp^2 + dp_t^2)^(1/4)`.
+    pub fn flow_m3_s(&self, dp_pa: f64, oil_density_kg_m3: f64) -> f64 {
+        let scale = self.flow_area_m2 * libm::sqrt(2.0 / oil_density_kg_m3);
+        let dp_t = self.transition_pa;
+        scale * dp_pa / libm::sqrt(libm::sqrt(dp_pa * dp_pa + dp_t * dp_t))
+    }
+}

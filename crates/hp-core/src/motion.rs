@@ -1,0 +1,166 @@
+//! Prescribed motions: strut displacement on the characterisation rig,
+//! base (road) displacement on the single-degree-of-freedom rig.
+
+use crate::error::{check_range, Error, Result};
+
+/// A displacement history `x(t)` with its rate, in m and m/s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Motion<'a> {
+    /// Stay at `disp_m`.
+    Hold { disp_m: f64 },
+    /// `x = offset + amplitude sin(2 pi f t)`.
+    Sine { amplitude_m: f64, frequency_hz: f64, offset_m: f64 },
+    /// A smooth step (raised cosine) of `height_m` starting at `start_s`,
+    /// reaching the new level after `rise_s`.
+    Step { height_m: f64, start_s: f64, rise_s: f64 },
+    /// Slow increments: `count` steps of `increment_m` up, then `count` back
+    /// down, each a raised-cosine ramp of `ramp_s` followed by a dwell of
+    /// `dwell_s` (so the gas settles to the wall temperature).
+    Steps { increment_m: f64, count: u32, ramp_s: f64, dwell_s: f64 },
+    /// Measured or generated samples, interpolated by a C1 cubic Hermite
+    /// curve (Catmull-Rom tangents, valid for irregular spacing); held
+    /// constant outside the samples. `time_s` must increase strictly.
+    Sampled { time_s: &'a [f64], disp_m: &'a [f64] },
+}
+
+/// Raised-cosine ramp from 0 to 1 over `[0, 1]` and its derivative.
+fn ramp(u: f64) -> (f64, f64) {
+    if u <= 0.0 {
+        (0.0, 0.0)
+    } else if u >= 1.0 {
+        (1.0, 0.0)
+    } else {
+        let w = core::f64::consts::PI * u;
+        (0.5 * (1.0 - libm::cos(w)), 0.5 * core::f64::consts::PI * libm::sin(w))
+    }
+}
+
+impl<'a> Motion<'a> {
+    /// Checks the parameters (for `Sampled`: equal lengths, at least two
+    /// samples, finite values, strictly increasing time).
+    pub fn validate(&self) -> Result<()> {
+        match *self {
+            Motion::Hold { disp_m } => check_range("disp_m", disp_m, -10.0, 10.0).map(|_| ()),
+            Motion::Sine { amplitude_m, frequency_hz, offset_m } => {
+                check_range("amplitude_m", amplitude_m, 0.0, 10.0)?;
+                check_range("frequency_hz", frequency_hz, 0.0, 1e4)?;
+                check_range("offset_m", offset_m, -10.0, 10.0).map(|_| ())
+            }
+            Motion::Step { height_m, start_s, rise_s } => {
+                check_range("height_m", height_m, -10.0, 10.0)?;
+                check_range("start_s", start_s, 0.0, 1e9)?;
+                check_range("rise_s", rise_s, 1e-6, 1e6).map(|_| ())
+            }
+            Motion::Steps { increment_m, count, ramp_s, dwell_s } => {
+                check_range("increment_m", increment_m, -10.0, 10.0)?;
+                check_range("count", f64::from(count), 1.0, 1e6)?;
+                check_range("ramp_s", ramp_s, 1e-6, 1e6)?;
+                check_range("dwell_s", dwell_s, 0.0, 1e6).map(|_| ())
+            }
+            Motion::Sampled { time_s, disp_m } => {
+                if time_s.len() != disp_m.len() {
+                    return Err(Error::OutOfRange {
+                        name: "disp_m.len",
+                        value: disp_m.len() as f64,
+                        min: time_s.len() as f64,
+                        max: time_s.len() as f64,
+                    });
+                }
+                check_range("time_s.len", time_s.len() as f64, 2.0, f64::MAX)?;
+                for &x in disp_m {
+                    check_range("disp_m", x, -10.0, 10.0)?;
+                }
+                let mut last = f64::NEG_INFINITY;
+                for &t in time_s {
+                    check_range("time_s", t, last, f64::MAX)?;
+                    if t == last {
+                        return Err(Error::OutOfRange { name: "time_s (strictly increasing)", value: t, min: last, max: f64::MAX });
+                    }
+                    last = t;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Displacement and velocity at time `t_s`.
+    pub fn at(&self, t_s: f64) -> (f64, f64) {
+        match *self {
+            Motion::Hold { disp_m } => (disp_m, 0.0),
+            Motion::Sine { amplitude_m, frequency_hz, offset_m } => {
+                let w = 2.0 * core::f64::consts::PI * frequency_hz;
+                (offset_m + amplitude_m * libm::sin(w * t_s), amplitude_m * w * libm::cos(w * t_s))
+            }
+            Motion::Step { height_m, start_s, rise_s } => {
+                let (r, dr) = ramp((t_s - start_s) / rise_s);
+                (height_m * r, height_m * dr / rise_s)
+            }
+            Motion::Steps { increment_m, count, ramp_s, dwell_s } => {
+                let period = ramp_s + dwell_s;
+                let n = f64::from(count);
+                let k = libm::floor(t_s / period).clamp(0.0, 2.0 * n);
+                let (r, dr) = ramp((t_s - k * period) / ramp_s);
+                let (level, dir) = if k < n { (k, 1.0) } else { (2.0 * n - k, -1.0) };
+                if k >= 2.0 * n {
+                    return (0.0, 0.0);
+                }
+                (increment_m * (level + dir * r), increment_m * dir * dr / ramp_s)
+            }
+            Motion::Sampled { time_s, disp_m } => hermite(time_s, disp_m, t_s),
+        }
+    }
+
+    /// Time at which the motion's own schedule ends (for `Steps`), if it has one.
+    pub fn natural_duration_s(&self) -> Option<f64> {
+        match *self {
+            Motion::Steps { count, ramp_s, dwell_s, .. } => Some(2.0 * f64::from(count) * (ramp_s + dwell_s)),
+            Motion::Sampled { time_s, .. } => time_s.last().copied(),
+            _ => None,
+        }
+    }
+}
+
+/// Cubic Hermite interpolation with Catmull-Rom (three-point) tangents.
+fn hermite(ts: &[f64], xs: &[f64], t: f64) -> (f64, f64) {
+    let n = ts.len().min(xs.len());
+    let (Some(&t_first), Some(&t_last)) = (ts.first(), ts.get(n.wrapping_sub(1))) else {
+        return (0.0, 0.0);
+    };
+    if t <= t_first {
+        return (xs.first().copied().unwrap_or(0.0), 0.0);
+    }
+    if t >= t_last {
+        return (xs.get(n - 1).copied().unwrap_or(0.0), 0.0);
+    }
+    // Interval i with ts[i] <= t < ts[i+1].
+    let i = ts.partition_point(|&ti| ti <= t).saturating_sub(1);
+    let pt = |j: usize| (ts.get(j).copied().unwrap_or(0.0), xs.get(j).copied().unwrap_or(0.0));
+    let (t0, x0) = pt(i);
+    let (t1, x1) = pt(i + 1);
+    let slope = |ta: f64, xa: f64, tb: f64, xb: f64| (xb - xa) / (tb - ta);
+    let s01 = slope(t0, x0, t1, x1);
+    let m0 = if i == 0 {
+        s01
+    } else {
+        let (tm, xm) = pt(i - 1);
+        slope(tm, xm, t1, x1)
+    };
+    let m1 = if i + 2 >= n {
+        s01
+    } else {
+        let (tp, xp) = pt(i + 2);
+        slope(t0, x0, tp, xp)
+    };
+    let h = t1 - t0;
+    let u = (t - t0) / h;
+    let (u2, u3) = (u * u, u * u * u);
+    let h00 = 2.0 * u3 - 3.0 * u2 + 1.0;
+    let h10 = u3 - 2.0 * u2 + u;
+    let h01 = -2.0 * u3 + 3.0 * u2;
+    let h11 = u3 - u2;
+    let x = h00 * x0 + h10 * h * m0 + h01 * x1 + h11 * h * m1;
+    let dx = ((6.0 * u2 - 6.0 * u) * x0 + (3.0 * u2 - 4.0 * u + 1.0) * h * m0 + (-6.0 * u2 + 6.0 * u) * x1
+        + (3.0 * u2 - 2.0 * u) * h * m1)
+        / h;
+    (x, dx)
+}

@@ -1,0 +1,298 @@
+//! The two test rigs of the seed, as ODE systems, and the loop that runs them.
+//!
+//! - Characterisation rig: the strut displacement is prescribed; the rig
+//!   measures force, pressures and temperatures.
+//! - Single-degree-of-freedom (SDOF) rig: a sprung mass rests on the unit,
+//!   the base under the strut is displaced (e.g. the seed's 43 mm step).
+//!
+//! Both share one state layout (the unit's states plus the body's position
+//! and velocity, unused on the characterisation rig) so one integrator loop
+//! and one sample type serve both.
+
+use crate::error::{check_range, Error, Result};
+use crate::motion::Motion;
+use crate::ode::{rk4_step, OdeSystem};
+use crate::unit::{StrutMotion, Unit, UnitOutputs, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+
+/// Number of states of a rig: the unit's plus body position and velocity.
+pub const RIG_STATES: usize = UNIT_STATES + 2;
+
+/// Which rig, with its excitation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RigKind<'a> {
+    /// Prescribed strut compression (positive = compression).
+    Characterisation { strut: Motion<'a> },
+    /// Sprung mass on the unit; prescribed base displacement (positive = up).
+    Sdof { sprung_mass_kg: f64, base: Motion<'a> },
+}
+
+/// The state of a rig.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RigState {
+    pub unit: UnitState,
+    /// Sprung-mass displacement from its static position, m (positive = up).
+    pub body_disp_m: f64,
+    /// Sprung-mass velocity, m/s.
+    pub body_vel_m_s: f64,
+}
+
+impl RigState {
+    fn to_array(self) -> [f64; RIG_STATES] {
+        let mut out = [0.0; RIG_STATES];
+        let u = self.unit.to_array();
+        for (o, v) in out.iter_mut().zip(u.iter().chain([self.body_disp_m, self.body_vel_m_s].iter())) {
+            *o = *v;
+        }
+        out
+    }
+
+    fn from_array(a: &[f64; RIG_STATES]) -> Self {
+        let mut u = [0.0; UNIT_STATES];
+        for (o, v) in u.iter_mut().zip(a.iter()) {
+            *o = *v;
+        }
+        let [.., body_disp_m, body_vel_m_s] = *a;
+        RigState { unit: UnitState::from_array(&u), body_disp_m, body_vel_m_s }
+    }
+}
+
+/// Everything observed at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RigSample {
+    pub time_s: f64,
+    /// Strut compression from the static position, m.
+    pub disp_m: f64,
+    /// Strut compression rate, m/s.
+    pub vel_m_s: f64,
+    /// Body displacement (SDOF), m.
+    pub body_disp_m: f64,
+    /// Body velocity (SDOF), m/s.
+    pub body_vel_m_s: f64,
+    /// Body acceleration (SDOF), m/s^2.
+    pub body_acc_m_s2: f64,
+    /// Base displacement (SDOF), m.
+    pub base_disp_m: f64,
+    /// Valve commands in force.
+    pub valves: Valves,
+    /// Gas volumes, m^3.
+    pub v_small_m3: f64,
+    pub v_large_m3: f64,
+    /// Energies dissipated so far, J.
+    pub e_damper_j: f64,
+    pub e_friction_j: f64,
+    pub e_valve6_j: f64,
+    /// The unit's outputs.
+    pub unit: UnitOutputs,
+}
+
+/// A unit mounted on a rig: an ODE system for the integrator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rig<'a> {
+    unit: &'a Unit,
+    kind: RigKind<'a>,
+    ambient_k: f64,
+    /// Valve commands, held over each integration step.
+    pub valves: Valves,
+    /// SDOF: strut compression at which the unit carries the sprung mass at
+    /// rest (zero when the charge matches the load), m.
+    static_disp_m: f64,
+}
+
+impl<'a> Rig<'a> {
+    /// Mounts `unit` on a rig at ambient temperature `ambient_k` (also the
+    /// initial gas, oil and wall temperature) with initial `valves`. Checks
+    /// the rig's parameters; on the SDOF rig finds the static equilibrium.
+    pub fn new(unit: &'a Unit, kind: RigKind<'a>, ambient_k: f64, valves: Valves) -> Result<Self> {
+        check_range("ambient_k", ambient_k, 200.0, 600.0)?;
+        let static_disp_m = match kind {
+            RigKind::Characterisation { strut } => {
+                strut.validate()?;
+                0.0
+            }
+            RigKind::Sdof { sprung_mass_kg, base } => {
+                check_range("sprung_mass_kg", sprung_mass_kg, 1.0, 1e6)?;
+                base.validate()?;
+                unit.static_disp_for_load_m(sprung_mass_kg * STANDARD_GRAVITY_M_S2, ambient_k, valves)?
+            }
+        };
+        Ok(Rig { unit, kind, ambient_k, valves, static_disp_m })
+    }
+
+    /// The unit on the rig.
+    pub fn unit(&self) -> &'a Unit {
+        self.unit
+    }
+
+    /// The rig and its excitation.
+    pub fn kind(&self) -> RigKind<'a> {
+        self.kind
+    }
+
+    /// Ambient temperature, K.
+    pub fn ambient_k(&self) -> f64 {
+        self.ambient_k
+    }
+
+    /// SDOF: the strut compression at static equilibrium under the sprung
+    /// mass, m (how far the ride height sits below nominal).
+    pub fn static_disp_m(&self) -> f64 {
+        self.static_disp_m
+    }
+
+    fn strut_motion(&self, t_s: f64, s: &RigState) -> (StrutMotion, f64) {
+        match self.kind {
+            RigKind::Characterisation { strut } => {
+                let (x, v) = strut.at(t_s);
+                (StrutMotion { disp_m: x, vel_m_s: v }, 0.0)
+            }
+            RigKind::Sdof { base, .. } => {
+                let (zb, vb) = base.at(t_s);
+                let disp_m = self.static_disp_m + zb - s.body_disp_m;
+                (StrutMotion { disp_m, vel_m_s: vb - s.body_vel_m_s }, zb)
+            }
+        }
+    }
+
+    fn evaluate(&self, t_s: f64, s: &RigState) -> Result<(RigState, RigSample)> {
+        self.unit.check_state(&s.unit, t_s)?;
+        if !(s.body_disp_m.is_finite() && s.body_vel_m_s.is_finite()) {
+            return Err(Error::StateOutOfRange {
+                name: "body_disp_m",
+                value: s.body_disp_m,
+                min: f64::MIN,
+                max: f64::MAX,
+                time_s: t_s,
+            });
+        }
+        let (motion, base) = self.strut_motion(t_s, s);
+        let (unit_rate, out) = self.unit.evaluate(&s.unit, motion, self.valves, self.ambient_k);
+        let body_acc = match self.kind {
+            RigKind::Characterisation { .. } => 0.0,
+            RigKind::Sdof { sprung_mass_kg, .. } => out.force_n / sprung_mass_kg - STANDARD_GRAVITY_M_S2,
+        };
+        let rate = RigState { unit: unit_rate, body_disp_m: s.body_vel_m_s, body_vel_m_s: body_acc };
+        let rate = match self.kind {
+            RigKind::Characterisation { .. } => RigState { body_disp_m: 0.0, body_vel_m_s: 0.0, ..rate },
+            RigKind::Sdof { .. } => rate,
+        };
+        let sample = RigSample {
+            time_s: t_s,
+            disp_m: motion.disp_m,
+            vel_m_s: motion.vel_m_s,
+            body_disp_m: s.body_disp_m,
+            body_vel_m_s: s.body_vel_m_s,
+            body_acc_m_s2: body_acc,
+            base_disp_m: base,
+            valves: self.valves,
+            v_small_m3: s.unit.v_small_m3,
+            v_large_m3: s.unit.v_large_m3,
+            e_damper_j: s.unit.e_damper_j,
+            e_friction_j: s.unit.e_friction_j,
+            e_valve6_j: s.unit.e_valve6_j,
+            unit: out,
+        };
+        Ok((rate, sample))
+    }
+
+    /// The initial state: at rest, gas at ambient temperature. On the
+    /// characterisation rig the strut starts where the motion starts; on the
+    /// SDOF rig the body rests in static equilibrium on the base, and its
+    /// displacement is measured from there (a charge that does not match
+    /// the load shows as [`Rig::static_disp_m`], not as a body offset).
+    pub fn initial_state(&self) -> Result<RigState> {
+        let (x0, body) = match self.kind {
+            RigKind::Characterisation { strut } => (strut.at(0.0).0, 0.0),
+            RigKind::Sdof { base, .. } => (self.static_disp_m, base.at(0.0).0),
+        };
+        let unit = self.unit.state_at_rest(x0, self.ambient_k, self.valves)?;
+        Ok(RigState { unit, body_disp_m: body, body_vel_m_s: 0.0 })
+    }
+
+    /// The observed quantities at `(t_s, state)`.
+    pub fn sample(&self, t_s: f64, state: &RigState) -> Result<RigSample> {
+        self.evaluate(t_s, state).map(|(_, s)| s)
+    }
+
+    /// Advances `state` by one RK4 step of `dt_s` with the current valves.
+    pub fn step(&self, t_s: f64, state: &RigState, dt_s: f64) -> Result<RigState> {
+        let y = rk4_step(self, t_s, &state.to_array(), dt_s)?;
+        let mut next = RigState::from_array(&y);
+        self.unit.project(&mut next.unit, self.ambient_k);
+        Ok(next)
+    }
+}
+
+impl OdeSystem<RIG_STATES> for Rig<'_> {
+    fn derivatives(&self, t_s: f64, y: &[f64; RIG_STATES]) -> Result<[f64; RIG_STATES]> {
+        let s = RigState::from_array(y);
+        let (rate, _) = self.evaluate(t_s, &s)?;
+        Ok(rate.to_array())
+    }
+}
+
+/// Largest number of substeps between two output samples.
+pub const MAX_SUBSTEPS: f64 = 1.0e7;
+
+/// Runs `rig` from its initial state through the output times `times_s`
+/// (strictly increasing, starting at or after 0), integrating with steps of
+/// at most `max_dt_s` that land exactly on every output time. The valves
+/// over the interval that starts at output `i` (time `t_i`) are
+/// `valves_at(i, t_i)`; `valves_at(0, t_0)` also holds before the first
+/// output. Each sample is handed to `on_sample` (return `false` to stop).
+///
+/// ```
+/// use hp_core::{presets, motion::Motion, rig::{run, Rig, RigKind}, unit::{Unit, Valves}};
+/// let unit = Unit::new(presets::seed_unit()).unwrap();
+/// let kind = RigKind::Sdof { sprung_mass_kg: presets::SEED_SPRUNG_MASS_KG,
+///     base: Motion::Step { height_m: 0.043, start_s: 0.1, rise_s: 0.05 } };
+/// let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
+/// let times: Vec<f64> = (0..=300).map(|i| i as f64 * 0.01).collect();
+/// let mut last = 0.0;
+/// run(&rig, times.iter().copied(), 1e-3, |_, _| Valves::from_modes(true, true), |_, s| { last = s.body_disp_m; true }).unwrap();
+/// assert!((last - 0.043).abs() < 0.005); // settled on the new base level
+/// ```
+pub fn run<'a>(
+    rig: &Rig<'a>,
+    times_s: impl IntoIterator<Item = f64>,
+    max_dt_s: f64,
+    mut valves_at: impl FnMut(usize, f64) -> Valves,
+    mut on_sample: impl FnMut(usize, &RigSample) -> bool,
+) -> Result<()> {
+    check_range("dt_s", max_dt_s, 1e-9, 10.0)?;
+    let mut times = times_s.into_iter();
+    let Some(t0) = times.next() else { return Ok(()) };
+    check_range("time_s", t0, 0.0, 1e9)?;
+    let mut rig = *rig;
+    rig.valves = valves_at(0, t0);
+    let mut state = rig.initial_state()?;
+    // Settle from t = 0 to the first output time.
+    let mut t = 0.0;
+    let mut index = 0usize;
+    let mut target = t0;
+    loop {
+        let span = target - t;
+        if span > 0.0 {
+            let n = libm::ceil(span / max_dt_s);
+            if !(n <= MAX_SUBSTEPS) {
+                return Err(Error::OutOfRange { name: "dt_s", value: max_dt_s, min: span / MAX_SUBSTEPS, max: 10.0 });
+            }
+            let h = span / n;
+            let steps = n as u64;
+            for k in 0..steps {
+                let tk = t + h * k as f64;
+                state = rig.step(tk, &state, h)?;
+            }
+        }
+        t = target;
+        if !on_sample(index, &rig.sample(t, &state)?) {
+            return Ok(());
+        }
+        let Some(next) = times.next() else { return Ok(()) };
+        if !(next > t) || !next.is_finite() {
+            return Err(Error::OutOfRange { name: "time_s (strictly increasing)", value: next, min: t, max: f64::MAX });
+        }
+        rig.valves = valves_at(index, t);
+        index += 1;
+        target = next;
+    }
+}

@@ -1,0 +1,705 @@
+//! The spring-damper unit: strut, damper pack with bypass valve 5,
+//! accumulator S (always connected) and accumulator L behind valve 6.
+//!
+//! ```text
+//! strut --damper pack / valve 5--> S (gas) --valve 6 (orifice)--> L (gas)
+//! ```
+//!
+//! Compressing the strut pushes oil through the damper into S; oil moves
+//! between S and L through valve 6 when it is open, driven by their pressure
+//! difference, so the two pressures can differ during fast motion. The oil is
+//! incompressible unless the oil-compliance effect is switched on; then the
+//! strut pressure becomes a state. Rebound is limited by cavitation: the
+//! strut pressure cannot fall below the oil's vapour pressure; when it would,
+//! a vapour void opens in the strut and closes again on compression.
+//!
+//! The optional [`Effects`] are the model terms `hpctl diagnose` can add or
+//! remove; with all of them off the unit is the seed's model.
+
+use crate::damper::{Damper, Orifice};
+use crate::error::{check_range, Error, Result};
+use crate::gas::{EquationOfState, Gas, DENSITY_RANGE_KG_M3, PRESSURE_RANGE_PA, TEMPERATURE_RANGE_K};
+use crate::thermal::{gas_temperature_k, temperature_rate_k_s, HeatTransfer};
+
+/// Standard gravity, m/s^2.
+pub const STANDARD_GRAVITY_M_S2: f64 = 9.80665;
+
+/// Seal friction between strut piston and cylinder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Friction {
+    /// Coulomb (dry) friction force, N.
+    pub coulomb_n: f64,
+    /// Viscous friction coefficient, N s/m.
+    pub viscous_n_s_per_m: f64,
+    /// Velocity over which the Coulomb force builds up (tanh), m/s: the
+    /// seal's pre-sliding compliance, and what keeps the model smooth.
+    pub smoothing_velocity_m_s: f64,
+}
+
+/// Oil compressibility and hose compliance between strut and damper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OilCompliance {
+    /// Effective bulk modulus of oil plus hoses, Pa.
+    pub bulk_modulus_pa: f64,
+    /// Oil volume on the strut side of the damper, m^3.
+    pub oil_volume_m3: f64,
+}
+
+/// Lumped thermal nodes for damper heat build-up: the damper heats the oil,
+/// the oil warms the gas accumulators' wall slowly, both lose heat to ambient.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OilNode {
+    /// Heat capacity of the oil and the steel around it, J/K.
+    pub heat_capacity_j_per_k: f64,
+    /// Oil-to-ambient time constant, s.
+    pub oil_to_ambient_tau_s: f64,
+    /// Time constant of the gas wall following the oil, s.
+    pub wall_to_oil_tau_s: f64,
+    /// Time constant of the gas wall following ambient, s.
+    pub wall_to_ambient_tau_s: f64,
+}
+
+/// Slow loss of gas from both accumulators (past the floating piston seals).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Leakage {
+    /// Time constant of the gas mass decay, s.
+    pub time_constant_s: f64,
+}
+
+/// The solenoid valves follow their command with a first-order lag.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValveLag {
+    /// Valve response time constant, s.
+    pub time_constant_s: f64,
+}
+
+/// Imperfect transducers on the measured force and pressures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sensor {
+    /// Offset added to the measured strut force, N.
+    pub force_offset_n: f64,
+    /// Offset added to both measured gas pressures, Pa.
+    pub pressure_offset_pa: f64,
+    /// First-order lag of all measured channels, s (0 = none).
+    pub time_constant_s: f64,
+}
+
+/// The switchable model terms. `None` = the effect is absent.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Effects {
+    pub friction: Option<Friction>,
+    pub oil_compliance: Option<OilCompliance>,
+    pub oil_node: Option<OilNode>,
+    pub leakage: Option<Leakage>,
+    pub valve_lag: Option<ValveLag>,
+    pub sensor: Option<Sensor>,
+}
+
+/// Everything that defines a unit, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UnitParams {
+    /// Strut piston area, m^2.
+    pub piston_area_m2: f64,
+    /// Gas volume of accumulator S at the static position, m^3.
+    pub small_volume_m3: f64,
+    /// Gas volume of accumulator L at the static position, m^3.
+    pub large_volume_m3: f64,
+    /// Gas pressure in both accumulators at the static position, Pa.
+    pub static_pressure_pa: f64,
+    /// Gas temperature at the static position, K.
+    pub static_temperature_k: f64,
+    /// Equation of state of the gas.
+    pub gas: Gas,
+    /// Heat exchange between gas and wall.
+    pub heat: HeatTransfer,
+    /// Valve 6 as an orifice.
+    pub valve6: Orifice,
+    /// The damper pack and bypass valve 5.
+    pub damper: Damper,
+    /// Oil density, kg/m^3.
+    pub oil_density_kg_m3: f64,
+    /// Lowest absolute pressure the oil in the strut can have, Pa.
+    pub vapour_pressure_pa: f64,
+    /// Pressure on the other side of the strut piston, Pa.
+    pub ambient_pressure_pa: f64,
+    /// Travel from the static position to the compression end stop, m.
+    pub stroke_compression_m: f64,
+    /// Travel from the static position to the extension end stop, m.
+    pub stroke_extension_m: f64,
+    /// Stiffness of the end stops, N/m.
+    pub end_stop_stiffness_n_per_m: f64,
+    /// Damping of the end stops, N s/m.
+    pub end_stop_damping_n_s_per_m: f64,
+    /// Optional model terms.
+    pub effects: Effects,
+}
+
+/// Valve commands: `true` = energised open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Valves {
+    /// Valve 5 open: damper bypassed (low damping, "damper off").
+    pub valve5_open: bool,
+    /// Valve 6 open: L connected (soft spring).
+    pub valve6_open: bool,
+}
+
+impl Valves {
+    /// From the modes a test engineer names.
+    pub fn from_modes(spring_hard: bool, damper_on: bool) -> Self {
+        Valves { valve5_open: !damper_on, valve6_open: !spring_hard }
+    }
+    /// True when valve 6 is closed (S alone).
+    pub fn spring_hard(self) -> bool {
+        !self.valve6_open
+    }
+    /// True when valve 5 is closed (oil through the damper pack).
+    pub fn damper_on(self) -> bool {
+        !self.valve5_open
+    }
+}
+
+/// Number of states of the unit.
+pub const UNIT_STATES: usize = 18;
+
+/// The unit's state. The temperature states are unused (and reported as the
+/// wall temperature) when the heat transfer is isothermal.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct UnitState {
+    pub t_small_k: f64,
+    pub t_large_k: f64,
+    /// Gas volume in S, m^3.
+    pub v_small_m3: f64,
+    /// Gas volume in L, m^3.
+    pub v_large_m3: f64,
+    pub m_small_kg: f64,
+    pub m_large_kg: f64,
+    /// Vapour void in the strut, m^3.
+    pub v_void_m3: f64,
+    /// Strut oil pressure (a state only with oil compliance), Pa.
+    pub p_strut_pa: f64,
+    pub t_oil_k: f64,
+    /// Gas wall temperature (a state only with the oil node), K.
+    pub t_wall_k: f64,
+    /// Valve 5 opening, 0..1 (a state only with valve lag).
+    pub valve5_open_frac: f64,
+    /// Valve 6 opening, 0..1 (a state only with valve lag).
+    pub valve6_open_frac: f64,
+    /// Lagged force transducer reading (without offset), N.
+    pub force_sensor_n: f64,
+    /// Lagged pressure transducer readings (without offset), Pa.
+    pub p_small_sensor_pa: f64,
+    pub p_large_sensor_pa: f64,
+    /// Energy dissipated in the damper pack, J.
+    pub e_damper_j: f64,
+    /// Energy dissipated by seal friction, J.
+    pub e_friction_j: f64,
+    /// Energy dissipated in valve 6, J.
+    pub e_valve6_j: f64,
+}
+
+impl UnitState {
+    /// As a flat array (the integrator's view).
+    pub fn to_array(&self) -> [f64; UNIT_STATES] {
+        [
+            self.t_small_k,
+            self.t_large_k,
+            self.v_small_m3,
+            self.v_large_m3,
+            self.m_small_kg,
+            self.m_large_kg,
+            self.v_void_m3,
+            self.p_strut_pa,
+            self.t_oil_k,
+            self.t_wall_k,
+            self.valve5_open_frac,
+            self.valve6_open_frac,
+            self.force_sensor_n,
+            self.p_small_sensor_pa,
+            self.p_large_sensor_pa,
+            self.e_damper_j,
+            self.e_friction_j,
+            self.e_valve6_j,
+        ]
+    }
+
+    /// From a flat array, the inverse of [`UnitState::to_array`].
+    pub fn from_array(a: &[f64; UNIT_STATES]) -> Self {
+        let [t_small_k, t_large_k, v_small_m3, v_large_m3, m_small_kg, m_large_kg, v_void_m3, p_strut_pa, t_oil_k, t_wall_k, valve5_open_frac, valve6_open_frac, force_sensor_n, p_small_sensor_pa, p_large_sensor_pa, e_damper_j, e_friction_j, e_valve6_j] =
+            *a;
+        UnitState {
+            t_small_k,
+            t_large_k,
+            v_small_m3,
+            v_large_m3,
+            m_small_kg,
+            m_large_kg,
+            v_void_m3,
+            p_strut_pa,
+            t_oil_k,
+            t_wall_k,
+            valve5_open_frac,
+            valve6_open_frac,
+            force_sensor_n,
+            p_small_sensor_pa,
+            p_large_sensor_pa,
+            e_damper_j,
+            e_friction_j,
+            e_valve6_j,
+        }
+    }
+}
+
+/// Prescribed strut motion at one instant: compression from the static
+/// position (positive = compression) and its rate.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StrutMotion {
+    pub disp_m: f64,
+    pub vel_m_s: f64,
+}
+
+/// What the unit does at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct UnitOutputs {
+    /// Strut force (positive = compression force), N.
+    pub force_n: f64,
+    /// Strut force as the transducer reports it, N.
+    pub force_measured_n: f64,
+    /// Absolute strut oil pressure, Pa.
+    pub p_strut_pa: f64,
+    /// Gas pressure in S, Pa.
+    pub p_small_pa: f64,
+    /// Gas pressure in L, Pa.
+    pub p_large_pa: f64,
+    /// Gas pressures as the transducers report them, Pa.
+    pub p_small_measured_pa: f64,
+    pub p_large_measured_pa: f64,
+    /// Gas temperatures, K.
+    pub t_small_k: f64,
+    pub t_large_k: f64,
+    /// Gas wall temperature, K.
+    pub t_wall_k: f64,
+    /// Oil temperature (ambient when the oil node is off), K.
+    pub t_oil_k: f64,
+    /// Force from the pressure drop over the damper, `A (p_strut - p_S)`, N.
+    pub damper_force_n: f64,
+    /// Power dissipated in the damper pack, W.
+    pub damper_power_w: f64,
+    /// Seal friction force, N.
+    pub friction_force_n: f64,
+    /// Power dissipated in seal friction, W.
+    pub friction_power_w: f64,
+    /// Power dissipated in valve 6, W.
+    pub valve6_power_w: f64,
+    /// Flow out of the strut through the damper, m^3/s.
+    pub flow_damper_m3_s: f64,
+    /// Flow from S to L through valve 6, m^3/s.
+    pub flow_valve6_m3_s: f64,
+    /// True while a vapour void is open in the strut.
+    pub cavitating: bool,
+}
+
+/// A validated unit with its derived gas masses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit {
+    params: UnitParams,
+    small_mass_kg: f64,
+    large_mass_kg: f64,
+}
+
+impl Unit {
+    /// Checks every parameter and derives the gas masses from the static
+    /// state. Errors name the parameter, its value and the valid range.
+    pub fn new(params: UnitParams) -> Result<Self> {
+        let p = &params;
+        check_range("piston_area_m2", p.piston_area_m2, 1e-5, 1.0)?;
+        check_range("small_volume_m3", p.small_volume_m3, 1e-6, 1.0)?;
+        check_range("large_volume_m3", p.large_volume_m3, 1e-6, 1.0)?;
+        check_range("static_pressure_pa", p.static_pressure_pa, 2.0e5, PRESSURE_RANGE_PA.1)?;
+        check_range("static_temperature_k", p.static_temperature_k, 200.0, 600.0)?;
+        check_range("oil_density_kg_m3", p.oil_density_kg_m3, 500.0, 2000.0)?;
+        check_range("vapour_pressure_pa", p.vapour_pressure_pa, 0.0, 1.0e5)?;
+        check_range("ambient_pressure_pa", p.ambient_pressure_pa, 0.0, 2.0e5)?;
+        check_range("stroke_compression_m", p.stroke_compression_m, 1e-3, 2.0)?;
+        check_range("stroke_extension_m", p.stroke_extension_m, 1e-3, 2.0)?;
+        check_range("end_stop_stiffness_n_per_m", p.end_stop_stiffness_n_per_m, 0.0, 1e9)?;
+        check_range("end_stop_damping_n_s_per_m", p.end_stop_damping_n_s_per_m, 0.0, 1e7)?;
+        if let HeatTransfer::TimeConstant(tau) = p.heat {
+            check_range("tau_s", tau, 1e-6, crate::thermal::MAX_FINITE_TAU_S)?;
+        }
+        p.valve6.validate()?;
+        p.damper.validate()?;
+        let e = &p.effects;
+        if let Some(f) = e.friction {
+            check_range("friction_coulomb_n", f.coulomb_n, 0.0, 1e6)?;
+            check_range("friction_viscous_n_s_per_m", f.viscous_n_s_per_m, 0.0, 1e7)?;
+            check_range("friction_smoothing_velocity_m_s", f.smoothing_velocity_m_s, 1e-6, 1.0)?;
+        }
+        if let Some(c) = e.oil_compliance {
+            check_range("oil_bulk_modulus_pa", c.bulk_modulus_pa, 1e6, 1e11)?;
+            check_range("oil_volume_m3", c.oil_volume_m3, 1e-6, 1.0)?;
+        }
+        if let Some(n) = e.oil_node {
+            check_range("oil_heat_capacity_j_per_k", n.heat_capacity_j_per_k, 1.0, 1e9)?;
+            check_range("oil_to_ambient_tau_s", n.oil_to_ambient_tau_s, 1e-3, 1e9)?;
+            check_range("wall_to_oil_tau_s", n.wall_to_oil_tau_s, 1e-3, 1e9)?;
+            check_range("wall_to_ambient_tau_s", n.wall_to_ambient_tau_s, 1e-3, 1e9)?;
+        }
+        if let Some(l) = e.leakage {
+            check_range("leak_time_constant_s", l.time_constant_s, 1.0, 1e12)?;
+        }
+        if let Some(v) = e.valve_lag {
+            check_range("valve_time_constant_s", v.time_constant_s, 1e-5, 10.0)?;
+        }
+        if let Some(s) = e.sensor {
+            check_range("sensor_force_offset_n", s.force_offset_n, -1e6, 1e6)?;
+            check_range("sensor_pressure_offset_pa", s.pressure_offset_pa, -1e8, 1e8)?;
+            check_range("sensor_time_constant_s", s.time_constant_s, 0.0, 10.0)?;
+        }
+        let rho = p.gas.density_kg_m3(p.static_pressure_pa, p.static_temperature_k)?;
+        Ok(Unit {
+            params,
+            small_mass_kg: rho * p.small_volume_m3,
+            large_mass_kg: rho * p.large_volume_m3,
+        })
+    }
+
+    /// The parameters the unit was built from.
+    pub fn params(&self) -> &UnitParams {
+        &self.params
+    }
+
+    /// Gas masses in S and L, kg.
+    pub fn gas_masses_kg(&self) -> (f64, f64) {
+        (self.small_mass_kg, self.large_mass_kg)
+    }
+
+    /// The state at rest at strut compression `disp_m` from the static
+    /// position, with the gas at wall temperature `t_k` and oil, wall and
+    /// sensors settled. With valve 6 open the two accumulators share the
+    /// volume change at equal pressure; closed, S takes it alone.
+    pub fn state_at_rest(&self, disp_m: f64, t_k: f64, valves: Valves) -> Result<UnitState> {
+        check_range("t_k", t_k, TEMPERATURE_RANGE_K.0, TEMPERATURE_RANGE_K.1)?;
+        let p = &self.params;
+        let (m_s, m_l) = (self.small_mass_kg, self.large_mass_kg);
+        let displaced = p.piston_area_m2 * disp_m;
+        let (v_s, v_l) = if valves.valve6_open {
+            let total = p.small_volume_m3 + p.large_volume_m3 - displaced;
+            (total * m_s / (m_s + m_l), total * m_l / (m_s + m_l))
+        } else {
+            (p.small_volume_m3 - displaced, p.large_volume_m3)
+        };
+        let min_v = m_s / DENSITY_RANGE_KG_M3.1;
+        if !(v_s > min_v) {
+            return Err(Error::OutOfRange {
+                name: "disp_m",
+                value: disp_m,
+                min: -p.stroke_extension_m,
+                max: (p.small_volume_m3 - min_v) / p.piston_area_m2,
+            });
+        }
+        let p_s = p.gas.pressure_pa(m_s / v_s, t_k);
+        let p_l = p.gas.pressure_pa(m_l / v_l, t_k);
+        Ok(UnitState {
+            t_small_k: t_k,
+            t_large_k: t_k,
+            v_small_m3: v_s,
+            v_large_m3: v_l,
+            m_small_kg: m_s,
+            m_large_kg: m_l,
+            v_void_m3: 0.0,
+            p_strut_pa: p_s,
+            t_oil_k: t_k,
+            t_wall_k: t_k,
+            valve5_open_frac: if valves.valve5_open { 1.0 } else { 0.0 },
+            valve6_open_frac: if valves.valve6_open { 1.0 } else { 0.0 },
+            force_sensor_n: p.piston_area_m2 * (p_s - p.ambient_pressure_pa),
+            p_small_sensor_pa: p_s,
+            p_large_sensor_pa: p_l,
+            e_damper_j: 0.0,
+            e_friction_j: 0.0,
+            e_valve6_j: 0.0,
+        })
+    }
+
+    /// Static strut force at rest at compression `disp_m`, N (see
+    /// [`Unit::state_at_rest`]).
+    pub fn static_force_n(&self, disp_m: f64, t_k: f64, valves: Valves) -> Result<f64> {
+        let s = self.state_at_rest(disp_m, t_k, valves)?;
+        Ok(self.params.piston_area_m2 * (s.p_strut_pa - self.params.ambient_pressure_pa))
+    }
+
+    /// The compression at which the static force carries `load_n`, m:
+    /// the ride height under a given load. Bisection over the stroke.
+    pub fn static_disp_for_load_m(&self, load_n: f64, t_k: f64, valves: Valves) -> Result<f64> {
+        check_range("load_n", load_n, 0.0, 1e8)?;
+        let p = &self.params;
+        let mut lo = -p.stroke_extension_m;
+        // The gas alone limits compression in the hard setting.
+        let mut hi = p.stroke_compression_m;
+        while self.state_at_rest(hi, t_k, valves).is_err() && hi > lo {
+            hi = lo + 0.99 * (hi - lo);
+            if hi - lo < 1e-9 {
+                break;
+            }
+        }
+        let f_lo = self.static_force_n(lo, t_k, valves)?;
+        let f_hi = self.static_force_n(hi, t_k, valves)?;
+        if !(f_lo <= load_n && load_n <= f_hi) {
+            return Err(Error::OutOfRange { name: "load_n", value: load_n, min: f_lo, max: f_hi });
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if self.static_force_n(mid, t_k, valves)? > load_n {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+            if hi - lo < 1e-12 {
+                break;
+            }
+        }
+        Ok(0.5 * (lo + hi))
+    }
+
+    /// Checks that a state is one the model can evaluate.
+    pub fn check_state(&self, s: &UnitState, time_s: f64) -> Result<()> {
+        let bad = |name, value, min, max| Error::StateOutOfRange { name, value, min, max, time_s };
+        let (t_min, t_max) = TEMPERATURE_RANGE_K;
+        for (name, t) in [
+            ("t_small_k", s.t_small_k),
+            ("t_large_k", s.t_large_k),
+            ("t_wall_k", s.t_wall_k),
+            ("t_oil_k", s.t_oil_k),
+        ] {
+            if !(t >= t_min && t <= t_max) {
+                return Err(bad(name, t, t_min, t_max));
+            }
+        }
+        for (name, v, m) in [
+            ("v_small_m3", s.v_small_m3, s.m_small_kg),
+            ("v_large_m3", s.v_large_m3, s.m_large_kg),
+        ] {
+            let min_v = m / DENSITY_RANGE_KG_M3.1;
+            if !(v > min_v && v < 10.0 && m > 0.0) {
+                return Err(bad(name, v, min_v, 10.0));
+            }
+        }
+        for (name, x) in [
+            ("p_strut_pa", s.p_strut_pa),
+            ("v_void_m3", s.v_void_m3),
+            ("force_sensor_n", s.force_sensor_n),
+            ("p_small_sensor_pa", s.p_small_sensor_pa),
+            ("p_large_sensor_pa", s.p_large_sensor_pa),
+        ] {
+            if !x.is_finite() {
+                return Err(bad(name, x, f64::MIN, f64::MAX));
+            }
+        }
+        Ok(())
+    }
+
+    /// The unit's state derivative and outputs at one instant.
+    ///
+    /// `state` must have passed [`Unit::check_state`]; `ambient_k` is the
+    /// temperature of the surroundings.
+    pub fn evaluate(
+        &self,
+        state: &UnitState,
+        motion: StrutMotion,
+        valves: Valves,
+        ambient_k: f64,
+    ) -> (UnitState, UnitOutputs) {
+        let p = &self.params;
+        let e = &p.effects;
+        let area = p.piston_area_m2;
+        let mut rate = UnitState::default();
+
+        // Thermal boundary of the gas.
+        let t_wall = if e.oil_node.is_some() { state.t_wall_k } else { ambient_k };
+        let t_oil = if e.oil_node.is_some() { state.t_oil_k } else { ambient_k };
+
+        // Valve positions: commanded, or lagging behind the command.
+        let command = |open: bool| if open { 1.0 } else { 0.0 };
+        let (s5, s6) = match e.valve_lag {
+            Some(lag) => {
+                rate.valve5_open_frac = (command(valves.valve5_open) - state.valve5_open_frac) / lag.time_constant_s;
+                rate.valve6_open_frac = (command(valves.valve6_open) - state.valve6_open_frac) / lag.time_constant_s;
+                (state.valve5_open_frac.clamp(0.0, 1.0), state.valve6_open_frac.clamp(0.0, 1.0))
+            }
+            None => (command(valves.valve5_open), command(valves.valve6_open)),
+        };
+
+        // Gas states.
+        let t_s = gas_temperature_k(p.heat, state.t_small_k, t_wall);
+        let t_l = gas_temperature_k(p.heat, state.t_large_k, t_wall);
+        let props_s = p.gas.props(state.m_small_kg / state.v_small_m3, t_s);
+        let props_l = p.gas.props(state.m_large_kg / state.v_large_m3, t_l);
+        let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
+
+        // Valve 6.
+        let q6 = s6 * p.valve6.flow_m3_s(p_s - p_l, p.oil_density_kg_m3);
+
+        // Strut pressure and damper flow, with cavitation.
+        let displaced_rate = area * motion.vel_m_s; // oil pushed out of the strut volume
+        let cavitation_flow = || p.damper.flow_m3_s(p.vapour_pressure_pa - p_s, s5);
+        let (p_strut, q_damper, cavitating) = match e.oil_compliance {
+            None => {
+                if state.v_void_m3 > 0.0 {
+                    (p.vapour_pressure_pa, cavitation_flow(), true)
+                } else {
+                    let p_strut = p_s + p.damper.pressure_drop_pa(displaced_rate, s5);
+                    if p_strut < p.vapour_pressure_pa {
+                        (p.vapour_pressure_pa, cavitation_flow(), true)
+                    } else {
+                        (p_strut, displaced_rate, false)
+                    }
+                }
+            }
+            Some(c) => {
+                let q = p.damper.flow_m3_s(state.p_strut_pa - p_s, s5);
+                let net = displaced_rate - q; // net oil volume squeezed into the strut side
+                let pinned = state.p_strut_pa <= p.vapour_pressure_pa && (state.v_void_m3 > 0.0 || net < 0.0);
+                if pinned {
+                    (p.vapour_pressure_pa, cavitation_flow(), true)
+                } else {
+                    let oil_volume = c.oil_volume_m3 - state.v_void_m3.max(0.0);
+                    rate.p_strut_pa = c.bulk_modulus_pa / oil_volume * net;
+                    (state.p_strut_pa, q, false)
+                }
+            }
+        };
+        rate.v_void_m3 = if cavitating { q_damper - displaced_rate } else { 0.0 };
+
+        // Gas volumes and masses.
+        rate.v_small_m3 = -(q_damper - q6);
+        rate.v_large_m3 = -q6;
+        if let Some(l) = e.leakage {
+            rate.m_small_kg = -state.m_small_kg / l.time_constant_s;
+            rate.m_large_kg = -state.m_large_kg / l.time_constant_s;
+        }
+        rate.t_small_k = temperature_rate_k_s(
+            p.heat,
+            &props_s,
+            t_s,
+            t_wall,
+            state.m_small_kg,
+            state.v_small_m3,
+            rate.v_small_m3,
+            rate.m_small_kg,
+        );
+        rate.t_large_k = temperature_rate_k_s(
+            p.heat,
+            &props_l,
+            t_l,
+            t_wall,
+            state.m_large_kg,
+            state.v_large_m3,
+            rate.v_large_m3,
+            rate.m_large_kg,
+        );
+
+        // Forces and dissipation.
+        let damper_force = area * (p_strut - p_s);
+        let damper_power = (p_strut - p_s) * q_damper;
+        let valve6_power = (p_s - p_l) * q6;
+        let (friction_force, friction_power) = match e.friction {
+            Some(f) => {
+                let v = motion.vel_m_s;
+                let force = f.coulomb_n * libm::tanh(v / f.smoothing_velocity_m_s) + f.viscous_n_s_per_m * v;
+                (force, force * v)
+            }
+            None => (0.0, 0.0),
+        };
+        let end_stop = self.end_stop_force_n(motion);
+        let force = area * (p_strut - p.ambient_pressure_pa) + friction_force + end_stop;
+        rate.e_damper_j = damper_power;
+        rate.e_friction_j = friction_power;
+        rate.e_valve6_j = valve6_power;
+
+        // Heat build-up.
+        if let Some(n) = e.oil_node {
+            let heat = damper_power + friction_power + valve6_power;
+            rate.t_oil_k = heat / n.heat_capacity_j_per_k + (ambient_k - state.t_oil_k) / n.oil_to_ambient_tau_s;
+            rate.t_wall_k = (state.t_oil_k - state.t_wall_k) / n.wall_to_oil_tau_s
+                + (ambient_k - state.t_wall_k) / n.wall_to_ambient_tau_s;
+        }
+
+        // Transducers.
+        let (force_measured, p_s_measured, p_l_measured) = match e.sensor {
+            Some(s) if s.time_constant_s > 0.0 => {
+                rate.force_sensor_n = (force - state.force_sensor_n) / s.time_constant_s;
+                rate.p_small_sensor_pa = (p_s - state.p_small_sensor_pa) / s.time_constant_s;
+                rate.p_large_sensor_pa = (p_l - state.p_large_sensor_pa) / s.time_constant_s;
+                (
+                    state.force_sensor_n + s.force_offset_n,
+                    state.p_small_sensor_pa + s.pressure_offset_pa,
+                    state.p_large_sensor_pa + s.pressure_offset_pa,
+                )
+            }
+            Some(s) => (force + s.force_offset_n, p_s + s.pressure_offset_pa, p_l + s.pressure_offset_pa),
+            None => (force, p_s, p_l),
+        };
+
+        let outputs = UnitOutputs {
+            force_n: force,
+            force_measured_n: force_measured,
+            p_strut_pa: p_strut,
+            p_small_pa: p_s,
+            p_large_pa: p_l,
+            p_small_measured_pa: p_s_measured,
+            p_large_measured_pa: p_l_measured,
+            t_small_k: t_s,
+            t_large_k: t_l,
+            t_wall_k: t_wall,
+            t_oil_k: t_oil,
+            damper_force_n: damper_force,
+            damper_power_w: damper_power,
+            friction_force_n: friction_force,
+            friction_power_w: friction_power,
+            valve6_power_w: valve6_power,
+            flow_damper_m3_s: q_damper,
+            flow_valve6_m3_s: q6,
+            cavitating,
+        };
+        (rate, outputs)
+    }
+
+    /// Force of the end stops when the strut is beyond its stroke, N. The
+    /// damping part never pulls the stop back (no sticking).
+    fn end_stop_force_n(&self, motion: StrutMotion) -> f64 {
+        let p = &self.params;
+        let (k, c) = (p.end_stop_stiffness_n_per_m, p.end_stop_damping_n_s_per_m);
+        let over = motion.disp_m - p.stroke_compression_m;
+        let under = -p.stroke_extension_m - motion.disp_m;
+        if over > 0.0 {
+            (k * over + c * motion.vel_m_s).max(0.0)
+        } else if under > 0.0 {
+            (-k * under + c * motion.vel_m_s).min(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Keeps a state inside its constraints after an integration step: the
+    /// void and valve openings cannot go negative, the pinned strut
+    /// pressure stays at the vapour pressure, and an unused isothermal
+    /// temperature state tracks the wall.
+    pub fn project(&self, s: &mut UnitState, ambient_k: f64) {
+        let p = &self.params;
+        s.v_void_m3 = s.v_void_m3.max(0.0);
+        s.valve5_open_frac = s.valve5_open_frac.clamp(0.0, 1.0);
+        s.valve6_open_frac = s.valve6_open_frac.clamp(0.0, 1.0);
+        if p.effects.oil_compliance.is_some() {
+            s.p_strut_pa = s.p_strut_pa.max(p.vapour_pressure_pa);
+        }
+        if p.heat == HeatTransfer::Isothermal {
+            let wall = if p.effects.oil_node.is_some() { s.t_wall_k } else { ambient_k };
+            s.t_small_k = wall;
+            s.t_large_k = wall;
+        }
+        if p.effects.oil_node.is_none() {
+            s.t_oil_k = ambient_k;
+            s.t_wall_k = ambient_k;
+        }
+    }
+}
