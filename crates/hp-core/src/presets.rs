@@ -19,7 +19,9 @@
 //! did not survive): an orifice with a bleed up to a blow-off force, the
 //! "off" (bypass open) force about half the "on" force in compression above
 //! 0.25 m/s, rebound stiffer, and limited by cavitation at
-//! `(p_S - p_vapour) A`, about 30 kN here.
+//! `(p_S - p_vapour) A`, about 30 kN here. "On" damps the hard spring at
+//! about half of critical at low speed (the seed: damped within one cycle),
+//! "off" at about an eighth (the seed: under-damped).
 
 use crate::damper::{Damper, DamperCurve, Orifice};
 use crate::gas::Gas;
@@ -50,10 +52,10 @@ pub fn static_pressure_for_load_pa(mass_kg: f64, area_m2: f64) -> f64 {
 /// The seed's damper: curves specified as strut force over strut velocity.
 pub fn seed_damper(area_m2: f64) -> Damper {
     Damper {
-        on_compression: DamperCurve::from_strut(area_m2, 12_000.0, 64_000.0, 7_000.0, 16_000.0),
-        on_rebound: DamperCurve::from_strut(area_m2, 15_000.0, 100_000.0, 12_000.0, 25_000.0),
-        off_compression: DamperCurve::from_strut(area_m2, 4_000.0, 40_000.0, 3_500.0, 8_000.0),
-        off_rebound: DamperCurve::from_strut(area_m2, 5_000.0, 50_000.0, 5_000.0, 12_000.0),
+        on_compression: DamperCurve::from_strut(area_m2, 30_000.0, 60_000.0, 11_000.0, 15_000.0),
+        on_rebound: DamperCurve::from_strut(area_m2, 40_000.0, 80_000.0, 16_000.0, 25_000.0),
+        off_compression: DamperCurve::from_strut(area_m2, 8_000.0, 40_000.0, 5_000.0, 8_000.0),
+        off_rebound: DamperCurve::from_strut(area_m2, 10_000.0, 50_000.0, 6_000.0, 12_000.0),
     }
 }
 
