@@ -3,7 +3,7 @@
 //! tests/reference/make_n2_reference.py), as Markdown for docs/accuracy.md.
 //!
 //!     cargo run -p hp-core --example eos_accuracy
-#![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 #[path = "../tests/common/mod.rs"]
 mod common;
 use common::errors;

@@ -3,7 +3,7 @@
 //! orifice is made five times narrower than the seed's so its fast mode does
 //! not keep the error in the pre-asymptotic regime (orders above four) at the
 //! step sizes tried.
-#![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 mod common;
 use common::{run_uniform, unit_with};
 use hp_core::damper::{Damper, DamperCurve};

@@ -1,7 +1,7 @@
 //! Closed cycles and energy: the adiabatic gas returns to its start, the
 //! thermal loop follows the linearised theory and peaks at omega tau = 1,
 //! and the dissipated energy balances the work put in.
-#![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 mod common;
 use common::{loop_integral, run_uniform, sine, unit_with};
 use hp_core::damper::DamperCurve;

@@ -1,6 +1,6 @@
 //! The thermal limits: tau = 0 is exactly isothermal, tau = infinity
 //! follows the real-gas isentrope (checked against CoolProp's entropy).
-#![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 mod common;
 use common::{fixture, run_uniform, sine, unit_with};
 use hp_core::gas::{EquationOfState, Gas};

@@ -1,6 +1,6 @@
 //! The seed's single-degree-of-freedom step test (43 mm base step, 3000 kg)
 //! and the linearised natural frequency against CoolProp's speed of sound.
-#![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 mod common;
 use common::{fixture, run_uniform, unit_with};
 use hp_core::damper::{Damper, DamperCurve};

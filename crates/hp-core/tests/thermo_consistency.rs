@@ -2,7 +2,7 @@
 //! finite differences of its own pressure, i.e. the model is
 //! thermodynamically consistent (a wrong sign or factor in a hand-derived
 //! derivative shows here, independent of any reference data).
-#![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
 use hp_core::gas::{cv0_j_per_kg_k, EquationOfState, Gas};
 
 fn states() -> impl Iterator<Item = (f64, f64)> {
