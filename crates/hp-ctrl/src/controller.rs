@@ -1,0 +1,224 @@
+//! The step function: parameters, state and one control period.
+
+use crate::config::{Config, ParamError};
+use crate::damper::{self, DamperParams, DamperState};
+use crate::estimator::{self, EstimatorParams, EstimatorState};
+use crate::gas_table::LargeTable;
+use crate::input_group::{BODY, DRIVER, PRESSURES, STRUT, TEMPERATURE};
+use crate::mode::{self, ModeInputs, ModeParams, ModeState};
+use crate::monitor::{self, MonitorParams, MonitorState};
+use crate::ride_height::{self, RideHeightInputs, RideHeightParams, RideHeightState};
+use crate::{clock, diag, DamperMode, DriveMode, Inputs, Outputs};
+
+/// Validated, compiled parameters: immutable while the controller runs.
+///
+/// Built from a [`Config`] by [`Params::new`], which validates it and
+/// precomputes what the step needs (single-precision thresholds, integer
+/// microsecond timers, the gas table of accumulator L), so the step itself
+/// never solves the equation of state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    config: Config,
+    table: LargeTable,
+    monitor: MonitorParams,
+    estimator: EstimatorParams,
+    mode: ModeParams,
+    damper: DamperParams,
+    ride_height: RideHeightParams,
+}
+
+impl Params {
+    /// Validates `config` ([`Config::validate`]) and compiles it.
+    pub fn new(config: Config) -> Result<Self, ParamError> {
+        config.validate()?;
+        let table = LargeTable::new(&config.unit, config.monitor.temperature_min_k, config.monitor.temperature_max_k)?;
+        Ok(Params {
+            table,
+            monitor: MonitorParams::new(&config.monitor, &config.unit),
+            estimator: EstimatorParams::new(&config.estimator),
+            mode: ModeParams::new(&config.mode),
+            damper: DamperParams::new(&config.damper),
+            ride_height: RideHeightParams::new(&config.ride_height),
+            config,
+        })
+    }
+
+    /// The seed's unit with the default calibration ([`Config::seed_unit`]).
+    pub fn seed_unit() -> Result<Self, ParamError> {
+        Params::new(Config::seed_unit())
+    }
+
+    /// The configuration these parameters were compiled from.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The gas table of accumulator L (target pressures, height estimate).
+    pub fn large_table(&self) -> &LargeTable {
+        &self.table
+    }
+}
+
+/// Everything the controller remembers between periods.
+///
+/// [`State::new`] (= `Default`) is the power-on state: the safe state, in
+/// which the controller stays until every input has been good for the
+/// recovery time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    monitor: MonitorState,
+    estimator: EstimatorState,
+    mode: ModeState,
+    damper: DamperState,
+    ride_height: RideHeightState,
+    /// Last valid ride-height estimate, m.
+    ride_height_m: f32,
+    /// Last valid target pressure of L, Pa.
+    p_large_target_pa: f32,
+}
+
+impl State {
+    /// The power-on state.
+    pub const fn new() -> Self {
+        State {
+            monitor: MonitorState::new(),
+            estimator: EstimatorState::new(),
+            mode: ModeState::new(),
+            damper: DamperState::new(),
+            ride_height: RideHeightState::new(),
+            ride_height_m: 0.0,
+            p_large_target_pa: 0.0,
+        }
+    }
+}
+
+impl Default for State {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// One control period: measured `inputs` in, valve commands out.
+///
+/// Pure, allocation-free, panic-free and deterministic. `dt_s` is the time
+/// since the previous call; a `dt_s` that is not finite, below 1 us or above
+/// `monitor.dt_max_s` gives the safe state. See `docs/controller.md`.
+///
+/// ```
+/// use hp_ctrl::{input_group, step, DriveMode, Inputs, Params, SequencerState, State};
+///
+/// let params = Params::seed_unit().unwrap();
+/// let p_static = params.config().unit.static_pressure_pa;
+/// let mut state = State::new();
+/// let inputs = Inputs {
+///     p_small_pa: p_static,
+///     p_large_pa: p_static,
+///     t_gas_k: params.config().unit.static_temperature_k,
+///     speed_m_s: 10.0,
+///     fresh: input_group::ALL,
+///     ..Inputs::default()
+/// };
+/// // Power-on is the safe state: both valves closed.
+/// let out = step(&params, &mut state, &inputs, 1e-3);
+/// assert!(!out.valve5_open && !out.valve6_open);
+/// assert_eq!(out.sequencer, SequencerState::Blocked);
+/// // After good inputs for the recovery time (0.5 s) and the handling hold
+/// // (2 s), a straight, calm road gives Ride: valve 6 open, soft spring.
+/// let mut out = out;
+/// for _ in 0..3000 {
+///     out = step(&params, &mut state, &inputs, 1e-3);
+/// }
+/// assert_eq!(out.drive_mode, DriveMode::Ride);
+/// assert!(out.valve6_open);
+/// assert!(out.ride_height_m.abs() < 1e-3);
+/// // A NaN reading gives the safe state in the same period.
+/// let bad = Inputs { p_large_pa: f64::NAN, ..inputs };
+/// let out = step(&params, &mut state, &bad, 1e-3);
+/// assert!(!out.valve5_open && !out.valve6_open);
+/// assert_ne!(out.diag & hp_ctrl::diag::SAFE_STATE, 0);
+/// ```
+pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> Outputs {
+    let dt_us = clock::dt_us(dt_s, params.monitor.dt_max_s);
+    let health = monitor::step(&params.monitor, &mut state.monitor, inputs, dt_us);
+    let dt_us = dt_us.unwrap_or(0);
+    let usable = |group: u16| health.usable & group != 0;
+    let mut flags = health.diag;
+
+    estimator::step(
+        &params.estimator,
+        &mut state.estimator,
+        usable(STRUT).then_some(inputs.strut_disp_m as f32),
+        usable(BODY).then_some(inputs.body_acc_m_s2 as f32),
+        clock::us_to_seconds(dt_us),
+    );
+
+    let (request_m, clamped) = if usable(DRIVER) {
+        params.ride_height.effective_request_m(inputs.ride_height_request_m)
+    } else {
+        (0.0, false)
+    };
+    if clamped {
+        flags |= diag::REQUEST_CLAMPED;
+    }
+    let request_m = request_m as f32;
+    if usable(PRESSURES) && usable(TEMPERATURE) {
+        let t_k = inputs.t_gas_k as f32;
+        state.ride_height_m = params.table.ride_height_m(inputs.p_large_pa as f32, t_k);
+        state.p_large_target_pa = params.table.pressure_pa(request_m, t_k);
+    } else {
+        flags |= diag::HEIGHT_ESTIMATE_HELD;
+    }
+
+    let vehicle = ModeInputs {
+        speed_m_s: inputs.speed_m_s as f32,
+        lat_acc_m_s2: inputs.lat_acc_m_s2 as f32,
+        long_acc_m_s2: inputs.long_acc_m_s2 as f32,
+        steer_angle_rad: inputs.steer_angle_rad as f32,
+        steer_rate_rad_s: inputs.steer_rate_rad_s as f32,
+        brake_pressed: inputs.brake_pressed,
+    };
+    let (drive_mode, triggers) =
+        mode::step(&params.mode, &mut state.mode, &vehicle, inputs.driver_mode, health.safe, dt_us);
+    flags |= triggers;
+
+    let height = ride_height::step(
+        &params.ride_height,
+        &mut state.ride_height,
+        &RideHeightInputs {
+            request_m,
+            height_m: state.ride_height_m,
+            p_small_pa: inputs.p_small_pa,
+            p_large_pa: inputs.p_large_pa,
+            lat_acc_m_s2: vehicle.lat_acc_m_s2,
+            long_acc_m_s2: vehicle.long_acc_m_s2,
+            brake_pressed: vehicle.brake_pressed,
+            soft_wanted: drive_mode == DriveMode::Ride,
+            safe: health.safe,
+        },
+        dt_us,
+    );
+    flags |= height.diag;
+
+    let damper_mode = damper::step(
+        &params.damper,
+        &mut state.damper,
+        state.estimator.body_vel_m_s(),
+        state.estimator.strut_vel_m_s(),
+        health.safe || drive_mode == DriveMode::Handling,
+        dt_us,
+    );
+
+    Outputs {
+        valve5_open: damper_mode == DamperMode::Low,
+        valve6_open: height.valve6_open,
+        drive_mode,
+        spring_mode: height.spring,
+        damper_mode,
+        sequencer: height.sequencer,
+        diag: flags,
+        ride_height_m: f64::from(state.ride_height_m),
+        p_large_target_pa: f64::from(state.p_large_target_pa),
+        strut_vel_m_s: f64::from(state.estimator.strut_vel_m_s()),
+        body_vel_m_s: f64::from(state.estimator.body_vel_m_s()),
+    }
+}
