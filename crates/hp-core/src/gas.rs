@@ -207,31 +207,30 @@ pub struct Bwr {
 }
 
 impl EquationOfState for Bwr {
+    #[inline]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         let k = &self.constants;
         let d = rho_kg_m3 / N2_MOLAR_MASS_G_PER_MOL; // mol/L
         let t = t_k;
-        let t2 = t * t;
-        let t3 = t2 * t;
+        let inv_t2 = 1.0 / (t * t);
+        let inv_t3 = inv_t2 / t;
         let d2 = d * d;
         let d3 = d2 * d;
         let gd2 = k.gamma * d2;
         let e = libm::exp(-gd2);
         let rt = k.r * t;
-        let p = rt * d
-            + (k.b0 * rt - k.a0 - k.c0 / t2) * d2
-            + (k.b * rt - k.a) * d3
-            + k.a * k.alpha * d3 * d3
-            + (k.c * d3 / t2) * (1.0 + gd2) * e;
-        let dp_dt = k.r * d + (k.b0 * k.r + 2.0 * k.c0 / t3) * d2 + k.b * k.r * d3
-            - (2.0 * k.c * d3 / t3) * (1.0 + gd2) * e;
+        let second_virial = k.b0 * rt - k.a0 - k.c0 * inv_t2;
+        let third = k.b * rt - k.a;
+        let c_term = k.c * (1.0 + gd2) * e; // c (1 + gamma d^2) exp(-gamma d^2)
+        let p = rt * d + second_virial * d2 + third * d3 + k.a * k.alpha * d3 * d3 + c_term * d3 * inv_t2;
+        let dp_dt = k.r * d + (k.b0 * k.r + 2.0 * k.c0 * inv_t3) * d2 + k.b * k.r * d3 - 2.0 * c_term * d3 * inv_t3;
         let dp_dd = rt
-            + 2.0 * (k.b0 * rt - k.a0 - k.c0 / t2) * d
-            + 3.0 * (k.b * rt - k.a) * d2
+            + 2.0 * second_virial * d
+            + 3.0 * third * d2
             + 6.0 * k.a * k.alpha * d3 * d2
-            + (k.c / t2) * (3.0 * d2 + 3.0 * gd2 * d2 - 2.0 * gd2 * gd2 * d2) * e;
+            + k.c * inv_t2 * (3.0 * d2 + 3.0 * gd2 * d2 - 2.0 * gd2 * gd2 * d2) * e;
         // Residual c_v from the Helmholtz energy: -T d2(a_res)/dT2.
-        let cv_res = 6.0 * k.c0 * d / t3 - (6.0 * k.c / (k.gamma * t3)) * (1.0 - (1.0 + 0.5 * gd2) * e);
+        let cv_res = 6.0 * k.c0 * d * inv_t3 - (6.0 * k.c * inv_t3 / k.gamma) * (1.0 - (1.0 + 0.5 * gd2) * e);
         let energy_unit_j_per_mol = k.pressure_unit_pa * 1e-3; // (set pressure) x (L/mol)
         let kg_per_mol = N2_MOLAR_MASS_G_PER_MOL * 1e-3;
         GasProps {

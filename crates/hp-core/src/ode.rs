@@ -36,13 +36,25 @@ pub fn rk4_step<const N: usize, S: OdeSystem<N> + ?Sized>(
     y: &[f64; N],
     dt_s: f64,
 ) -> Result<[f64; N]> {
-    let half = 0.5 * dt_s;
     let k1 = system.derivatives(t_s, y)?;
-    let k2 = system.derivatives(t_s + half, &add_scaled(y, half, &k1))?;
+    rk4_step_from(system, t_s, y, dt_s, &k1)
+}
+
+/// [`rk4_step`] with the first stage `k1 = f(t, y)` already known (the
+/// caller evaluated it anyway, e.g. to report outputs at `t`).
+pub fn rk4_step_from<const N: usize, S: OdeSystem<N> + ?Sized>(
+    system: &S,
+    t_s: f64,
+    y: &[f64; N],
+    dt_s: f64,
+    k1: &[f64; N],
+) -> Result<[f64; N]> {
+    let half = 0.5 * dt_s;
+    let k2 = system.derivatives(t_s + half, &add_scaled(y, half, k1))?;
     let k3 = system.derivatives(t_s + half, &add_scaled(y, half, &k2))?;
     let k4 = system.derivatives(t_s + dt_s, &add_scaled(y, dt_s, &k3))?;
     let mut out = *y;
-    for ((((o, a), b), c), d) in out.iter_mut().zip(&k1).zip(&k2).zip(&k3).zip(&k4) {
+    for ((((o, a), b), c), d) in out.iter_mut().zip(k1).zip(&k2).zip(&k3).zip(&k4) {
         *o += dt_s / 6.0 * (a + 2.0 * b + 2.0 * c + d);
     }
     Ok(out)

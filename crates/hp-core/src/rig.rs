@@ -11,7 +11,7 @@
 
 use crate::error::{check_range, Error, Result};
 use crate::motion::Motion;
-use crate::ode::{rk4_step, OdeSystem};
+use crate::ode::{rk4_step, rk4_step_from, OdeSystem};
 use crate::unit::{StrutMotion, Unit, UnitOutputs, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 /// Number of states of a rig: the unit's plus body position and velocity.
@@ -153,6 +153,7 @@ impl<'a> Rig<'a> {
         }
     }
 
+    #[inline]
     fn evaluate(&self, t_s: f64, s: &RigState) -> Result<(RigState, RigSample)> {
         self.unit.check_state(&s.unit, t_s)?;
         if !(s.body_disp_m.is_finite() && s.body_vel_m_s.is_finite()) {
@@ -216,8 +217,35 @@ impl<'a> Rig<'a> {
     /// Advances `state` by one RK4 step of `dt_s` with the current valves.
     pub fn step(&self, t_s: f64, state: &RigState, dt_s: f64) -> Result<RigState> {
         let y = rk4_step(self, t_s, &state.to_array(), dt_s)?;
-        let mut next = RigState::from_array(&y);
+        Ok(self.projected(&y))
+    }
+
+    /// [`Rig::step`] reusing the state rate at `t_s` from [`Rig::sample_and_rate`].
+    fn step_from(&self, t_s: f64, state: &RigState, dt_s: f64, rate: &RigState) -> Result<RigState> {
+        let y = rk4_step_from(self, t_s, &state.to_array(), dt_s, &rate.to_array())?;
+        Ok(self.projected(&y))
+    }
+
+    fn projected(&self, y: &[f64; RIG_STATES]) -> RigState {
+        let mut next = RigState::from_array(y);
         self.unit.project(&mut next.unit, self.ambient_k);
+        next
+    }
+
+    /// Advances `state` from `t_s` to `t_end_s` in equal RK4 steps of at
+    /// most `max_dt_s`; `rate` is the state rate at `t_s` (reused as the
+    /// first stage of the first step).
+    fn advance(&self, t_s: f64, t_end_s: f64, state: &RigState, rate: &RigState, max_dt_s: f64) -> Result<RigState> {
+        let span = t_end_s - t_s;
+        let n = libm::ceil(span / max_dt_s);
+        if !(n <= MAX_SUBSTEPS) {
+            return Err(Error::OutOfRange { name: "dt_s", value: max_dt_s, min: span / MAX_SUBSTEPS, max: 10.0 });
+        }
+        let h = span / n;
+        let mut next = self.step_from(t_s, state, h, rate)?;
+        for k in 1..(n as u64) {
+            next = self.step(t_s + h * k as f64, &next, h)?;
+        }
         Ok(next)
     }
 }
@@ -235,8 +263,8 @@ pub const MAX_SUBSTEPS: f64 = 1.0e7;
 
 /// Runs `rig` from its initial state through the output times `times_s`
 /// (strictly increasing, starting at or after 0), integrating with steps of
-/// at most `max_dt_s` that land exactly on every output time. The valves
-/// over the interval that starts at output `i` (time `t_i`) are
+/// at most `max_dt_s` that land exactly on every output time. The valves at
+/// output `i` (time `t_i`) and over the interval that follows it are
 /// `valves_at(i, t_i)`; `valves_at(0, t_0)` also holds before the first
 /// output. Each sample is handed to `on_sample` (return `false` to stop).
 ///
@@ -265,34 +293,28 @@ pub fn run<'a>(
     let mut rig = *rig;
     rig.valves = valves_at(0, t0);
     let mut state = rig.initial_state()?;
-    // Settle from t = 0 to the first output time.
     let mut t = 0.0;
+    if t0 > 0.0 {
+        // Settle from rest at t = 0 to the first output time.
+        let (rate, _) = rig.evaluate(t, &state)?;
+        state = rig.advance(t, t0, &state, &rate, max_dt_s)?;
+        t = t0;
+    }
     let mut index = 0usize;
-    let mut target = t0;
     loop {
-        let span = target - t;
-        if span > 0.0 {
-            let n = libm::ceil(span / max_dt_s);
-            if !(n <= MAX_SUBSTEPS) {
-                return Err(Error::OutOfRange { name: "dt_s", value: max_dt_s, min: span / MAX_SUBSTEPS, max: 10.0 });
-            }
-            let h = span / n;
-            let steps = n as u64;
-            for k in 0..steps {
-                let tk = t + h * k as f64;
-                state = rig.step(tk, &state, h)?;
-            }
-        }
-        t = target;
-        if !on_sample(index, &rig.sample(t, &state)?) {
+        // The valves of the interval that starts here are already set; the
+        // rate evaluated for the sample is the first RK4 stage of the interval.
+        let (rate, sample) = rig.evaluate(t, &state)?;
+        if !on_sample(index, &sample) {
             return Ok(());
         }
         let Some(next) = times.next() else { return Ok(()) };
         if !(next > t) || !next.is_finite() {
             return Err(Error::OutOfRange { name: "time_s (strictly increasing)", value: next, min: t, max: f64::MAX });
         }
-        rig.valves = valves_at(index, t);
+        state = rig.advance(t, next, &state, &rate, max_dt_s)?;
+        t = next;
         index += 1;
-        target = next;
+        rig.valves = valves_at(index, t);
     }
 }

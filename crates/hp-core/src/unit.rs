@@ -502,6 +502,7 @@ impl Unit {
     ///
     /// `state` must have passed [`Unit::check_state`]; `ambient_k` is the
     /// temperature of the surroundings.
+    #[inline]
     pub fn evaluate(
         &self,
         state: &UnitState,
@@ -537,7 +538,7 @@ impl Unit {
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
         // Valve 6.
-        let q6 = s6 * p.valve6.flow_m3_s(p_s - p_l, p.oil_density_kg_m3);
+        let q6 = if s6 > 0.0 { s6 * p.valve6.flow_m3_s(p_s - p_l, p.oil_density_kg_m3) } else { 0.0 };
 
         // Strut pressure and damper flow, with cavitation.
         let displaced_rate = area * motion.vel_m_s; // oil pushed out of the strut volume
