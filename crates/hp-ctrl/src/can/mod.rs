@@ -119,3 +119,7 @@ pub fn decode<F: Frame>(frame: &F) -> Result<(Message, u8), Reject> {
     let (kind, payload, counter) = check_frame(frame)?;
     Ok((read_payload(kind, &payload)?, counter))
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)] // Tests may unwrap.
+mod tests;

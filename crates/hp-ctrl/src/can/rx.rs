@@ -61,7 +61,8 @@ pub enum Accepted {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Slot {
     counter: CounterState,
-    /// Time since the last used frame, us (saturating).
+    /// Time since the end of the period of the last used frame, as of the
+    /// end of the previous period, us (saturating).
     age_us: u32,
     /// No used frame for longer than the timeout (or never).
     stale: bool,
@@ -217,12 +218,14 @@ impl InputDecoder {
             if timeout_us == 0 {
                 continue;
             }
-            slot.age_us = slot.age_us.saturating_add(period_us);
+            // age_us = time from the end of the period of the last used
+            // frame to the end of this one.
             if !slot.stale && slot.age_us > timeout_us {
                 slot.stale = true;
                 slot.counter.reset();
                 self.timeouts = self.timeouts.saturating_add(1);
             }
+            slot.age_us = slot.age_us.saturating_add(period_us);
         }
         self.window_age = self.window_age.saturating_add(1);
         if self.window_age >= self.params.window_periods {

@@ -114,6 +114,7 @@ impl Signal {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)] // Tests may unwrap.
 mod tests {
     use super::*;
 
