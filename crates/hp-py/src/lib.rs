@@ -1,1 +1,17 @@
+//! `hpctl._core`: the Rust core as seen from Python. Thin by design: it
+//! converts arguments, releases the GIL, calls hp-core / hp-ctrl and
+//! converts results; all physics and control logic live in those crates.
 
+use pyo3::prelude::*;
+
+mod errors;
+mod params;
+mod sim;
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    sim::register(m)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,273 @@
+//! Python dicts to core parameter types. Strict: every key must be known
+//! and every required key present; the core checks the values.
+
+use crate::errors::parameter;
+use hp_core::damper::{Damper, DamperCurve, Orifice};
+use hp_core::gas::Gas;
+use hp_core::motion::Motion;
+use hp_core::thermal::HeatTransfer;
+use hp_core::unit::{Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, UnitParams, ValveLag};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::collections::BTreeSet;
+
+/// Reads keys from a dict and remembers which were read, so that unknown
+/// keys can be reported.
+pub struct Reader<'py> {
+    dict: Bound<'py, PyDict>,
+    path: String,
+    used: BTreeSet<String>,
+}
+
+impl<'py> Reader<'py> {
+    pub fn new(obj: &Bound<'py, PyAny>, path: &str) -> PyResult<Self> {
+        let dict = obj.cast::<PyDict>().map_err(|_| parameter(format!("{path} must be a dict")))?.clone();
+        Ok(Reader { dict, path: path.to_owned(), used: BTreeSet::new() })
+    }
+
+    fn key_path(&self, key: &str) -> String {
+        if self.path.is_empty() {
+            key.to_owned()
+        } else {
+            format!("{}.{key}", self.path)
+        }
+    }
+
+    pub fn get_opt(&mut self, key: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.used.insert(key.to_owned());
+        match self.dict.get_item(key)? {
+            Some(v) if !v.is_none() => Ok(Some(v)),
+            _ => Ok(None),
+        }
+    }
+
+    pub fn get(&mut self, key: &str) -> PyResult<Bound<'py, PyAny>> {
+        let path = self.key_path(key);
+        self.get_opt(key)?.ok_or_else(|| parameter(format!("missing key {path}")))
+    }
+
+    pub fn f64(&mut self, key: &str) -> PyResult<f64> {
+        let path = self.key_path(key);
+        let v = self.get(key)?;
+        v.extract::<f64>().map_err(|_| parameter(format!("{path} must be a number in SI units, got {v}")))
+    }
+
+    pub fn string(&mut self, key: &str) -> PyResult<String> {
+        let path = self.key_path(key);
+        let v = self.get(key)?;
+        v.extract::<String>().map_err(|_| parameter(format!("{path} must be a string, got {v}")))
+    }
+
+    pub fn sub(&mut self, key: &str) -> PyResult<Reader<'py>> {
+        let path = self.key_path(key);
+        Reader::new(&self.get(key)?, &path)
+    }
+
+    pub fn sub_opt(&mut self, key: &str) -> PyResult<Option<Reader<'py>>> {
+        let path = self.key_path(key);
+        self.get_opt(key)?.map(|v| Reader::new(&v, &path)).transpose()
+    }
+
+    pub fn vec(&mut self, key: &str) -> PyResult<Vec<f64>> {
+        let path = self.key_path(key);
+        let v = self.get(key)?;
+        v.extract::<Vec<f64>>().map_err(|_| parameter(format!("{path} must be a sequence of numbers")))
+    }
+
+    /// Fails on keys that were never asked for.
+    pub fn finish(self) -> PyResult<()> {
+        for key in self.dict.keys() {
+            let key: String = key.extract().unwrap_or_else(|_| format!("{key}"));
+            if !self.used.contains(&key) {
+                let known: Vec<&str> = self.used.iter().map(String::as_str).collect();
+                return Err(parameter(format!(
+                    "unknown key {} (known keys: {})",
+                    self.key_path(&key),
+                    known.join(", ")
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn curve(r: &mut Reader<'_>, key: &str) -> PyResult<DamperCurve> {
+    let mut c = r.sub(key)?;
+    let curve = DamperCurve {
+        bleed_pa_s_per_m3: c.f64("bleed_pa_s_per_m3")?,
+        orifice_pa_s2_per_m6: c.f64("orifice_pa_s2_per_m6")?,
+        blowoff_pa: c.f64("blowoff_pa")?,
+        blowoff_slope_pa_s_per_m3: c.f64("blowoff_slope_pa_s_per_m3")?,
+    };
+    c.finish()?;
+    Ok(curve)
+}
+
+/// The gas model named `name`.
+pub fn gas(name: &str) -> PyResult<Gas> {
+    Gas::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = Gas::ALL.iter().map(|g| g.name()).collect();
+        parameter(format!("gas = {name:?} is not a known model (one of: {})", names.join(", ")))
+    })
+}
+
+/// A unit description (see `hpctl.unit.Unit.to_core`) to core parameters.
+pub fn unit(obj: &Bound<'_, PyAny>) -> PyResult<UnitParams> {
+    let mut r = Reader::new(obj, "unit")?;
+    let tau_s = r.f64("tau_s")?;
+    let heat = HeatTransfer::from_tau_s(tau_s).map_err(crate::errors::to_py)?;
+    let gas = gas(&r.string("gas")?)?;
+    let mut d = r.sub("damper")?;
+    let damper = Damper {
+        on_compression: curve(&mut d, "on_compression")?,
+        on_rebound: curve(&mut d, "on_rebound")?,
+        off_compression: curve(&mut d, "off_compression")?,
+        off_rebound: curve(&mut d, "off_rebound")?,
+    };
+    d.finish()?;
+    let effects = match r.sub_opt("effects")? {
+        Some(e) => effects(e)?,
+        None => Effects::default(),
+    };
+    let params = UnitParams {
+        piston_area_m2: r.f64("piston_area_m2")?,
+        small_volume_m3: r.f64("small_volume_m3")?,
+        large_volume_m3: r.f64("large_volume_m3")?,
+        static_pressure_pa: r.f64("static_pressure_pa")?,
+        static_temperature_k: r.f64("static_temperature_k")?,
+        gas,
+        heat,
+        valve6: Orifice { flow_area_m2: r.f64("valve6_flow_area_m2")?, transition_pa: r.f64("valve6_transition_pa")? },
+        damper,
+        oil_density_kg_m3: r.f64("oil_density_kg_m3")?,
+        vapour_pressure_pa: r.f64("vapour_pressure_pa")?,
+        ambient_pressure_pa: r.f64("ambient_pressure_pa")?,
+        stroke_compression_m: r.f64("stroke_compression_m")?,
+        stroke_extension_m: r.f64("stroke_extension_m")?,
+        end_stop_stiffness_n_per_m: r.f64("end_stop_stiffness_n_per_m")?,
+        end_stop_damping_n_s_per_m: r.f64("end_stop_damping_n_s_per_m")?,
+        effects,
+    };
+    r.finish()?;
+    Ok(params)
+}
+
+fn effects(mut e: Reader<'_>) -> PyResult<Effects> {
+    let mut out = Effects::default();
+    if let Some(mut f) = e.sub_opt("friction")? {
+        out.friction = Some(Friction {
+            coulomb_n: f.f64("coulomb_n")?,
+            viscous_n_s_per_m: f.f64("viscous_n_s_per_m")?,
+            smoothing_velocity_m_s: f.f64("smoothing_velocity_m_s")?,
+        });
+        f.finish()?;
+    }
+    if let Some(mut c) = e.sub_opt("oil_compliance")? {
+        out.oil_compliance =
+            Some(OilCompliance { bulk_modulus_pa: c.f64("bulk_modulus_pa")?, oil_volume_m3: c.f64("oil_volume_m3")? });
+        c.finish()?;
+    }
+    if let Some(mut n) = e.sub_opt("oil_node")? {
+        out.oil_node = Some(OilNode {
+            heat_capacity_j_per_k: n.f64("heat_capacity_j_per_k")?,
+            oil_to_ambient_tau_s: n.f64("oil_to_ambient_tau_s")?,
+            wall_to_oil_tau_s: n.f64("wall_to_oil_tau_s")?,
+            wall_to_ambient_tau_s: n.f64("wall_to_ambient_tau_s")?,
+        });
+        n.finish()?;
+    }
+    if let Some(mut l) = e.sub_opt("leakage")? {
+        out.leakage = Some(Leakage { time_constant_s: l.f64("time_constant_s")? });
+        l.finish()?;
+    }
+    if let Some(mut v) = e.sub_opt("valve_lag")? {
+        out.valve_lag = Some(ValveLag { time_constant_s: v.f64("time_constant_s")? });
+        v.finish()?;
+    }
+    if let Some(mut s) = e.sub_opt("sensor")? {
+        out.sensor = Some(Sensor {
+            force_offset_n: s.f64("force_offset_n")?,
+            pressure_offset_pa: s.f64("pressure_offset_pa")?,
+            time_constant_s: s.f64("time_constant_s")?,
+        });
+        s.finish()?;
+    }
+    e.finish()?;
+    Ok(out)
+}
+
+/// A motion description, owning its samples (so it can cross threads).
+#[derive(Debug, Clone)]
+pub enum MotionSpec {
+    Fixed(Motion<'static>),
+    Sampled { time_s: Vec<f64>, disp_m: Vec<f64> },
+}
+
+impl MotionSpec {
+    pub fn motion(&self) -> Motion<'_> {
+        match self {
+            MotionSpec::Fixed(m) => *m,
+            MotionSpec::Sampled { time_s, disp_m } => Motion::Sampled { time_s, disp_m },
+        }
+    }
+}
+
+pub fn motion(obj: &Bound<'_, PyAny>, path: &str) -> PyResult<MotionSpec> {
+    let mut r = Reader::new(obj, path)?;
+    let kind = r.string("kind")?;
+    let spec = match kind.as_str() {
+        "hold" => MotionSpec::Fixed(Motion::Hold { disp_m: r.f64("disp_m")? }),
+        "sine" => MotionSpec::Fixed(Motion::Sine {
+            amplitude_m: r.f64("amplitude_m")?,
+            frequency_hz: r.f64("frequency_hz")?,
+            offset_m: r.f64("offset_m")?,
+        }),
+        "step" => MotionSpec::Fixed(Motion::Step {
+            height_m: r.f64("height_m")?,
+            start_s: r.f64("start_s")?,
+            rise_s: r.f64("rise_s")?,
+        }),
+        "steps" => {
+            let count = r.f64("count")?;
+            if !((1.0..=1e6).contains(&count) && count.fract() == 0.0) {
+                return Err(parameter(format!("{path}.count = {count} must be a whole number in [1, 1e6]")));
+            }
+            MotionSpec::Fixed(Motion::Steps {
+                increment_m: r.f64("increment_m")?,
+                count: count as u32,
+                ramp_s: r.f64("ramp_s")?,
+                dwell_s: r.f64("dwell_s")?,
+            })
+        }
+        "sampled" => MotionSpec::Sampled { time_s: r.vec("time_s")?, disp_m: r.vec("disp_m")? },
+        other => {
+            return Err(parameter(format!(
+                "{path}.kind = {other:?} is not a motion (one of: hold, sine, step, steps, sampled)"
+            )))
+        }
+    };
+    r.finish()?;
+    spec.motion().validate().map_err(crate::errors::to_py)?;
+    Ok(spec)
+}
+
+/// Which rig, with its excitation.
+#[derive(Debug, Clone)]
+pub enum RigSpec {
+    Characterisation { strut: MotionSpec },
+    Sdof { sprung_mass_kg: f64, base: MotionSpec },
+}
+
+pub fn rig(obj: &Bound<'_, PyAny>) -> PyResult<RigSpec> {
+    let mut r = Reader::new(obj, "rig")?;
+    let kind = r.string("kind")?;
+    let spec = match kind.as_str() {
+        "characterisation" => RigSpec::Characterisation { strut: motion(&r.get("strut")?, "rig.strut")? },
+        "sdof" => RigSpec::Sdof { sprung_mass_kg: r.f64("sprung_mass_kg")?, base: motion(&r.get("base")?, "rig.base")? },
+        other => {
+            return Err(parameter(format!("rig.kind = {other:?} is not a rig (one of: characterisation, sdof)")))
+        }
+    };
+    r.finish()?;
+    Ok(spec)
+}

@@ -1,0 +1,350 @@
+//! Running the rigs from Python: one run, or many in parallel (rayon).
+
+use crate::errors::{guard, parameter, to_py};
+use crate::params::{self, RigSpec};
+use hp_core::gas::EquationOfState;
+use hp_core::rig::{run, Rig, RigKind, RigSample};
+use hp_core::unit::{Unit, UnitParams, Valves};
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+/// The output channels, in SI units, named as in rig records where a
+/// record has the quantity.
+pub const CHANNELS: [&str; 31] = [
+    "time_s",
+    "disp_m",
+    "vel_m_s",
+    "force_n",
+    "force_true_n",
+    "p_strut_pa",
+    "p_gas_pa",
+    "p_gas2_pa",
+    "p_gas_true_pa",
+    "p_gas2_true_pa",
+    "t_gas_k",
+    "t_gas2_k",
+    "t_wall_k",
+    "t_oil_k",
+    "v_gas_m3",
+    "v_gas2_m3",
+    "damper_force_n",
+    "damper_power_w",
+    "friction_force_n",
+    "flow_damper_m3_s",
+    "flow_valve6_m3_s",
+    "e_damper_j",
+    "e_friction_j",
+    "e_valve6_j",
+    "body_disp_m",
+    "body_vel_m_s",
+    "body_acc_m_s2",
+    "base_disp_m",
+    "cavitating",
+    "spring_hard",
+    "damper_on",
+];
+
+fn channel_value(name: &str, s: &RigSample) -> f64 {
+    let u = &s.unit;
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    match name {
+        "time_s" => s.time_s,
+        "disp_m" => s.disp_m,
+        "vel_m_s" => s.vel_m_s,
+        "force_n" => u.force_measured_n,
+        "force_true_n" => u.force_n,
+        "p_strut_pa" => u.p_strut_pa,
+        "p_gas_pa" => u.p_small_measured_pa,
+        "p_gas2_pa" => u.p_large_measured_pa,
+        "p_gas_true_pa" => u.p_small_pa,
+        "p_gas2_true_pa" => u.p_large_pa,
+        "t_gas_k" => u.t_small_k,
+        "t_gas2_k" => u.t_large_k,
+        "t_wall_k" => u.t_wall_k,
+        "t_oil_k" => u.t_oil_k,
+        "v_gas_m3" => s.v_small_m3,
+        "v_gas2_m3" => s.v_large_m3,
+        "damper_force_n" => u.damper_force_n,
+        "damper_power_w" => u.damper_power_w,
+        "friction_force_n" => u.friction_force_n,
+        "flow_damper_m3_s" => u.flow_damper_m3_s,
+        "flow_valve6_m3_s" => u.flow_valve6_m3_s,
+        "e_damper_j" => s.e_damper_j,
+        "e_friction_j" => s.e_friction_j,
+        "e_valve6_j" => s.e_valve6_j,
+        "body_disp_m" => s.body_disp_m,
+        "body_vel_m_s" => s.body_vel_m_s,
+        "body_acc_m_s2" => s.body_acc_m_s2,
+        "base_disp_m" => s.base_disp_m,
+        "cavitating" => flag(u.cavitating),
+        "spring_hard" => flag(s.valves.spring_hard()),
+        "damper_on" => flag(s.valves.damper_on()),
+        _ => f64::NAN,
+    }
+}
+
+/// One simulation, fully owned so it can run on another thread.
+struct Case {
+    unit: UnitParams,
+    rig: RigSpec,
+    times_s: Vec<f64>,
+    dt_s: f64,
+    ambient_k: f64,
+    spring_hard: Vec<bool>,
+    damper_on: Vec<bool>,
+    channels: Vec<usize>,
+}
+
+fn bools(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<bool>> {
+    let v: Vec<bool> = if let Ok(b) = obj.extract::<bool>() {
+        vec![b]
+    } else {
+        obj.extract::<Vec<bool>>().map_err(|_| parameter(format!("{name} must be a bool or a sequence of bools")))?
+    };
+    if v.len() == 1 || v.len() == n {
+        Ok(v)
+    } else {
+        Err(parameter(format!("{name} has {} values; expected 1 or one per output time ({n})", v.len())))
+    }
+}
+
+fn channel_indices(channels: Option<Vec<String>>) -> PyResult<Vec<usize>> {
+    match channels {
+        None => Ok((0..CHANNELS.len()).collect()),
+        Some(names) => names
+            .iter()
+            .map(|n| {
+                CHANNELS.iter().position(|c| c == n).ok_or_else(|| {
+                    parameter(format!("unknown channel {n:?} (known: {})", CHANNELS.join(", ")))
+                })
+            })
+            .collect(),
+    }
+}
+
+impl Case {
+    #[allow(clippy::too_many_arguments)]
+    fn from_py(
+        unit: &Bound<'_, PyAny>,
+        rig: &Bound<'_, PyAny>,
+        times_s: Vec<f64>,
+        dt_s: f64,
+        ambient_k: f64,
+        spring_hard: &Bound<'_, PyAny>,
+        damper_on: &Bound<'_, PyAny>,
+        channels: Option<Vec<String>>,
+    ) -> PyResult<Case> {
+        if times_s.is_empty() {
+            return Err(parameter("times_s is empty; expected at least one output time"));
+        }
+        let n = times_s.len();
+        Ok(Case {
+            unit: params::unit(unit)?,
+            rig: params::rig(rig)?,
+            times_s,
+            dt_s,
+            ambient_k,
+            spring_hard: bools(spring_hard, "spring_hard", n)?,
+            damper_on: bools(damper_on, "damper_on", n)?,
+            channels: channel_indices(channels)?,
+        })
+    }
+
+    /// Runs the case; `tick(index)` is called for every sample and may
+    /// stop the run by returning false.
+    fn run(&self, mut tick: impl FnMut(usize) -> bool) -> Result<Vec<Vec<f64>>, hp_core::Error> {
+        let unit = Unit::new(self.unit)?;
+        let kind = match &self.rig {
+            RigSpec::Characterisation { strut } => RigKind::Characterisation { strut: strut.motion() },
+            RigSpec::Sdof { sprung_mass_kg, base } => RigKind::Sdof { sprung_mass_kg: *sprung_mass_kg, base: base.motion() },
+        };
+        let at = |v: &[bool], i: usize| v.get(i).or(v.first()).copied().unwrap_or(false);
+        let valves_at = |i: usize| Valves::from_modes(at(&self.spring_hard, i), at(&self.damper_on, i));
+        let rig = Rig::new(&unit, kind, self.ambient_k, valves_at(0))?;
+        let mut out: Vec<Vec<f64>> = self.channels.iter().map(|_| Vec::with_capacity(self.times_s.len())).collect();
+        run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), |i, s| {
+            for (column, &c) in out.iter_mut().zip(&self.channels) {
+                column.push(channel_value(CHANNELS.get(c).copied().unwrap_or(""), s));
+            }
+            tick(i)
+        })?;
+        Ok(out)
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>, columns: Vec<Vec<f64>>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (column, &c) in columns.into_iter().zip(&self.channels) {
+            d.set_item(CHANNELS.get(c).copied().unwrap_or("?"), column.into_pyarray(py))?;
+        }
+        Ok(d)
+    }
+}
+
+/// Runs one rig simulation and returns its channels as numpy arrays.
+///
+/// `progress(done, total)` is called about ten times a second from the
+/// simulation thread; the GIL is released otherwise. Ctrl-C stops the run.
+#[pyfunction]
+#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    unit: &Bound<'py, PyAny>,
+    rig: &Bound<'py, PyAny>,
+    times_s: PyReadonlyArray1<'py, f64>,
+    dt_s: f64,
+    ambient_k: f64,
+    spring_hard: &Bound<'py, PyAny>,
+    damper_on: &Bound<'py, PyAny>,
+    channels: Option<Vec<String>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let times = times_s.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| times_s.as_array().to_vec());
+        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels)?;
+        let total = case.times_s.len();
+        let mut interrupt: Option<PyErr> = None;
+        let result = py.detach(|| {
+            let mut last = std::time::Instant::now();
+            case.run(|i| {
+                if last.elapsed().as_millis() < 100 {
+                    return true;
+                }
+                last = std::time::Instant::now();
+                Python::attach(|py| {
+                    if let Err(e) = py.check_signals() {
+                        interrupt = Some(e);
+                        return false;
+                    }
+                    if let Some(cb) = &progress {
+                        if let Err(e) = cb.call1(py, (i, total)) {
+                            interrupt = Some(e);
+                            return false;
+                        }
+                    }
+                    true
+                })
+            })
+        });
+        if let Some(e) = interrupt {
+            return Err(e);
+        }
+        let columns = result.map_err(to_py)?;
+        case.to_dict(py, columns)
+    })
+}
+
+/// Runs many simulations in parallel on `threads` threads (all cores when
+/// None). Each case is a dict with the arguments of `simulate` (`times_s`
+/// as a sequence). Returns, per case, either its dict of arrays or the
+/// exception that case raised, so one bad case does not lose the others.
+#[pyfunction]
+#[pyo3(signature = (cases, threads=None))]
+pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: Option<usize>) -> PyResult<Bound<'py, PyList>> {
+    guard(|| {
+        let mut specs = Vec::with_capacity(cases.len());
+        for (i, c) in cases.iter().enumerate() {
+            let mut r = params::Reader::new(&c, &format!("cases[{i}]"))?;
+            let spring_hard = r.get("spring_hard")?;
+            let damper_on = r.get("damper_on")?;
+            let channels = match r.get_opt("channels")? {
+                Some(v) => Some(v.extract::<Vec<String>>().map_err(|_| parameter(format!("cases[{i}].channels must be a list of names")))?),
+                None => None,
+            };
+            let case = Case::from_py(&r.get("unit")?, &r.get("rig")?, r.vec("times_s")?, r.f64("dt_s")?, r.f64("ambient_k")?, &spring_hard, &damper_on, channels)?;
+            r.finish()?;
+            specs.push(case);
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.unwrap_or(0))
+            .build()
+            .map_err(|e| parameter(format!("threads = {threads:?}: {e}")))?;
+        let results: Vec<Result<Vec<Vec<f64>>, hp_core::Error>> = py.detach(|| {
+            use rayon::prelude::*;
+            pool.install(|| specs.par_iter().map(|c| c.run(|_| true)).collect())
+        });
+        let out = PyList::empty(py);
+        for (case, result) in specs.iter().zip(results) {
+            match result {
+                Ok(columns) => out.append(case.to_dict(py, columns)?)?,
+                Err(e) => out.append(to_py(e).into_value(py))?,
+            }
+        }
+        Ok(out)
+    })
+}
+
+fn valves(spring_hard: bool, damper_on: bool) -> Valves {
+    Valves::from_modes(spring_hard, damper_on)
+}
+
+/// Static strut force at rest at compression `disp_m` with the gas at
+/// `t_k`, N.
+#[pyfunction]
+pub fn static_force_n(unit: &Bound<'_, PyAny>, disp_m: f64, t_k: f64, spring_hard: bool) -> PyResult<f64> {
+    guard(|| {
+        let unit = Unit::new(params::unit(unit)?).map_err(to_py)?;
+        unit.static_force_n(disp_m, t_k, valves(spring_hard, true)).map_err(to_py)
+    })
+}
+
+/// Strut compression at which the unit carries `load_n` at rest with the
+/// gas at `t_k`, m.
+#[pyfunction]
+pub fn static_disp_for_load_m(unit: &Bound<'_, PyAny>, load_n: f64, t_k: f64, spring_hard: bool) -> PyResult<f64> {
+    guard(|| {
+        let unit = Unit::new(params::unit(unit)?).map_err(to_py)?;
+        unit.static_disp_for_load_m(load_n, t_k, valves(spring_hard, true)).map_err(to_py)
+    })
+}
+
+/// Gas masses in S and L of a unit, kg.
+#[pyfunction]
+pub fn gas_masses_kg(unit: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+    guard(|| Ok(Unit::new(params::unit(unit)?).map_err(to_py)?.gas_masses_kg()))
+}
+
+/// Equation-of-state properties at arrays of density and temperature:
+/// `p_pa`, `dp_dt_pa_per_k`, `dp_drho_pa_m3_per_kg`, `cv_j_per_kg_k`.
+#[pyfunction]
+pub fn gas_props<'py>(
+    py: Python<'py>,
+    gas: &str,
+    rho_kg_m3: PyReadonlyArray1<'py, f64>,
+    t_k: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let g = params::gas(gas)?;
+        let (rho, t) = (rho_kg_m3.as_array(), t_k.as_array());
+        if rho.len() != t.len() {
+            return Err(parameter(format!("rho_kg_m3 has {} values but t_k has {}", rho.len(), t.len())));
+        }
+        let props: Vec<_> = rho.iter().zip(t.iter()).map(|(&r, &tk)| g.props(r, tk)).collect();
+        let d = PyDict::new(py);
+        d.set_item("p_pa", props.iter().map(|p| p.p_pa).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item("dp_dt_pa_per_k", props.iter().map(|p| p.dp_dt_pa_per_k).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item("dp_drho_pa_m3_per_kg", props.iter().map(|p| p.dp_drho_pa_m3_per_kg).collect::<Vec<_>>().into_pyarray(py))?;
+        d.set_item("cv_j_per_kg_k", props.iter().map(|p| p.cv_j_per_kg_k).collect::<Vec<_>>().into_pyarray(py))?;
+        Ok(d)
+    })
+}
+
+/// Density at pressure `p_pa` and temperature `t_k`, kg/m^3.
+#[pyfunction]
+pub fn gas_density_kg_m3(gas: &str, p_pa: f64, t_k: f64) -> PyResult<f64> {
+    guard(|| params::gas(gas)?.density_kg_m3(p_pa, t_k).map_err(to_py))
+}
+
+/// Registers this module's functions.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_many, m)?)?;
+    m.add_function(wrap_pyfunction!(static_force_n, m)?)?;
+    m.add_function(wrap_pyfunction!(static_disp_for_load_m, m)?)?;
+    m.add_function(wrap_pyfunction!(gas_masses_kg, m)?)?;
+    m.add_function(wrap_pyfunction!(gas_props, m)?)?;
+    m.add_function(wrap_pyfunction!(gas_density_kg_m3, m)?)?;
+    m.add("CHANNELS", CHANNELS.to_vec())?;
+    Ok(())
+}
