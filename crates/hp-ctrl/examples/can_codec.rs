@@ -1,0 +1,193 @@
+//! The CAN codec as a line-oriented filter, so tools in other languages
+//! (the Python tests) can drive exactly the code the ECU runs.
+//!
+//! One command per line on stdin, one answer line per command on stdout:
+//!
+//! - `table`: the message and signal definitions, one `msg ...` or
+//!   `sig ...` line each, then `end`.
+//! - `encode NAME COUNTER SIGNAL=VALUE...`: every signal of message NAME
+//!   (DBC names) -> `frame ID HEX` (the frame as the codec writes it), or
+//!   `error REASON`.
+//! - `decode ID HEX`: stateless decode -> `message NAME COUNTER
+//!   SIGNAL=VALUE...`, or `reject REASON`.
+//! - `rx ID HEX`: the ECU receiver -> `input GROUPS`, `synced`,
+//!   `tick INDEX` or `reject REASON`.
+//! - `period`: close the receiver's period -> `inputs FIELD=VALUE...`.
+//! - `diag`: the receiver's reject counters and link state.
+//!
+//! Run: `cargo run -p hp-ctrl --example can_codec`.
+
+use std::io::{self, BufRead, Write};
+
+use embedded_can::{Frame, StandardId};
+use hp_ctrl::can::{self, Accepted, CanFrame, InputDecoder, Kind, LinkParams, Reject};
+
+fn parse_hex(s: &str) -> Option<Vec<u8>> {
+    if s.len() % 2 != 0 {
+        return None;
+    }
+    (0..s.len()).step_by(2).map(|i| u8::from_str_radix(s.get(i..i + 2)?, 16).ok()).collect()
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02X}")).collect()
+}
+
+fn parse_frame(id: &str, data: &str) -> Result<CanFrame, String> {
+    let id = u16::from_str_radix(id, 16).map_err(|e| format!("bad id: {e}"))?;
+    let id = StandardId::new(id).ok_or("id out of range")?;
+    let data = parse_hex(data).ok_or("bad hex")?;
+    CanFrame::new(id, &data).ok_or_else(|| "more than 8 bytes".into())
+}
+
+fn reason(r: Reject) -> &'static str {
+    match r {
+        Reject::UnknownId => "unknown_id",
+        Reject::Length => "length",
+        Reject::Crc => "crc",
+        Reject::Repeated => "repeated",
+        Reject::Skipped => "skipped",
+        Reject::Range => "range",
+    }
+}
+
+fn table() -> String {
+    let mut out = String::new();
+    for kind in Kind::ALL {
+        let d = kind.def();
+        out += &format!("msg {} {:#x} {:#x} {} {} {}\n", d.name, d.id, d.data_id, d.cycle_ms, d.timeout_ms, d.group);
+        for s in d.signals {
+            let g = &s.signal;
+            out += &format!(
+                "sig {} {} {} {} {} {:?} {:?} {} {} {}\n",
+                d.name,
+                s.name,
+                g.start_bit,
+                g.bit_len,
+                u8::from(g.signed),
+                g.factor,
+                g.offset,
+                g.raw_min,
+                g.raw_max,
+                if s.unit.is_empty() { "-" } else { s.unit }
+            );
+        }
+    }
+    out + "end"
+}
+
+/// Parses NAME=VALUE for every signal of the message into a payload, reads
+/// it as the typed message, and encodes that with the codec.
+fn encode(args: &[&str]) -> Result<String, String> {
+    let [name, counter, assignments @ ..] = args else {
+        return Err("usage: encode NAME COUNTER SIGNAL=VALUE...".into());
+    };
+    let kind = Kind::from_name(name).ok_or("unknown message")?;
+    let counter: u8 = counter.parse().map_err(|_| "bad counter")?;
+    let def = kind.def();
+    let mut payload = [0u8; 8];
+    let mut seen = 0;
+    for a in assignments {
+        let (sig, value) = a.split_once('=').ok_or("expected SIGNAL=VALUE")?;
+        let value: f64 = value.parse().map_err(|_| "bad value")?;
+        let s = def.signal(sig).ok_or_else(|| format!("unknown signal {sig}"))?;
+        s.put(&mut payload, value).map_err(|_| "out_of_range")?;
+        seen += 1;
+    }
+    if seen != def.signals.len() {
+        return Err("every signal needs a value".into());
+    }
+    let msg = can::read_payload(kind, &payload).map_err(|r| reason(r).to_string())?;
+    let frame = can::encode(&msg, counter).map_err(|_| "out_of_range")?;
+    Ok(format!("frame {:X} {}", def.id, hex(frame.data())))
+}
+
+fn decode(frame: &CanFrame) -> String {
+    match can::decode(frame) {
+        Err(r) => format!("reject {}", reason(r)),
+        Ok((msg, counter)) => {
+            // Re-encode the typed message and read each signal by name.
+            let Ok(again) = can::encode(&msg, counter) else {
+                return "error re-encode".into();
+            };
+            let def = msg.kind().def();
+            let values: Vec<String> = def
+                .signals
+                .iter()
+                .map(|s| format!("{}={:?}", s.name, s.signal.get(again.payload()).unwrap_or(f64::NAN)))
+                .collect();
+            format!("message {} {} {}", def.name, counter, values.join(" "))
+        }
+    }
+}
+
+fn inputs_line(i: &hp_ctrl::Inputs) -> String {
+    format!(
+        "inputs p_small_pa={:?} p_large_pa={:?} strut_disp_m={:?} body_acc_m_s2={:?} speed_m_s={:?} \
+         lat_acc_m_s2={:?} long_acc_m_s2={:?} steer_angle_rad={:?} steer_rate_rad_s={:?} brake_pressed={} \
+         t_gas_k={:?} driver_mode={} ride_height_request_m={:?} fresh={} link_fault={}",
+        i.p_small_pa,
+        i.p_large_pa,
+        i.strut_disp_m,
+        i.body_acc_m_s2,
+        i.speed_m_s,
+        i.lat_acc_m_s2,
+        i.long_acc_m_s2,
+        i.steer_angle_rad,
+        i.steer_rate_rad_s,
+        u8::from(i.brake_pressed),
+        i.t_gas_k,
+        i.driver_mode as u8,
+        i.ride_height_request_m,
+        i.fresh,
+        u8::from(i.link_fault)
+    )
+}
+
+fn main() -> io::Result<()> {
+    let mut rx = InputDecoder::new(LinkParams::default());
+    let stdout = io::stdout();
+    let mut out = stdout.lock();
+    for line in io::stdin().lock().lines() {
+        let line = line?;
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let answer = match words.as_slice() {
+            [] => continue,
+            ["table"] => table(),
+            ["encode", args @ ..] => encode(args).unwrap_or_else(|e| format!("error {e}")),
+            ["decode", id, data] => parse_frame(id, data).map(|f| decode(&f)).unwrap_or_else(|e| format!("error {e}")),
+            ["decode", id] => parse_frame(id, "").map(|f| decode(&f)).unwrap_or_else(|e| format!("error {e}")),
+            ["rx", id, data @ ..] => match parse_frame(id, data.first().copied().unwrap_or("")) {
+                Err(e) => format!("error {e}"),
+                Ok(f) => match rx.receive(&f) {
+                    Ok(Accepted::Input(groups)) => format!("input {groups}"),
+                    Ok(Accepted::Tick(index)) => format!("tick {index}"),
+                    Ok(Accepted::Synced) => "synced".into(),
+                    Err(r) => format!("reject {}", reason(r)),
+                },
+            },
+            ["period"] => inputs_line(&rx.end_period()),
+            ["diag"] => {
+                let e = rx.diag_e2e();
+                let l = rx.diag_link();
+                format!(
+                    "diag crc={} length={} unknown_id={} repeated={} skipped={} range={} timeouts={} stale={} link_fault={} window={}",
+                    e.crc,
+                    e.length,
+                    e.unknown_id,
+                    e.repeated,
+                    e.skipped,
+                    e.range,
+                    l.timeout_count,
+                    l.stale_groups,
+                    u8::from(l.link_fault),
+                    l.window_rejects
+                )
+            }
+            _ => "error unknown command".into(),
+        };
+        writeln!(out, "{answer}")?;
+        out.flush()?;
+    }
+    Ok(())
+}
