@@ -8,6 +8,7 @@
 //!   fresh input groups and supervises the link (timeouts, reject window).
 //! - [`tx`]: per-message alive counters for sending, and the ECU's output
 //!   frames built from [`crate::Outputs`].
+//! - [`slcan`]: SLCAN (Lawicel) text framing for the emulator link.
 //! - [`frame`]: a plain [`embedded_can::Frame`] for host and emulator use.
 //!
 //! Every function is `no_std`, allocation-free and panic-free. Decoding
@@ -30,6 +31,7 @@ pub mod frame;
 pub mod messages;
 pub mod rx;
 pub mod signal;
+pub mod slcan;
 pub mod tx;
 
 pub use frame::CanFrame;
