@@ -50,20 +50,41 @@ pub enum Error {
 /// Shorthand for results of this crate.
 pub type Result<T> = core::result::Result<T, Error>;
 
+/// A number as people read it: plain in [1e-3, 1e6), scientific otherwise.
+struct Num(f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = libm::fabs(self.0);
+        if a == 0.0 || (1e-3..1e6).contains(&a) || !a.is_finite() {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
             Error::OutOfRange { name, value, min, max } => write!(
                 f,
-                "{name} = {value:e} is outside the valid range [{min:e}, {max:e}]"
+                "{name} = {} is outside the valid range [{}, {}]",
+                Num(value),
+                Num(min),
+                Num(max)
             ),
             Error::NoConvergence { what, target } => {
-                write!(f, "{what} did not converge for target {target:e}")
+                write!(f, "{what} did not converge for target {}", Num(target))
             }
             Error::StateOutOfRange { name, value, min, max, time_s } => write!(
                 f,
-                "state {name} = {value:e} left the valid range [{min:e}, {max:e}] at t = {time_s} s \
-                 (reduce the step size or the excitation)"
+                "state {name} = {} left the valid range [{}, {}] at t = {} s \
+                 (reduce the step size or the excitation)",
+                Num(value),
+                Num(min),
+                Num(max),
+                Num(time_s)
             ),
         }
     }

@@ -271,3 +271,40 @@ pub fn rig(obj: &Bound<'_, PyAny>) -> PyResult<RigSpec> {
     r.finish()?;
     Ok(spec)
 }
+
+/// Core parameters back to the dict form `unit` reads.
+pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let curve = |c: &DamperCurve| -> PyResult<Bound<'py, PyDict>> {
+        let cd = PyDict::new(py);
+        cd.set_item("bleed_pa_s_per_m3", c.bleed_pa_s_per_m3)?;
+        cd.set_item("orifice_pa_s2_per_m6", c.orifice_pa_s2_per_m6)?;
+        cd.set_item("blowoff_pa", c.blowoff_pa)?;
+        cd.set_item("blowoff_slope_pa_s_per_m3", c.blowoff_slope_pa_s_per_m3)?;
+        Ok(cd)
+    };
+    d.set_item("piston_area_m2", p.piston_area_m2)?;
+    d.set_item("small_volume_m3", p.small_volume_m3)?;
+    d.set_item("large_volume_m3", p.large_volume_m3)?;
+    d.set_item("static_pressure_pa", p.static_pressure_pa)?;
+    d.set_item("static_temperature_k", p.static_temperature_k)?;
+    d.set_item("gas", p.gas.name())?;
+    d.set_item("tau_s", p.heat.tau_s())?;
+    d.set_item("valve6_flow_area_m2", p.valve6.flow_area_m2)?;
+    d.set_item("valve6_transition_pa", p.valve6.transition_pa)?;
+    let damper = PyDict::new(py);
+    damper.set_item("on_compression", curve(&p.damper.on_compression)?)?;
+    damper.set_item("on_rebound", curve(&p.damper.on_rebound)?)?;
+    damper.set_item("off_compression", curve(&p.damper.off_compression)?)?;
+    damper.set_item("off_rebound", curve(&p.damper.off_rebound)?)?;
+    d.set_item("damper", damper)?;
+    d.set_item("oil_density_kg_m3", p.oil_density_kg_m3)?;
+    d.set_item("vapour_pressure_pa", p.vapour_pressure_pa)?;
+    d.set_item("ambient_pressure_pa", p.ambient_pressure_pa)?;
+    d.set_item("stroke_compression_m", p.stroke_compression_m)?;
+    d.set_item("stroke_extension_m", p.stroke_extension_m)?;
+    d.set_item("end_stop_stiffness_n_per_m", p.end_stop_stiffness_n_per_m)?;
+    d.set_item("end_stop_damping_n_s_per_m", p.end_stop_damping_n_s_per_m)?;
+    // The built-in presets carry no optional effects; `effects` stays absent.
+    Ok(d)
+}

@@ -336,6 +336,18 @@ pub fn gas_density_kg_m3(gas: &str, p_pa: f64, t_k: f64) -> PyResult<f64> {
     guard(|| params::gas(gas)?.density_kg_m3(p_pa, t_k).map_err(to_py))
 }
 
+/// The built-in unit standing for the seed's (see hp-core's presets).
+#[pyfunction]
+pub fn seed_unit(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    guard(|| params::unit_to_dict(py, &hp_core::presets::seed_unit()))
+}
+
+/// The seed's sprung mass, kg.
+#[pyfunction]
+pub fn seed_sprung_mass_kg() -> f64 {
+    hp_core::presets::SEED_SPRUNG_MASS_KG
+}
+
 /// Registers this module's functions.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
@@ -345,6 +357,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gas_masses_kg, m)?)?;
     m.add_function(wrap_pyfunction!(gas_props, m)?)?;
     m.add_function(wrap_pyfunction!(gas_density_kg_m3, m)?)?;
+    m.add_function(wrap_pyfunction!(seed_unit, m)?)?;
+    m.add_function(wrap_pyfunction!(seed_sprung_mass_kg, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
     Ok(())
 }

@@ -1,0 +1,43 @@
+"""hpctl: simulation, calibration and control of a semi-active
+hydro-pneumatic spring-damper unit.
+
+The physics and the controller are in Rust (``hpctl._core``); this package
+is the Python API and the ``hpctl`` command line.
+"""
+
+from hpctl.errors import (
+    ConvergenceError,
+    HpctlError,
+    InternalError,
+    ParameterError,
+    RecordError,
+    SimulationError,
+)
+from hpctl.sim import Hold, Result, Sampled, Sine, Step, Steps, run, run_characterisation, run_many, run_sdof
+from hpctl.unit import SEED_SPRUNG_MASS_KG, Damper, DamperCurve, Effects, Unit
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "SEED_SPRUNG_MASS_KG",
+    "ConvergenceError",
+    "Damper",
+    "DamperCurve",
+    "Effects",
+    "Hold",
+    "HpctlError",
+    "InternalError",
+    "ParameterError",
+    "RecordError",
+    "Result",
+    "Sampled",
+    "SimulationError",
+    "Sine",
+    "Step",
+    "Steps",
+    "Unit",
+    "run",
+    "run_characterisation",
+    "run_many",
+    "run_sdof",
+]

@@ -1,0 +1,32 @@
+"""The exception hierarchy: every input error is an :class:`HpctlError`,
+which is a :class:`ValueError`.
+
+The classes come from the Rust extension, where the one core error enum is
+mapped onto them; :class:`RecordError` adds malformed rig records.
+"""
+
+from __future__ import annotations
+
+from hpctl._core import (
+    ConvergenceError,
+    HpctlError,
+    InternalError,
+    ParameterError,
+    SimulationError,
+)
+
+__all__ = [
+    "ConvergenceError",
+    "HpctlError",
+    "InternalError",
+    "ParameterError",
+    "RecordError",
+    "SimulationError",
+]
+
+
+class RecordError(HpctlError):
+    """A rig record (CSV + TOML) does not follow the format.
+
+    The message says which file, which line or key, and what was expected.
+    """

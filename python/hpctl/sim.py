@@ -1,0 +1,214 @@
+"""Running the characterisation and SDOF rigs on a unit.
+
+Results are numpy arrays in SI units. The work happens in the Rust core with
+the GIL released; :func:`run_many` runs cases in parallel on all cores.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal, Union
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hpctl import _core
+from hpctl.unit import SEED_SPRUNG_MASS_KG, Unit
+
+FloatArray = NDArray[np.float64]
+CHANNELS: tuple[str, ...] = tuple(_core.CHANNELS)
+
+
+@dataclass(frozen=True)
+class Hold:
+    disp_m: float = 0.0
+    kind: Literal["hold"] = "hold"
+
+
+@dataclass(frozen=True)
+class Sine:
+    """``x = offset + amplitude sin(2 pi f t)``."""
+
+    amplitude_m: float
+    frequency_hz: float
+    offset_m: float = 0.0
+    kind: Literal["sine"] = "sine"
+
+    @classmethod
+    def with_speed(cls, amplitude_m: float, speed_m_s: float) -> Sine:
+        """The sine whose speed through the static position is ``speed_m_s``
+        (the seed's "excitation speed")."""
+        return cls(amplitude_m, speed_m_s / (2 * np.pi * amplitude_m))
+
+
+@dataclass(frozen=True)
+class Step:
+    """A smooth (raised-cosine) step of ``height_m`` from ``start_s`` over ``rise_s``."""
+
+    height_m: float
+    start_s: float = 0.5
+    rise_s: float = 0.05
+    kind: Literal["step"] = "step"
+
+
+@dataclass(frozen=True)
+class Steps:
+    """``count`` slow increments up, then back down, each ramp + dwell."""
+
+    increment_m: float
+    count: int
+    ramp_s: float = 2.0
+    dwell_s: float = 60.0
+    kind: Literal["steps"] = "steps"
+
+    @property
+    def duration_s(self) -> float:
+        return 2 * self.count * (self.ramp_s + self.dwell_s)
+
+
+@dataclass(frozen=True)
+class Sampled:
+    """Samples interpolated by a C1 cubic (e.g. a measured displacement)."""
+
+    time_s: FloatArray
+    disp_m: FloatArray
+    kind: Literal["sampled"] = "sampled"
+
+
+Motion = Union[Hold, Sine, Step, Steps, Sampled]
+
+
+def _motion_dict(m: Motion) -> dict[str, Any]:
+    if isinstance(m, Sampled):
+        return {"kind": "sampled", "time_s": np.asarray(m.time_s, float).tolist(), "disp_m": np.asarray(m.disp_m, float).tolist()}
+    return dict(vars(m))
+
+
+@dataclass(frozen=True)
+class Result:
+    """The channels of one run (see :data:`CHANNELS`), as numpy arrays."""
+
+    channels: dict[str, FloatArray]
+
+    def __getitem__(self, name: str) -> FloatArray:
+        return self.channels[name]
+
+    @property
+    def time_s(self) -> FloatArray:
+        return self.channels["time_s"]
+
+
+Progress = Callable[[int, int], None]
+
+
+def _case(
+    unit: Unit,
+    rig: dict[str, Any],
+    times_s: ArrayLike,
+    *,
+    spring_hard: bool | ArrayLike,
+    damper_on: bool | ArrayLike,
+    dt_s: float,
+    ambient_k: float | None,
+    channels: Sequence[str] | None,
+) -> dict[str, Any]:
+    def flags(v: bool | ArrayLike) -> bool | list[bool]:
+        return bool(v) if np.ndim(v) == 0 else [bool(x) for x in np.asarray(v).ravel()]
+
+    return {
+        "unit": unit.to_dict(),
+        "rig": rig,
+        "times_s": np.ascontiguousarray(times_s, dtype=float),
+        "dt_s": float(dt_s),
+        "ambient_k": unit.static_temperature_k if ambient_k is None else float(ambient_k),
+        "spring_hard": flags(spring_hard),
+        "damper_on": flags(damper_on),
+        "channels": None if channels is None else list(channels),
+    }
+
+
+def characterisation_rig(strut: Motion) -> dict[str, Any]:
+    """The rig description for a prescribed strut compression."""
+    return {"kind": "characterisation", "strut": _motion_dict(strut)}
+
+
+def sdof_rig(base: Motion, sprung_mass_kg: float = SEED_SPRUNG_MASS_KG) -> dict[str, Any]:
+    """The rig description for a sprung mass on the unit over a moving base."""
+    return {"kind": "sdof", "sprung_mass_kg": float(sprung_mass_kg), "base": _motion_dict(base)}
+
+
+def uniform_times(duration_s: float, sample_dt_s: float) -> FloatArray:
+    """Output times 0, dt, 2 dt, ... up to ``duration_s``."""
+    n = int(round(duration_s / sample_dt_s))
+    return np.arange(n + 1, dtype=float) * sample_dt_s
+
+
+def run(
+    unit: Unit,
+    rig: dict[str, Any],
+    times_s: ArrayLike,
+    *,
+    spring_hard: bool | ArrayLike = True,
+    damper_on: bool | ArrayLike = True,
+    dt_s: float = 1e-3,
+    ambient_k: float | None = None,
+    channels: Sequence[str] | None = None,
+    progress: Progress | None = None,
+) -> Result:
+    """Runs ``rig`` (see :func:`characterisation_rig`, :func:`sdof_rig`)
+    with outputs at ``times_s``; ``spring_hard`` / ``damper_on`` are one
+    value or one per output time (holding until the next)."""
+    c = _case(unit, rig, times_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels)
+    out = _core.simulate(c["unit"], c["rig"], c["times_s"], c["dt_s"], c["ambient_k"], c["spring_hard"], c["damper_on"], c["channels"], progress)
+    return Result(dict(out))
+
+
+def run_characterisation(
+    unit: Unit,
+    strut: Motion,
+    duration_s: float,
+    *,
+    sample_dt_s: float = 1e-2,
+    **kwargs: Any,
+) -> Result:
+    """The characterisation rig: prescribed strut compression."""
+    return run(unit, characterisation_rig(strut), uniform_times(duration_s, sample_dt_s), **kwargs)
+
+
+def run_sdof(
+    unit: Unit,
+    base: Motion,
+    duration_s: float,
+    *,
+    sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
+    sample_dt_s: float = 1e-3,
+    **kwargs: Any,
+) -> Result:
+    """The single-degree-of-freedom rig: a sprung mass over a moving base."""
+    return run(unit, sdof_rig(base, sprung_mass_kg), uniform_times(duration_s, sample_dt_s), **kwargs)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One run for :func:`run_many`."""
+
+    unit: Unit
+    rig: dict[str, Any]
+    times_s: FloatArray
+    spring_hard: bool | ArrayLike = True
+    damper_on: bool | ArrayLike = True
+    dt_s: float = 1e-3
+    ambient_k: float | None = None
+    channels: Sequence[str] | None = None
+
+
+def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result | Exception]:
+    """Runs cases in parallel in Rust (all cores unless ``threads``). A case
+    that fails yields its exception in place of a result."""
+    dicts = []
+    for c in cases:
+        d = _case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels)
+        d["times_s"] = d["times_s"].tolist()
+        dicts.append(d)
+    return [r if isinstance(r, Exception) else Result(dict(r)) for r in _core.simulate_many(dicts, threads)]

@@ -1,0 +1,252 @@
+"""Describing a spring-damper unit: SI units, unit-suffixed names.
+
+A :class:`Unit` is a frozen dataclass; :meth:`Unit.seed` is the built-in
+unit standing for the seed's (defined once, in the Rust core's presets).
+Units load from and save to TOML with the same field names.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from hpctl import _core
+from hpctl.errors import ParameterError
+
+GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
+
+
+@dataclass(frozen=True)
+class DamperCurve:
+    """One branch of the damper pack: pressure drop over flow magnitude ``q``,
+    ``R q + K q^2`` below the blow-off pressure, ``p_b + S (q - q_b)`` above."""
+
+    bleed_pa_s_per_m3: float
+    orifice_pa_s2_per_m6: float
+    blowoff_pa: float
+    blowoff_slope_pa_s_per_m3: float
+
+    @classmethod
+    def from_strut(
+        cls,
+        piston_area_m2: float,
+        c1_n_s_per_m: float,
+        c2_n_s2_per_m2: float,
+        blowoff_n: float,
+        slope_n_s_per_m: float,
+    ) -> DamperCurve:
+        """The curve giving strut force ``c1 v + c2 v^2`` up to ``blowoff_n``,
+        then ``slope`` above it, at strut velocity ``v``."""
+        a = piston_area_m2
+        return cls(c1_n_s_per_m / a**2, c2_n_s2_per_m2 / a**3, blowoff_n / a, slope_n_s_per_m / a**2)
+
+    def strut_force_n(self, piston_area_m2: float, vel_m_s: float) -> float:
+        """Strut force magnitude at strut speed ``vel_m_s`` (>= 0)."""
+        q = piston_area_m2 * vel_m_s
+        orifice = q * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q)
+        if orifice <= self.blowoff_pa:
+            return piston_area_m2 * orifice
+        r, k = self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6
+        q_b = 2 * self.blowoff_pa / (r + math.sqrt(r * r + 4 * k * self.blowoff_pa))
+        return piston_area_m2 * (self.blowoff_pa + self.blowoff_slope_pa_s_per_m3 * (q - q_b))
+
+
+@dataclass(frozen=True)
+class Damper:
+    """The two-state damper: one curve per valve-5 state and direction."""
+
+    on_compression: DamperCurve
+    on_rebound: DamperCurve
+    off_compression: DamperCurve
+    off_rebound: DamperCurve
+
+
+@dataclass(frozen=True)
+class Friction:
+    coulomb_n: float
+    viscous_n_s_per_m: float = 0.0
+    smoothing_velocity_m_s: float = 1e-3
+
+
+@dataclass(frozen=True)
+class OilCompliance:
+    bulk_modulus_pa: float
+    oil_volume_m3: float
+
+
+@dataclass(frozen=True)
+class OilNode:
+    heat_capacity_j_per_k: float
+    oil_to_ambient_tau_s: float
+    wall_to_oil_tau_s: float
+    wall_to_ambient_tau_s: float
+
+
+@dataclass(frozen=True)
+class Leakage:
+    time_constant_s: float
+
+
+@dataclass(frozen=True)
+class ValveLag:
+    time_constant_s: float
+
+
+@dataclass(frozen=True)
+class Sensor:
+    force_offset_n: float = 0.0
+    pressure_offset_pa: float = 0.0
+    time_constant_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Optional model terms; ``None`` means the effect is absent."""
+
+    friction: Friction | None = None
+    oil_compliance: OilCompliance | None = None
+    oil_node: OilNode | None = None
+    leakage: Leakage | None = None
+    valve_lag: ValveLag | None = None
+    sensor: Sensor | None = None
+
+
+_EFFECT_TYPES: dict[str, type] = {
+    "friction": Friction,
+    "oil_compliance": OilCompliance,
+    "oil_node": OilNode,
+    "leakage": Leakage,
+    "valve_lag": ValveLag,
+    "sensor": Sensor,
+}
+
+
+@dataclass(frozen=True)
+class Unit:
+    """A hydro-pneumatic spring-damper unit, in SI units.
+
+    ``tau_s`` is the gas thermal time constant: ``0`` is isothermal,
+    ``math.inf`` adiabatic. ``gas`` is one of :data:`GAS_MODELS`.
+    """
+
+    piston_area_m2: float
+    small_volume_m3: float
+    large_volume_m3: float
+    static_pressure_pa: float
+    static_temperature_k: float
+    gas: str
+    tau_s: float
+    valve6_flow_area_m2: float
+    valve6_transition_pa: float
+    damper: Damper
+    oil_density_kg_m3: float
+    vapour_pressure_pa: float
+    ambient_pressure_pa: float
+    stroke_compression_m: float
+    stroke_extension_m: float
+    end_stop_stiffness_n_per_m: float
+    end_stop_damping_n_s_per_m: float
+    effects: Effects = field(default_factory=Effects)
+
+    @classmethod
+    def seed(cls) -> Unit:
+        """The built-in unit standing for the seed's experimental unit."""
+        return cls.from_dict(_core.seed_unit())
+
+    def replace(self, **changes: Any) -> Unit:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+    def with_effects(self, **effects: Any) -> Unit:
+        """A copy with some effects set (or removed with ``None``)."""
+        return self.replace(effects=dataclasses.replace(self.effects, **effects))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The plain-dict form the Rust core reads (absent effects omitted)."""
+        d = dataclasses.asdict(self)
+        d["effects"] = {k: v for k, v in d["effects"].items() if v is not None}
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], source: str = "unit") -> Unit:
+        """From the plain-dict form; unknown or missing keys raise
+        :class:`~hpctl.errors.ParameterError` naming the key."""
+        d = dict(d)
+        try:
+            damper_d = _expect_mapping(d.pop("damper"), f"{source}.damper")
+            damper = Damper(
+                **{
+                    k: DamperCurve(**_expect_mapping(damper_d[k], f"{source}.damper.{k}"))
+                    for k in ("on_compression", "on_rebound", "off_compression", "off_rebound")
+                }
+            )
+            effects_d = _expect_mapping(d.pop("effects", {}) or {}, f"{source}.effects")
+            effects = Effects(
+                **{
+                    k: _EFFECT_TYPES[k](**_expect_mapping(v, f"{source}.effects.{k}"))
+                    for k, v in effects_d.items()
+                    if v is not None
+                }
+            )
+            unit = cls(damper=damper, effects=effects, **d)
+        except KeyError as e:
+            raise ParameterError(f"{source}: missing or unknown key {e}") from None
+        except TypeError as e:
+            raise ParameterError(f"{source}: {e}") from None
+        unit.check()
+        return unit
+
+    def check(self) -> None:
+        """Validates every value in the Rust core (raises ParameterError)."""
+        _core.gas_masses_kg(self.to_dict())
+
+    def gas_masses_kg(self) -> tuple[float, float]:
+        """Nitrogen mass in accumulators S and L, kg."""
+        return _core.gas_masses_kg(self.to_dict())
+
+    # TOML: the same names, nested tables for the damper and effects.
+    # TOML has no infinity literal shared by all writers, so an adiabatic
+    # tau is written as the string "inf".
+    def to_toml(self, path: str | Path) -> None:
+        d = self.to_dict()
+        if math.isinf(d["tau_s"]):
+            d["tau_s"] = "inf"
+        Path(path).write_text(tomli_w.dumps({"unit": d}))
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Unit:
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise ParameterError(f"{path}: cannot read unit file: {e}") from None
+        if set(data) != {"unit"}:
+            raise ParameterError(f"{path}: expected exactly one table [unit], found {sorted(data)}")
+        d = dict(data["unit"])
+        if d.get("tau_s") == "inf":
+            d["tau_s"] = math.inf
+        return cls.from_dict(d, source=f"{path}: [unit]")
+
+    def static_force_n(self, disp_m: float, t_k: float, spring_hard: bool) -> float:
+        """Force at rest at compression ``disp_m`` with the gas at ``t_k``."""
+        return _core.static_force_n(self.to_dict(), disp_m, t_k, spring_hard)
+
+    def static_disp_for_load_m(self, load_n: float, t_k: float, spring_hard: bool) -> float:
+        """Compression at which the unit carries ``load_n`` at rest, gas at ``t_k``."""
+        return _core.static_disp_for_load_m(self.to_dict(), load_n, t_k, spring_hard)
+
+
+def _expect_mapping(value: Any, where: str) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ParameterError(f"{where} must be a table, got {value!r}")
+    return dict(value)
+
+
+SEED_SPRUNG_MASS_KG: float = _core.seed_sprung_mass_kg()
