@@ -1,0 +1,214 @@
+//! The figures build (emulator board, no UART): runs a scripted driving
+//! scenario through the whole ECU path (sensor frames -> receiver ->
+//! controller step -> output frames), times each part with SysTick, measures
+//! the stack high-water mark, prints one `figures ...` line over
+//! semihosting and exits. `scripts/firmware_figures.py` runs it under
+//! `qemu-system-arm -icount shift=0` (deterministic: one instruction per
+//! nanosecond of virtual time; SysTick counts the 25 MHz core clock, so one
+//! tick is 40 instructions).
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use core::sync::atomic::{compiler_fence, Ordering};
+
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use cortex_m_rt::entry;
+use cortex_m_semihosting::{debug, hprintln};
+use hp_ctrl::can::messages::{Body, Driver, Pressures, Steering, Strut, Temperature, Vehicle};
+use hp_ctrl::can::{CanFrame, Message, Transmitter};
+use hp_ctrl::{Config, DriverMode};
+use hp_fw::ecu::{Ecu, Link};
+
+/// Periods run; the first WARMUP are not timed (power-on safe state,
+/// recovery, the handling hold).
+const PERIODS: u32 = 6000;
+const WARMUP: u32 = 3000;
+const STACK_PAINT: u32 = 0x5AFE_C0DE;
+
+extern "C" {
+    static mut __sheap: u32;
+    static _stack_start: u32;
+}
+
+/// Counts what the ECU sends instead of sending it.
+struct CountingLink {
+    frames: u32,
+}
+
+impl Link for CountingLink {
+    fn receive(&mut self) -> Option<CanFrame> {
+        None
+    }
+    fn transmit(&mut self, frame: &CanFrame) -> bool {
+        black_box(frame);
+        self.frames += 1;
+        true
+    }
+}
+
+fn now() -> u32 {
+    compiler_fence(Ordering::SeqCst);
+    let t = SYST::get_current();
+    compiler_fence(Ordering::SeqCst);
+    t
+}
+
+/// SysTick counts down, 24 bits.
+fn elapsed(start: u32, end: u32) -> u32 {
+    start.wrapping_sub(end) & 0x00FF_FFFF
+}
+
+#[derive(Default)]
+struct Stat {
+    sum: u64,
+    max: u32,
+}
+
+impl Stat {
+    fn add(&mut self, ticks: u32) {
+        self.sum += u64::from(ticks);
+        self.max = self.max.max(ticks);
+    }
+}
+
+/// The sensor frames of period `k`: a 10 m/s straight road with a 1.5 Hz
+/// body motion, a lane change at 4 s, a lowering request at 4.5 s.
+fn scenario(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mut heapless::Vec<CanFrame, 8>) {
+    let t_s = k as f32 * 1e-3;
+    let w = 2.0 * core::f32::consts::PI * 1.5;
+    let sin = libm::sinf(w * t_s);
+    let cos = libm::cosf(w * t_s);
+    let lane_change = (4.0..5.0).contains(&t_s);
+    let steer = if lane_change { 0.8 * libm::sinf(2.0 * core::f32::consts::PI * (t_s - 4.0)) } else { 0.0 };
+    let p_pa = cfg.unit.static_pressure_pa * (1.0 + 0.05 * f64::from(sin));
+    let mut msgs: heapless::Vec<Message, 8> = heapless::Vec::new();
+    let _ = msgs.push(Message::Pressures(Pressures { p_small_pa: p_pa, p_large_pa: p_pa }));
+    let _ = msgs.push(Message::Strut(Strut { disp_m: 0.01 * f64::from(sin) }));
+    let _ = msgs.push(Message::Body(Body { acc_m_s2: -0.8 * f64::from(cos) }));
+    if k % 10 == 0 {
+        let _ = msgs.push(Message::Vehicle(Vehicle {
+            speed_m_s: 10.0,
+            brake_pressed: false,
+            lat_acc_m_s2: f64::from(steer * 2.0),
+            long_acc_m_s2: 0.0,
+        }));
+        let _ = msgs.push(Message::Steering(Steering {
+            angle_rad: f64::from(steer),
+            rate_rad_s: f64::from(steer * 2.0 * core::f32::consts::PI),
+        }));
+    }
+    if k % 100 == 0 {
+        let _ = msgs.push(Message::Temperature(Temperature { t_gas_k: cfg.unit.static_temperature_k }));
+        let request = if t_s >= 4.5 { -0.02 } else { 0.0 };
+        let _ = msgs.push(Message::Driver(Driver { mode: DriverMode::Auto, ride_height_request_m: request }));
+    }
+    out.clear();
+    for m in &msgs {
+        if let Ok(f) = tx.frame(m) {
+            let _ = out.push(f);
+        }
+    }
+}
+
+fn paint_stack() {
+    let sp = cortex_m::register::msp::read() as usize;
+    // SAFETY: paints the free RAM between the end of the static data and
+    // 64 bytes below the current stack pointer; nothing lives there yet
+    // and no interrupt is enabled.
+    unsafe {
+        let mut p = core::ptr::addr_of_mut!(__sheap);
+        while (p as usize) < sp - 64 {
+            p.write_volatile(STACK_PAINT);
+            p = p.add(1);
+        }
+    }
+}
+
+fn stack_high_water_bytes() -> u32 {
+    // SAFETY: reads the painted region back; the stack grows down from
+    // _stack_start, so the first overwritten word from below marks its
+    // deepest point.
+    unsafe {
+        let top = core::ptr::addr_of!(_stack_start) as usize;
+        let mut p = core::ptr::addr_of!(__sheap) as *const u32;
+        while (p as usize) < top && p.read_volatile() == STACK_PAINT {
+            p = p.add(1);
+        }
+        (top - p as usize) as u32
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    paint_stack();
+    let Some(mut core) = cortex_m::Peripherals::take() else { debug::exit(debug::EXIT_FAILURE); loop {} };
+    core.SYST.set_clock_source(SystClkSource::Core);
+    core.SYST.set_reload(0x00FF_FFFF);
+    core.SYST.clear_current();
+    core.SYST.enable_counter();
+
+    // Calibration: 4000 single-cycle instructions in a row.
+    let c0 = now();
+    // SAFETY: nops only.
+    unsafe { core::arch::asm!(".rept 4000", "nop", ".endr", options(nomem, nostack)) };
+    let calib = elapsed(c0, now());
+
+    let cfg = Config::seed_unit();
+    let mut ecu = Ecu::new();
+    let stack_init = stack_high_water_bytes();
+    paint_stack();
+    let mut sensors = Transmitter::new();
+    let mut link = CountingLink { frames: 0 };
+    let mut frames = heapless::Vec::new();
+    let (mut rx, mut step, mut send, mut period) = (Stat::default(), Stat::default(), Stat::default(), Stat::default());
+    let (mut safe, mut valve5, mut valve6) = (0u32, 0u32, 0u32);
+    for k in 0..PERIODS {
+        scenario(k, &mut sensors, &cfg, &mut frames);
+        let t0 = now();
+        for f in &frames {
+            black_box(ecu.receive(f));
+        }
+        let inputs = black_box(ecu.end_period());
+        let t2 = now();
+        let out = black_box(ecu.step(&inputs));
+        let t3 = now();
+        ecu.send(&mut link, &inputs, &out);
+        let t4 = now();
+        if k >= WARMUP {
+            rx.add(elapsed(t0, t2));
+            step.add(elapsed(t2, t3));
+            send.add(elapsed(t3, t4));
+            period.add(elapsed(t0, t4));
+            safe += u32::from(out.diag & hp_ctrl::diag::SAFE_STATE != 0);
+            valve5 += u32::from(out.valve5_open);
+            valve6 += u32::from(out.valve6_open);
+        }
+    }
+    let n = PERIODS - WARMUP;
+    hprintln!(
+        "figures calib_4000_nops={} stack_init_bytes={} periods={} params_ok={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={}",
+        calib,
+        stack_init,
+        n,
+        u8::from(ecu.has_params()),
+        rx.sum,
+        rx.max,
+        step.sum,
+        step.max,
+        send.sum,
+        send.max,
+        period.sum,
+        period.max,
+        stack_high_water_bytes(),
+        link.frames,
+        safe,
+        valve5,
+        valve6,
+        ecu.tx_dropped
+    );
+    debug::exit(debug::EXIT_SUCCESS);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

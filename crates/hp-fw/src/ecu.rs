@@ -1,0 +1,117 @@
+//! The board-independent application: one control period at a time.
+
+use embedded_can::Frame;
+use hp_ctrl::can::messages::{Status, ValveCmd};
+use hp_ctrl::can::{Accepted, CanFrame, InputDecoder, LinkParams, Message, Transmitter};
+use hp_ctrl::{diag, Inputs, Outputs, Params, State};
+
+/// Control period, s (1 kHz).
+pub const PERIOD_S: f64 = 1e-3;
+/// Control period, us.
+pub const PERIOD_US: u32 = 1000;
+/// Diagnostics frames go out every this many periods (100 ms).
+pub const DIAG_EVERY: u32 = 100;
+
+/// A CAN link as the application sees it; never blocks.
+pub trait Link {
+    /// The next received frame, if any.
+    fn receive(&mut self) -> Option<CanFrame>;
+    /// Queues a frame for sending; false if it had to be dropped.
+    fn transmit(&mut self, frame: &CanFrame) -> bool;
+}
+
+/// The controller step: the firmware's only call into `hp_ctrl::step`.
+///
+/// Without valid parameters (they failed validation at start-up) the
+/// outputs are the safe state: both valves de-energised.
+pub fn control_step(params: Option<&Params>, state: &mut State, inputs: &Inputs) -> Outputs {
+    match params {
+        Some(p) => hp_ctrl::step(p, state, inputs, PERIOD_S),
+        None => Outputs { diag: diag::SAFE_STATE, ..Outputs::default() },
+    }
+}
+
+/// Everything the ECU application keeps.
+pub struct Ecu {
+    params: Option<Params>,
+    state: State,
+    rx: InputDecoder,
+    tx: Transmitter,
+    step_index: u32,
+    /// Frames that could not be queued for sending.
+    pub tx_dropped: u32,
+}
+
+impl Ecu {
+    /// Power-on: the seed unit's calibration; the controller starts in its
+    /// safe state and the link supervision with every message stale.
+    pub fn new() -> Self {
+        Ecu {
+            params: Params::seed_unit().ok(),
+            state: State::new(),
+            rx: InputDecoder::new(LinkParams { period_us: PERIOD_US, ..LinkParams::default() }),
+            tx: Transmitter::new(),
+            step_index: 0,
+            tx_dropped: 0,
+        }
+    }
+
+    /// True if the parameters validated (otherwise the outputs stay safe).
+    pub fn has_params(&self) -> bool {
+        self.params.is_some()
+    }
+
+    /// Feeds one received frame to the receiver; returns the tick index if
+    /// it was a lock-step tick (`HP_PilTick`).
+    pub fn receive<F: Frame>(&mut self, frame: &F) -> Option<u16> {
+        match self.rx.receive(frame) {
+            Ok(Accepted::Tick(index)) => Some(index),
+            _ => None,
+        }
+    }
+
+    /// First part of a period: closes reception, gives the step's inputs.
+    pub fn end_period(&mut self) -> Inputs {
+        self.rx.end_period()
+    }
+
+    /// Second part: the controller step.
+    pub fn step(&mut self, inputs: &Inputs) -> Outputs {
+        control_step(self.params.as_ref(), &mut self.state, inputs)
+    }
+
+    /// Third part: sends the valve command and status, and every
+    /// [`DIAG_EVERY`] periods the diagnostics.
+    pub fn send<L: Link>(&mut self, link: &mut L, inputs: &Inputs, out: &Outputs) {
+        let index = self.step_index as u16; // StepIndex is the period modulo 65536.
+        self.emit(link, &Message::ValveCmd(ValveCmd::from_outputs(out, inputs.link_fault, index)));
+        self.emit(link, &Message::Status(Status::from_outputs(out)));
+        if self.step_index % DIAG_EVERY == DIAG_EVERY - 1 {
+            self.emit(link, &Message::DiagE2e(self.rx.diag_e2e()));
+            self.emit(link, &Message::DiagLink(self.rx.diag_link()));
+        }
+        self.step_index = self.step_index.wrapping_add(1);
+    }
+
+    fn emit<L: Link>(&mut self, link: &mut L, msg: &Message) {
+        // Encoding cannot fail for these messages (Status is clamped, the
+        // rest are flags and integers in range); a failure is counted.
+        let sent = self.tx.frame(msg).map(|f| link.transmit(&f)).unwrap_or(false);
+        if !sent {
+            self.tx_dropped = self.tx_dropped.saturating_add(1);
+        }
+    }
+
+    /// One whole control period.
+    pub fn period<L: Link>(&mut self, link: &mut L) {
+        let inputs = self.end_period();
+        let out = self.step(&inputs);
+        self.send(link, &inputs, &out);
+    }
+}
+
+impl Default for Ecu {
+    fn default() -> Self {
+        Self::new()
+    }
+}

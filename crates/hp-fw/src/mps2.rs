@@ -1,0 +1,127 @@
+//! Emulator board: QEMU `mps2-an386` (Cortex-M4F, 25 MHz). It has no CAN
+//! controller, so CAN frames travel over the CMSDK APB UART0 in the SLCAN
+//! (Lawicel) protocol: the firmware is the ECU and its USB-CAN adapter in
+//! one, and python-can's `slcan` interface talks to it through QEMU's
+//! `-serial tcp:...`.
+
+use core::ptr::{read_volatile, write_volatile};
+
+use heapless::Deque;
+use hp_ctrl::can::slcan::{self, Adapter, LineReader};
+use hp_ctrl::can::CanFrame;
+
+use crate::ecu::Link;
+
+/// Core and peripheral clock of the board, Hz.
+pub const SYSCLK_HZ: u32 = 25_000_000;
+
+/// CMSDK APB UART0 registers.
+const UART0_BASE: usize = 0x4000_4000;
+const DATA: usize = UART0_BASE;
+const STATE: usize = UART0_BASE + 0x4;
+const CTRL: usize = UART0_BASE + 0x8;
+const BAUDDIV: usize = UART0_BASE + 0x10;
+const STATE_TX_FULL: u32 = 1 << 0;
+const STATE_RX_FULL: u32 = 1 << 1;
+const CTRL_TX_EN: u32 = 1 << 0;
+const CTRL_RX_EN: u32 = 1 << 1;
+
+fn read_reg(addr: usize) -> u32 {
+    // SAFETY: a fixed, aligned MMIO register of the board's UART0.
+    unsafe { read_volatile(addr as *const u32) }
+}
+
+fn write_reg(addr: usize, value: u32) {
+    // SAFETY: a fixed, aligned MMIO register of the board's UART0.
+    unsafe { write_volatile(addr as *mut u32, value) }
+}
+
+/// Enables UART0 at 115200 Bd (QEMU ignores the rate but needs a legal
+/// divider before it moves bytes).
+pub fn uart_init() {
+    write_reg(BAUDDIV, SYSCLK_HZ / 115_200);
+    write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN);
+}
+
+fn uart_read() -> Option<u8> {
+    (read_reg(STATE) & STATE_RX_FULL != 0).then(|| read_reg(DATA) as u8)
+}
+
+fn uart_try_write(byte: u8) -> bool {
+    if read_reg(STATE) & STATE_TX_FULL != 0 {
+        return false;
+    }
+    write_reg(DATA, u32::from(byte));
+    true
+}
+
+/// Bytes waiting to go out: a few periods of traffic (two 22-byte frames
+/// per period plus answers).
+const TX_QUEUE: usize = 512;
+
+/// The SLCAN link over UART0.
+pub struct SlcanLink {
+    reader: LineReader,
+    adapter: Adapter,
+    out: Deque<u8, TX_QUEUE>,
+    /// Answers or frames dropped because the queue was full.
+    pub dropped: u32,
+}
+
+impl SlcanLink {
+    pub const fn new() -> Self {
+        SlcanLink { reader: LineReader::new(), adapter: Adapter::new(), out: Deque::new(), dropped: 0 }
+    }
+
+    /// Queues all of `bytes` or, if they do not fit, none.
+    fn queue(&mut self, bytes: &[u8]) -> bool {
+        if self.out.capacity() - self.out.len() < bytes.len() {
+            self.dropped = self.dropped.saturating_add(1);
+            return false;
+        }
+        bytes.iter().all(|&b| self.out.push_back(b).is_ok())
+    }
+
+    /// Moves queued bytes into the UART while it takes them.
+    pub fn flush(&mut self) {
+        while let Some(&b) = self.out.front() {
+            if !uart_try_write(b) {
+                break;
+            }
+            self.out.pop_front();
+        }
+    }
+}
+
+impl Default for SlcanLink {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Link for SlcanLink {
+    /// Reads UART bytes until a line carrying a frame is complete, or no
+    /// byte is waiting; command lines are answered on the way.
+    fn receive(&mut self) -> Option<CanFrame> {
+        while let Some(byte) = uart_read() {
+            let Some(cmd) = self.reader.push(byte) else { continue };
+            let response = self.adapter.handle(cmd);
+            self.queue(response.answer);
+            if response.frame.is_some() {
+                return response.frame;
+            }
+        }
+        None
+    }
+
+    fn transmit(&mut self, frame: &CanFrame) -> bool {
+        if !self.adapter.is_open() {
+            // Like an adapter with the channel closed: the frame is on the
+            // bus, but nobody on the host side listens.
+            return true;
+        }
+        let mut text = [0u8; slcan::MAX_FRAME_TEXT];
+        let n = slcan::format_frame(frame, &mut text);
+        self.queue(text.get(..n).unwrap_or(&[]))
+    }
+}
