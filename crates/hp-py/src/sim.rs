@@ -342,6 +342,20 @@ pub fn seed_unit(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     guard(|| params::unit_to_dict(py, &hp_core::presets::seed_unit()))
 }
 
+/// The seed's lumped oil and gas-wall nodes for heat build-up.
+#[pyfunction]
+pub fn seed_oil_node(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    guard(|| {
+        let n = hp_core::presets::seed_oil_node();
+        let d = PyDict::new(py);
+        d.set_item("heat_capacity_j_per_k", n.heat_capacity_j_per_k)?;
+        d.set_item("oil_to_ambient_tau_s", n.oil_to_ambient_tau_s)?;
+        d.set_item("wall_to_oil_tau_s", n.wall_to_oil_tau_s)?;
+        d.set_item("wall_to_ambient_tau_s", n.wall_to_ambient_tau_s)?;
+        Ok(d)
+    })
+}
+
 /// The seed's sprung mass, kg.
 #[pyfunction]
 pub fn seed_sprung_mass_kg() -> f64 {
@@ -359,6 +373,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gas_density_kg_m3, m)?)?;
     m.add_function(wrap_pyfunction!(seed_unit, m)?)?;
     m.add_function(wrap_pyfunction!(seed_sprung_mass_kg, m)?)?;
+    m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
     Ok(())
 }

@@ -1,0 +1,89 @@
+"""What a suspension engineer reads off responses: natural frequency,
+damping ratio, overshoot, settling time, loop area."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def crossings_s(t: FloatArray, y: FloatArray, level: float, after_s: float = -math.inf) -> FloatArray:
+    """Times at which ``y`` crosses ``level`` (linear interpolation), after ``after_s``."""
+    d = np.asarray(y, float) - level
+    i = np.flatnonzero((d[:-1] * d[1:] < 0) & (t[:-1] >= after_s))
+    return t[i] + (t[i + 1] - t[i]) * d[i] / (d[i] - d[i + 1])
+
+
+def natural_frequency_hz(t: FloatArray, y: FloatArray, level: float, after_s: float = -math.inf) -> float | None:
+    """Frequency of the oscillation about ``level`` from the first full
+    period between crossings; ``None`` when it does not oscillate."""
+    c = crossings_s(t, y, level, after_s)
+    if len(c) < 3:
+        return None
+    return float(1.0 / (c[2] - c[0]))
+
+
+def extremes(t: FloatArray, y: FloatArray, level: float, after_s: float = -math.inf) -> list[tuple[float, float]]:
+    """The largest excursion from ``level`` between successive crossings:
+    (time, excursion) pairs, alternating in sign."""
+    c = crossings_s(t, y, level, after_s)
+    bounds = np.concatenate(([after_s if math.isfinite(after_s) else t[0]], c, [t[-1]]))
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        m = (t >= a) & (t <= b)
+        if not m.any():
+            continue
+        d = y[m] - level
+        k = int(np.argmax(np.abs(d)))
+        out.append((float(t[m][k]), float(d[k])))
+    return out
+
+
+def damping_ratio(t: FloatArray, y: FloatArray, level: float, after_s: float = -math.inf) -> float | None:
+    """Damping ratio from the logarithmic decrement of successive
+    same-sign excursions about ``level``; ``None`` without two of them."""
+    ex = [e for _, e in extremes(t, y, level, after_s)]
+    pairs = [(ex[i], ex[i + 2]) for i in range(len(ex) - 2) if ex[i] * ex[i + 2] > 0 and abs(ex[i + 2]) > 0]
+    if not pairs:
+        return None
+    a, b = pairs[0]
+    delta = math.log(abs(a) / abs(b))
+    return float(delta / math.sqrt(4 * math.pi**2 + delta**2))
+
+
+def overshoot_m(y: FloatArray, level: float, step_m: float) -> float:
+    """How far the response went beyond ``level`` in the step's direction."""
+    beyond = (np.asarray(y) - level) * math.copysign(1.0, step_m)
+    return float(max(0.0, beyond.max()))
+
+
+def settling_time_s(t: FloatArray, y: FloatArray, level: float, band_m: float, start_s: float) -> float | None:
+    """Time from ``start_s`` after which ``y`` stays within ``band_m`` of
+    ``level``; ``None`` if it never does."""
+    outside = np.flatnonzero(np.abs(np.asarray(y) - level) > band_m)
+    if outside.size == 0:
+        return 0.0
+    last = int(outside[-1])
+    if last >= len(t) - 1:
+        return None
+    return float(max(0.0, t[last + 1] - start_s))
+
+
+def loop_area_j(x: FloatArray, f: FloatArray) -> float:
+    """Area of the force-displacement loop ``closed-integral f dx`` (J) over
+    the samples given (one whole cycle); positive when energy is absorbed."""
+    x = np.asarray(x, float)
+    f = np.asarray(f, float)
+    return float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(x)))
+
+
+def last_cycle(t: FloatArray, frequency_hz: float) -> NDArray[np.bool_]:
+    """Mask of the samples of the last whole period of a sine run."""
+    period = 1.0 / frequency_hz
+    n = math.floor((t[-1] - t[0]) / period + 1e-9)
+    start = t[0] + (n - 1) * period
+    return np.asarray(t >= start - 1e-9 * period)
