@@ -114,7 +114,7 @@ impl Default for MonitorConfig {
             steer_angle_max_rad: 20.0,
             steer_rate_max_rad_s: 30.0,
             // kappa p A v / V_gas at 100 MPa, 35 cm^3 of gas left in S,
-            // A = 2.5e-3 m^2 and 2 m/s: about 2e10 Pa/s.
+            // A = 2e-3 m^2 and 2 m/s: 1.6e10 Pa/s, rounded up.
             pressure_rate_max_pa_s: 2.0e10,
             disp_rate_max_m_s: 10.0,
             temperature_rate_max_k_s: 200.0,
