@@ -205,7 +205,7 @@ pub fn step(p: &RideHeightParams, s: &mut RideHeightState, i: &RideHeightInputs,
     } else if !engaged {
         s.phase = SequencerState::Holding;
         (SequencerState::Idle, true)
-    } else if s.calm_us < p.resume_us {
+    } else if dynamics || s.calm_us < p.resume_us {
         s.phase = SequencerState::Holding;
         flags |= diag::SEQUENCER_PAUSED;
         (SequencerState::Blocked, false)

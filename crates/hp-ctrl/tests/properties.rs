@@ -257,6 +257,22 @@ fn check_valve6_direction(config: &Config, periods: &[Period], outs: &[Outputs])
     Ok(())
 }
 
+/// Sequencing pauses (valve 6 closed) while cornering, braking or
+/// accelerating hard: the sequencer is then Idle (not engaged) or Blocked.
+fn check_sequencer_pauses(config: &Config, periods: &[Period], outs: &[Outputs]) -> Result<(), TestCaseError> {
+    let rh = &config.ride_height;
+    for (period, out) in periods.iter().zip(outs) {
+        let i = &period.inputs;
+        let manoeuvre = i.lat_acc_m_s2.abs() > rh.block_lat_acc_m_s2 * 1.001
+            || i.long_acc_m_s2.abs() > rh.block_long_acc_m_s2 * 1.001
+            || i.brake_pressed;
+        if manoeuvre {
+            prop_assert!(matches!(out.sequencer, SequencerState::Idle | SequencerState::Blocked), "{:?} {:?}", i, out);
+        }
+    }
+    Ok(())
+}
+
 /// Ride never returns sooner than the hold after Handling was entered, nor
 /// after the last period a trigger fired or the outputs were safe; a
 /// lateral acceleration past the entry threshold gives Handling at once.
@@ -365,6 +381,7 @@ proptest! {
         let outs = run(&params, &periods);
         check_safe_state(&config, &periods, &outs)?;
         check_valve6_direction(&config, &periods, &outs)?;
+        check_sequencer_pauses(&config, &periods, &outs)?;
         check_mode_hold(&config, &periods, &outs)?;
         check_valve_intervals(&config, &periods, &outs)?;
         check_outputs_valid(&config, &outs)?;

@@ -273,3 +273,19 @@ fn the_valve_opens_only_past_the_margin_in_the_wanted_direction() {
     let opened_at = opened_at.unwrap();
     assert!(opened_at > margin && opened_at <= margin + 1.0e3, "opened at {opened_at}");
 }
+
+#[test]
+fn sequencing_pauses_during_manoeuvres_even_without_a_resume_time() {
+    let mut config = hp_ctrl::Config::seed_unit();
+    config.ride_height.resume_s = 0.0;
+    let params = Params::new(config).unwrap();
+    let mut state = in_ride(&params);
+    let plant = ToyUnit::new(&params);
+    let request = plant.inputs(&params, -0.03, DriverMode::Auto);
+    assert_eq!(step(&params, &mut state, &request, DT_S).sequencer, SequencerState::Lowering);
+    let cornering = Inputs { lat_acc_m_s2: 1.1 * config.ride_height.block_lat_acc_m_s2, ..request };
+    let out = step(&params, &mut state, &cornering, DT_S);
+    assert_eq!(out.sequencer, SequencerState::Blocked);
+    assert!(!out.valve6_open);
+    assert_eq!(step(&params, &mut state, &request, DT_S).sequencer, SequencerState::Lowering);
+}
