@@ -6,6 +6,25 @@ import numpy as np
 from numpy.typing import NDArray
 
 __version__: str
+__all__ = [
+    "HpctlError",
+    "ParameterError",
+    "ConvergenceError",
+    "SimulationError",
+    "InternalError",
+    "simulate",
+    "simulate_many",
+    "static_force_n",
+    "static_disp_for_load_m",
+    "gas_masses_kg",
+    "gas_props",
+    "gas_density_kg_m3",
+    "seed_unit",
+    "seed_sprung_mass_kg",
+    "seed_oil_node",
+    "CHANNELS",
+    "__version__",
+]
 CHANNELS: list[str]
 
 class HpctlError(ValueError): ...

@@ -38,6 +38,8 @@ class Reporter:
         self.as_json = as_json
         self.out = Console(quiet=quiet or as_json)
         self.err = Console(stderr=True, quiet=quiet)
+        # Errors are printed even with --quiet.
+        self.errors = Console(stderr=True)
 
     @contextmanager
     def bars(self) -> Iterator[Callable[[str], Callable[[int, int], None] | None]]:
@@ -168,6 +170,9 @@ def _simulate(
     rep: Reporter, unit: Unit, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
     duration_s: float | None, dt_s: float | None, mass_kg: float, out_dir: Path,
 ) -> dict[str, Any]:
+    def given(value: float | None, default: float) -> float:
+        return default if value is None else value
+
     springs = _modes(spring, ("hard", "soft"))
     dampers = _modes(damper, ("on", "off"))
     runs: list[ex.Experiment] = []
@@ -180,33 +185,32 @@ def _simulate(
             for hard in springs:
                 for on in dampers:
                     runs.append(ex.sdof_step(
-                        unit, spring_hard=hard, damper_on=on, height_m=amplitude_m if amplitude_m is not None else ex.SEED_STEP_M,
-                        duration_s=duration_s or 6.0, sprung_mass_kg=mass_kg, dt_s=dt_s or 1e-3,
+                        unit, spring_hard=hard, damper_on=on, height_m=given(amplitude_m, ex.SEED_STEP_M),
+                        duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=given(dt_s, 1e-3),
                         progress=bar(f"SDOF step ({ex.spring_name(hard)}, damper {ex.damper_name(on)})"),
                     ))
         elif test == "heat":
             for hard in springs:
                 runs.append(ex.heat_buildup(
-                    unit, duration_s=duration_s or 75 * 60.0, frequency_hz=frequency_hz or 0.5, amplitude_m=amplitude_m or 0.06,
-                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=dt_s or 2e-3, progress=bar(f"heat build-up ({ex.spring_name(hard)})"),
+                    unit, duration_s=given(duration_s, 75 * 60.0), frequency_hz=given(frequency_hz, 0.5), amplitude_m=given(amplitude_m, 0.06),
+                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=given(dt_s, 2e-3), progress=bar(f"heat build-up ({ex.spring_name(hard)})"),
                 ))
         else:
             for hard in springs:
                 for on in dampers:
                     name = f"{test} ({ex.spring_name(hard)}, damper {ex.damper_name(on)})"
                     if test == "sine":
-                        amp = amplitude_m if amplitude_m is not None else 0.05
-                        f = frequency_hz if frequency_hz is not None else 0.1
-                        motion: Sine | Steps | Step = Sine(amp, f)
-                        dur = duration_s or 3.0 / f
+                        f = given(frequency_hz, 0.1)
+                        motion: Sine | Steps | Step = Sine(given(amplitude_m, 0.05), f)
+                        dur = given(duration_s, 3.0 / f)
                     elif test == "steps":
-                        motion = Steps(amplitude_m if amplitude_m is not None else 0.02, 4, ramp_s=2.0, dwell_s=30.0)
-                        dur = duration_s or motion.duration_s
+                        motion = Steps(given(amplitude_m, 0.02), 4, ramp_s=2.0, dwell_s=30.0)
+                        dur = given(duration_s, motion.duration_s)
                     else:
-                        motion = Step(amplitude_m if amplitude_m is not None else 0.05, start_s=1.0, rise_s=0.05)
-                        dur = duration_s or 30.0
-                    sample = min(0.01, dur / 2000)
-                    runs.append(ex.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=dt_s or min(1e-3, sample), sample_dt_s=sample, progress=bar(name)))
+                        motion = Step(given(amplitude_m, 0.05), start_s=1.0, rise_s=0.05)
+                        dur = given(duration_s, 30.0)
+                    sample = min(0.01, dur / 2000) if dur > 0 else 0.01
+                    runs.append(ex.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
 
     records = out_dir / "records"
     for e in runs:
@@ -277,14 +281,14 @@ def _errors(rep: Reporter) -> Iterator[None]:
     except (click.ClickException, click.exceptions.Exit, click.exceptions.Abort):
         raise
     except HpctlError as e:
-        rep.err.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
+        rep.errors.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
         sys.exit(EXIT_BAD_INPUT)
     except KeyboardInterrupt:
-        rep.err.print("interrupted")
+        rep.errors.print("interrupted")
         sys.exit(130)
     except Exception as e:  # noqa: BLE001 - the last line of defence
-        rep.err.print(f"[red]internal error:[/red] {type(e).__name__}: {e}", markup=True, highlight=False)
-        if rep.err.is_terminal:
+        rep.errors.print(f"[red]internal error:[/red] {type(e).__name__}: {e}", markup=True, highlight=False)
+        if rep.errors.is_terminal:
             traceback.print_exc()
         sys.exit(EXIT_INTERNAL)
 

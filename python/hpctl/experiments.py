@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -36,11 +36,11 @@ class Experiment:
     summary: dict[str, Any] = field(default_factory=dict)
 
 
-def spring_name(hard: bool) -> str:
+def spring_name(hard: bool) -> Literal["hard", "soft"]:
     return "hard" if hard else "soft"
 
 
-def damper_name(on: bool) -> str:
+def damper_name(on: bool) -> Literal["on", "off"]:
     return "on" if on else "off"
 
 
@@ -98,8 +98,8 @@ def characterisation(
     )
     excitation = {"sine": "sine", "step": "step", "steps": "steps"}.get(motion.kind, "drive")
     test = RecordTest(
-        spring="hard" if spring_hard else "soft",
-        damper="on" if damper_on else "off",
+        spring=spring_name(spring_hard),
+        damper=damper_name(damper_on),
         excitation=excitation,
         amplitude_m=getattr(motion, "amplitude_m", None) or getattr(motion, "height_m", None),
         frequency_hz=getattr(motion, "frequency_hz", None),

@@ -239,13 +239,13 @@ def _read_csv(path: Path, kind: str) -> dict[str, NDArray[np.float64]]:
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
-        raise RecordError(f"{path}: line {i + 2}, column 'time_s': {t[i]!r} does not increase strictly (previous {t[i - 1]!r})")
+        raise RecordError(f"{path}: line {i + 2}, column 'time_s': {float(t[i])!r} does not increase strictly (previous {float(t[i - 1])!r})")
     for flag in FLAG_COLUMNS:
         if flag in data:
             off = np.flatnonzero((data[flag] != 0) & (data[flag] != 1))
             if off.size:
                 i = int(off[0])
-                raise RecordError(f"{path}: line {i + 2}, column {flag!r}: {data[flag][i]!r}, expected 0 or 1")
+                raise RecordError(f"{path}: line {i + 2}, column {flag!r}: {float(data[flag][i])!r}, expected 0 or 1")
     return data
 
 

@@ -1,0 +1,102 @@
+"""Simulations through the Python API: physical sense, parallel runs,
+determinism, progress and the GIL."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import hpctl
+from hpctl import metrics
+from hpctl.sim import Case, sdof_rig, uniform_times
+
+
+def test_step_frequencies_match_the_seed_within_the_volume_ratio_limit(seed_unit: hpctl.Unit) -> None:
+    f = {}
+    for hard in (True, False):
+        r = hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 6.0, spring_hard=hard, damper_on=False)
+        f[hard] = metrics.natural_frequency_hz(r.time_s, r["body_disp_m"], 0.043, 0.55)
+    assert f[True] is not None and f[False] is not None
+    assert 1.35 < f[True] < 1.8 and 0.8 < f[False] < 1.1
+
+
+def test_hard_spring_loop_is_stiffer_and_dissipates_positive_work(seed_unit: hpctl.Unit) -> None:
+    slopes = {}
+    for hard in (True, False):
+        r = hpctl.run_characterisation(seed_unit, hpctl.Sine(0.02, 0.1), 20.0, spring_hard=hard, damper_on=False)
+        m = metrics.last_cycle(r.time_s, 0.1)
+        assert metrics.loop_area_j(r["disp_m"][m], r["force_n"][m]) > 0
+        slopes[hard] = np.polyfit(r["disp_m"][m], r["force_n"][m], 1)[0]
+    # Linear theory: stiffness ratio = total volume / small volume = 3.33.
+    assert slopes[True] / slopes[False] == pytest.approx(1.0 / 0.3, rel=0.1)
+
+
+def test_run_many_equals_run_and_is_deterministic(seed_unit: hpctl.Unit) -> None:
+    times = uniform_times(2.0, 1e-3)
+    cases = [
+        Case(seed_unit.replace(static_pressure_pa=p), sdof_rig(hpctl.Step(0.02)), times, spring_hard=True, damper_on=on)
+        for p in (13e6, 15e6) for on in (True, False)
+    ]
+    many = hpctl.run_many(cases, threads=2)
+    again = hpctl.run_many(cases, threads=1)
+    for c, a, b in zip(cases, many, again):
+        assert not isinstance(a, Exception) and not isinstance(b, Exception)
+        single = hpctl.run(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on)
+        for name in ("body_disp_m", "force_n", "t_gas_k"):
+            np.testing.assert_array_equal(a[name], single[name])
+            np.testing.assert_array_equal(a[name], b[name])
+
+
+def test_run_many_returns_errors_in_place(seed_unit: hpctl.Unit) -> None:
+    good = Case(seed_unit, sdof_rig(hpctl.Step(0.02)), uniform_times(0.5, 1e-3))
+    bad = Case(seed_unit, sdof_rig(hpctl.Step(0.02), sprung_mass_kg=0.0), uniform_times(0.5, 1e-3))
+    out = hpctl.run_many([good, bad, good])
+    assert not isinstance(out[0], Exception) and not isinstance(out[2], Exception)
+    assert isinstance(out[1], hpctl.ParameterError) and "sprung_mass_kg = 0" in str(out[1])
+
+
+def test_valve_schedule_per_sample_switches_the_spring(seed_unit: hpctl.Unit) -> None:
+    times = uniform_times(4.0, 1e-3)
+    hard = times >= 2.0
+    r = hpctl.run(seed_unit, hpctl.sim.characterisation_rig(hpctl.Sine(0.03, 1.0)), times, spring_hard=hard, damper_on=False)
+    np.testing.assert_array_equal(r["spring_hard"], hard.astype(float))
+    # Valve 6 closed: no flow to L, L's volume frozen.
+    later = times > 2.01
+    assert np.all(r["flow_valve6_m3_s"][later] == 0)
+    assert np.ptp(r["v_gas2_m3"][later]) == 0
+    assert np.ptp(r["v_gas2_m3"][~hard]) > 1e-5
+
+
+def test_progress_is_reported_and_gil_is_released(seed_unit: hpctl.Unit) -> None:
+    calls: list[tuple[int, int]] = []
+    ticks = 0
+    done = threading.Event()
+
+    def other_thread() -> None:
+        nonlocal ticks
+        while not done.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    th = threading.Thread(target=other_thread)
+    th.start()
+    try:
+        hpctl.run_characterisation(seed_unit, hpctl.Sine(0.06, 0.5), 600.0, sample_dt_s=0.01, dt_s=1e-3, progress=lambda d, n: calls.append((d, n)))
+    finally:
+        done.set()
+        th.join()
+    assert calls and all(n == 60001 for _, n in calls)
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls)
+    # Python kept running beside the simulation.
+    assert ticks > 10
+
+
+def test_progress_callback_exception_stops_the_run(seed_unit: hpctl.Unit) -> None:
+    def boom(done: int, total: int) -> None:
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        hpctl.run_characterisation(seed_unit, hpctl.Sine(0.06, 0.5), 600.0, sample_dt_s=0.01, progress=boom)

@@ -1,0 +1,53 @@
+"""The unit description: preset, TOML round trip, strict keys."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+import hpctl
+from hpctl.unit import Friction, OilNode
+
+
+def test_seed_unit_carries_the_load_at_the_static_position(seed_unit: hpctl.Unit) -> None:
+    # p_static A = m g + p_atm A: the unit is charged for 3000 kg.
+    force = seed_unit.static_force_n(0.0, seed_unit.static_temperature_k, spring_hard=True)
+    assert force == pytest.approx(hpctl.SEED_SPRUNG_MASS_KG * 9.80665, rel=1e-9)
+    assert seed_unit.small_volume_m3 == 0.3e-3 and seed_unit.large_volume_m3 == 0.7e-3
+
+
+def test_gas_masses_follow_the_static_charge(seed_unit: hpctl.Unit) -> None:
+    ms, ml = seed_unit.gas_masses_kg()
+    assert ml / ms == pytest.approx(0.7 / 0.3)
+    # N2 at 14.8 MPa, 293 K is about 167 kg/m^3 (CoolProp: 166.96).
+    assert ms / seed_unit.small_volume_m3 == pytest.approx(166.96, rel=0.02)
+
+
+@pytest.mark.parametrize("tau_s", [0.0, 2.0, math.inf])
+def test_toml_round_trip(tmp_path: Path, seed_unit: hpctl.Unit, tau_s: float) -> None:
+    unit = seed_unit.replace(tau_s=tau_s).with_effects(friction=Friction(350.0, 120.0), oil_node=OilNode(1.8e4, 3000.0, 5800.0, 2e4))
+    path = tmp_path / "unit.toml"
+    unit.to_toml(path)
+    assert hpctl.Unit.from_toml(path) == unit
+
+
+def test_unknown_key_in_unit_file_is_named(tmp_path: Path, seed_unit: hpctl.Unit) -> None:
+    path = tmp_path / "unit.toml"
+    seed_unit.to_toml(path)
+    path.write_text(path.read_text().replace("piston_area_m2", "piston_area_cm2"))
+    with pytest.raises(hpctl.ParameterError, match="piston_area"):
+        hpctl.Unit.from_toml(path)
+
+
+def test_bad_value_names_parameter_value_and_range(seed_unit: hpctl.Unit) -> None:
+    with pytest.raises(hpctl.ParameterError) as e:
+        seed_unit.replace(static_temperature_k=0.0).check()
+    assert "static_temperature_k = 0 is outside the valid range [200, 600]" in str(e.value)
+    assert isinstance(e.value, ValueError)
+
+
+def test_unknown_gas_model_is_rejected(seed_unit: hpctl.Unit) -> None:
+    with pytest.raises(hpctl.ParameterError, match='gas = .helium. is not a known model .one of: ideal, bwr-cg, bwr-textbook'):
+        seed_unit.replace(gas="helium").check()
