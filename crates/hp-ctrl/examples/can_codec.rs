@@ -14,12 +14,17 @@
 //!   `tick INDEX` or `reject REASON`.
 //! - `period`: close the receiver's period -> `inputs FIELD=VALUE...`.
 //! - `diag`: the receiver's reject counters and link state.
+//! - `ecu ID HEX`: the ECU application (`hp_ctrl::can::ecu::Ecu`, the code
+//!   the firmware runs) receives a frame -> `tick INDEX` or `ok`.
+//! - `ecu_period`: the ECU closes one control period -> `frames ID#HEX...`,
+//!   the frames it sends (the host reference for processor-in-the-loop).
 //!
 //! Run: `cargo run -p hp-ctrl --example can_codec`.
 
 use std::io::{self, BufRead, Write};
 
 use embedded_can::{Frame, StandardId};
+use hp_ctrl::can::ecu::{Ecu, Link};
 use hp_ctrl::can::{self, Accepted, CanFrame, InputDecoder, Kind, LinkParams, Reject};
 
 fn parse_hex(s: &str) -> Option<Vec<u8>> {
@@ -144,8 +149,30 @@ fn inputs_line(i: &hp_ctrl::Inputs) -> String {
     )
 }
 
+/// Collects what the ECU sends.
+#[derive(Default)]
+struct Collect(Vec<CanFrame>);
+
+impl Link for Collect {
+    fn receive(&mut self) -> Option<CanFrame> {
+        None
+    }
+    fn transmit(&mut self, frame: &CanFrame) -> bool {
+        self.0.push(*frame);
+        true
+    }
+}
+
+fn frame_id(f: &CanFrame) -> u32 {
+    match f.id() {
+        embedded_can::Id::Standard(id) => u32::from(id.as_raw()),
+        embedded_can::Id::Extended(id) => id.as_raw(),
+    }
+}
+
 fn main() -> io::Result<()> {
     let mut rx = InputDecoder::new(LinkParams::default());
+    let mut ecu = Ecu::new();
     let stdout = io::stdout();
     let mut out = stdout.lock();
     for line in io::stdin().lock().lines() {
@@ -167,6 +194,16 @@ fn main() -> io::Result<()> {
                 },
             },
             ["period"] => inputs_line(&rx.end_period()),
+            ["ecu", id, data @ ..] => match parse_frame(id, data.first().copied().unwrap_or("")) {
+                Err(e) => format!("error {e}"),
+                Ok(f) => ecu.receive(&f).map_or_else(|| "ok".to_string(), |i| format!("tick {i}")),
+            },
+            ["ecu_period"] => {
+                let mut sent = Collect::default();
+                ecu.period(&mut sent);
+                let frames: Vec<String> = sent.0.iter().map(|f| format!("{:X}#{}", frame_id(f), hex(f.data()))).collect();
+                format!("frames {}", frames.join(" "))
+            }
             ["diag"] => {
                 let e = rx.diag_e2e();
                 let l = rx.diag_link();

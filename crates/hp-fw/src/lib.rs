@@ -3,9 +3,10 @@
 //! The controller is `hp_ctrl::step`, unchanged; this crate only wires it
 //! to a CAN link and a 1 kHz time base:
 //!
-//! - [`ecu`]: the board-independent application: receive frames into the
-//!   codec's [`hp_ctrl::can::InputDecoder`], run one control period, send
-//!   valve commands, status and diagnostics.
+//! - [`hp_ctrl::can::ecu`] (in `hp-ctrl`, so the host runs the same code):
+//!   the board-independent application: receive frames into the codec's
+//!   receiver, run one control period, send valve commands, status and
+//!   diagnostics.
 //! - [`run`]: the fixed-rate loop shared by the boards.
 //! - `mps2`: the emulator board (QEMU `mps2-an386`): CAN frames over the
 //!   CMSDK UART0 in the SLCAN protocol.
@@ -16,7 +17,6 @@
 //! allocation machinery.
 #![no_std]
 
-pub mod ecu;
 pub mod run;
 
 #[cfg(feature = "mps2")]

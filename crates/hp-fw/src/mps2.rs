@@ -10,7 +10,7 @@ use heapless::Deque;
 use hp_ctrl::can::slcan::{self, Adapter, LineReader};
 use hp_ctrl::can::CanFrame;
 
-use crate::ecu::Link;
+use hp_ctrl::can::ecu::Link;
 
 /// Core and peripheral clock of the board, Hz.
 pub const SYSCLK_HZ: u32 = 25_000_000;
@@ -124,4 +124,29 @@ impl Link for SlcanLink {
         let n = slcan::format_frame(frame, &mut text);
         self.queue(text.get(..n).unwrap_or(&[]))
     }
+}
+
+/// Core clock ticks of SysTick per control period.
+const SYSTICK_RELOAD: u32 = SYSCLK_HZ / 1000 - 1;
+
+static TICKS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+#[cortex_m_rt::exception]
+fn SysTick() {
+    TICKS.fetch_add(1, core::sync::atomic::Ordering::Relaxed);
+}
+
+/// Boots the board and runs the ECU with `timing`.
+pub fn main(timing: crate::run::Timing) -> ! {
+    let mut ecu = hp_ctrl::can::ecu::Ecu::new();
+    let mut link = SlcanLink::new();
+    uart_init();
+    if let Some(mut core) = cortex_m::Peripherals::take() {
+        core.SYST.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
+        core.SYST.set_reload(SYSTICK_RELOAD);
+        core.SYST.clear_current();
+        core.SYST.enable_interrupt();
+        core.SYST.enable_counter();
+    }
+    crate::run::run(&mut ecu, &mut link, || TICKS.load(core::sync::atomic::Ordering::Relaxed), SlcanLink::flush, timing)
 }

@@ -1,15 +1,16 @@
 //! The fixed-rate loop shared by the boards.
 
-use crate::ecu::{Ecu, Link};
+use hp_ctrl::can::ecu::{Ecu, Link};
 
 /// How control periods are triggered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Timing {
-    /// Only by the 1 kHz timer (a real ECU).
+    /// By the 1 kHz timer (the ECU). `HP_PilTick` frames are ignored.
     Timer,
-    /// By the timer until the first `HP_PilTick` arrives, then only by
-    /// ticks: each tick closes exactly one period (processor-in-the-loop).
-    TimerOrLockStep,
+    /// Only by `HP_PilTick` frames, from power-on: each accepted tick
+    /// closes exactly one period (processor-in-the-loop in the emulator,
+    /// where the host's plant simulation sets the pace).
+    LockStep,
 }
 
 /// Runs the ECU forever. `ticks` reads a counter that the 1 kHz timer
@@ -20,19 +21,17 @@ pub enum Timing {
 /// one period runs per observed change of the counter.
 pub fn run<L: Link>(ecu: &mut Ecu, link: &mut L, ticks: impl Fn() -> u32, service: impl Fn(&mut L), timing: Timing) -> ! {
     let mut done = ticks();
-    let mut lock_step = false;
     loop {
         service(link);
         while let Some(frame) = link.receive() {
-            if ecu.receive(&frame).is_some() && timing == Timing::TimerOrLockStep {
-                lock_step = true;
+            if ecu.receive(&frame).is_some() && timing == Timing::LockStep {
                 ecu.period(link);
                 // Frames after the tick belong to the next period.
                 break;
             }
         }
         let now = ticks();
-        if !lock_step && now != done {
+        if timing == Timing::Timer && now != done {
             done = now;
             ecu.period(link);
         }

@@ -1,9 +1,15 @@
-//! The board-independent application: one control period at a time.
+//! The ECU application, independent of any board: frames in, one control
+//! period, frames out.
+//!
+//! The firmware (`crates/hp-fw`) runs this on the microcontroller; the host
+//! runs the very same code (the `can_codec` example, the Python bindings)
+//! as the reference for processor-in-the-loop comparisons.
 
 use embedded_can::Frame;
-use hp_ctrl::can::messages::{Status, ValveCmd};
-use hp_ctrl::can::{Accepted, CanFrame, InputDecoder, LinkParams, Message, Transmitter};
-use hp_ctrl::{diag, Inputs, Outputs, Params, State};
+
+use super::messages::{Status, ValveCmd};
+use super::{Accepted, CanFrame, InputDecoder, LinkParams, Message, Transmitter};
+use crate::{diag, Inputs, Outputs, Params, State};
 
 /// Control period, s (1 kHz).
 pub const PERIOD_S: f64 = 1e-3;
@@ -20,13 +26,13 @@ pub trait Link {
     fn transmit(&mut self, frame: &CanFrame) -> bool;
 }
 
-/// The controller step: the firmware's only call into `hp_ctrl::step`.
+/// The controller step: the ECU's only call into [`crate::step`].
 ///
 /// Without valid parameters (they failed validation at start-up) the
 /// outputs are the safe state: both valves de-energised.
 pub fn control_step(params: Option<&Params>, state: &mut State, inputs: &Inputs) -> Outputs {
     match params {
-        Some(p) => hp_ctrl::step(p, state, inputs, PERIOD_S),
+        Some(p) => crate::step(p, state, inputs, PERIOD_S),
         None => Outputs { diag: diag::SAFE_STATE, ..Outputs::default() },
     }
 }

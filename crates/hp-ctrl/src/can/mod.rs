@@ -8,6 +8,8 @@
 //!   fresh input groups and supervises the link (timeouts, reject window).
 //! - [`tx`]: per-message alive counters for sending, and the ECU's output
 //!   frames built from [`crate::Outputs`].
+//! - [`ecu`]: the ECU application (receive, one control period, send),
+//!   shared by the firmware and the host reference.
 //! - [`slcan`]: SLCAN (Lawicel) text framing for the emulator link.
 //! - [`frame`]: a plain [`embedded_can::Frame`] for host and emulator use.
 //!
@@ -27,6 +29,7 @@
 //! ```
 
 pub mod e2e;
+pub mod ecu;
 pub mod frame;
 pub mod messages;
 pub mod rx;

@@ -18,7 +18,8 @@ use cortex_m_semihosting::{debug, hprintln};
 use hp_ctrl::can::messages::{Body, Driver, Pressures, Steering, Strut, Temperature, Vehicle};
 use hp_ctrl::can::{CanFrame, Message, Transmitter};
 use hp_ctrl::{Config, DriverMode};
-use hp_fw::ecu::{Ecu, Link};
+use hp_ctrl::can::ecu::{Ecu, Link};
+use hp_fw as _; // the panic handler
 
 /// Periods run; the first WARMUP are not timed (power-on safe state,
 /// recovery, the handling hold).

@@ -1,0 +1,11 @@
+//! The ECU firmware on the emulator board for processor-in-the-loop runs:
+//! as `hp-fw-mps2`, but each control period is closed by an `HP_PilTick`
+//! frame from the host instead of the timer, from power-on, so the run is
+//! deterministic and comparable with the host build period by period.
+#![no_std]
+#![no_main]
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    hp_fw::mps2::main(hp_fw::run::Timing::LockStep)
+}
