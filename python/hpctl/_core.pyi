@@ -1,6 +1,6 @@
 # Hand-kept stub of the Rust extension hpctl._core (checked by stubtest).
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +23,7 @@ __all__ = [
     "seed_sprung_mass_kg",
     "seed_oil_node",
     "CHANNELS",
+    "Plant",
     "__version__",
 ]
 CHANNELS: list[str]
@@ -53,3 +54,15 @@ def gas_density_kg_m3(gas: str, p_pa: float, t_k: float) -> float: ...
 def seed_unit() -> dict[str, Any]: ...
 def seed_sprung_mass_kg() -> float: ...
 def seed_oil_node() -> dict[str, float]: ...
+
+@final
+class Plant:
+    def __new__(
+        cls, unit: dict[str, Any], rig: dict[str, Any], ambient_k: float, spring_hard: bool, damper_on: bool, max_dt_s: float = 1e-3
+    ) -> Plant: ...
+    @property
+    def time_s(self) -> float: ...
+    @property
+    def static_disp_m(self) -> float: ...
+    def sample(self) -> dict[str, float]: ...
+    def step(self, dt_s: float, valve5_open: bool, valve6_open: bool) -> dict[str, float]: ...

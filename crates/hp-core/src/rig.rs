@@ -118,6 +118,14 @@ impl<'a> Rig<'a> {
         Ok(Rig { unit, kind, ambient_k, valves, static_disp_m })
     }
 
+    /// A rig rebuilt from the parts of one made by [`Rig::new`] (its unit,
+    /// kind, ambient temperature and [`Rig::static_disp_m`]), without
+    /// checking them again or solving for the equilibrium: for stepping
+    /// APIs that cannot hold the borrow between steps.
+    pub fn resume(unit: &'a Unit, kind: RigKind<'a>, ambient_k: f64, valves: Valves, static_disp_m: f64) -> Self {
+        Rig { unit, kind, ambient_k, valves, static_disp_m }
+    }
+
     /// The unit on the rig.
     pub fn unit(&self) -> &'a Unit {
         self.unit
@@ -232,10 +240,16 @@ impl<'a> Rig<'a> {
         next
     }
 
+    /// The state rate and the observed quantities at `(t_s, state)`.
+    pub fn rate_and_sample(&self, t_s: f64, state: &RigState) -> Result<(RigState, RigSample)> {
+        self.evaluate(t_s, state)
+    }
+
     /// Advances `state` from `t_s` to `t_end_s` in equal RK4 steps of at
-    /// most `max_dt_s`; `rate` is the state rate at `t_s` (reused as the
-    /// first stage of the first step).
-    fn advance(&self, t_s: f64, t_end_s: f64, state: &RigState, rate: &RigState, max_dt_s: f64) -> Result<RigState> {
+    /// most `max_dt_s`; `rate` is the state rate at `t_s` (from
+    /// [`Rig::rate_and_sample`], reused as the first stage of the first step).
+    pub fn advance(&self, t_s: f64, t_end_s: f64, state: &RigState, rate: &RigState, max_dt_s: f64) -> Result<RigState> {
+        check_range("dt_s", max_dt_s, 1e-9, 10.0)?;
         let span = t_end_s - t_s;
         let n = libm::ceil(span / max_dt_s);
         if !(n <= MAX_SUBSTEPS) {

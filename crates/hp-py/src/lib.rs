@@ -6,12 +6,14 @@ use pyo3::prelude::*;
 
 mod errors;
 mod params;
+mod plant;
 mod sim;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     sim::register(m)?;
+    m.add_class::<plant::Plant>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

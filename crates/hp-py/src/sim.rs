@@ -45,7 +45,7 @@ pub const CHANNELS: [&str; 31] = [
     "damper_on",
 ];
 
-fn channel_value(name: &str, s: &RigSample) -> f64 {
+pub fn channel_value(name: &str, s: &RigSample) -> f64 {
     let u = &s.unit;
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
     match name {
