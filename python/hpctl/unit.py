@@ -133,7 +133,9 @@ class Unit:
     """A hydro-pneumatic spring-damper unit, in SI units.
 
     ``tau_s`` is the gas thermal time constant: ``0`` is isothermal,
-    ``math.inf`` adiabatic. ``gas`` is one of :data:`GAS_MODELS`.
+    ``math.inf`` adiabatic. ``polytropic_exponent``, when set, replaces it
+    with the classical polytropic law ``p v^n = const``. ``gas`` is one of
+    :data:`GAS_MODELS`.
     """
 
     piston_area_m2: float
@@ -154,6 +156,7 @@ class Unit:
     end_stop_stiffness_n_per_m: float
     end_stop_damping_n_s_per_m: float
     effects: Effects = field(default_factory=Effects)
+    polytropic_exponent: float | None = None
 
     @classmethod
     def seed(cls) -> Unit:
@@ -215,7 +218,7 @@ class Unit:
     # TOML has no infinity literal shared by all writers, so an adiabatic
     # tau is written as the string "inf".
     def to_toml(self, path: str | Path) -> None:
-        d = self.to_dict()
+        d = {k: v for k, v in self.to_dict().items() if v is not None}
         if math.isinf(d["tau_s"]):
             d["tau_s"] = "inf"
         Path(path).write_text(tomli_w.dumps({"unit": d}))

@@ -22,6 +22,11 @@ pub enum HeatTransfer {
     Adiabatic,
     /// A finite, positive thermal time constant in seconds.
     TimeConstant(f64),
+    /// The classical model: a polytropic process `p v^n = const` of an
+    /// ideal gas, i.e. `T v^(n-1) = const`, with no wall temperature. With a
+    /// real-gas equation of state it is the same temperature law (an
+    /// approximation). `n = 1` is isothermal, `n = c_p/c_v` adiabatic.
+    Polytropic(f64),
 }
 
 impl HeatTransfer {
@@ -43,12 +48,19 @@ impl HeatTransfer {
         }
     }
 
-    /// The time constant in seconds (`0` or `+inf` for the limits).
+    /// The classical polytropic model with exponent `n` in [1, 2].
+    pub fn polytropic(n: f64) -> Result<Self> {
+        check_range("polytropic_exponent", n, 1.0, 2.0).map(HeatTransfer::Polytropic)
+    }
+
+    /// The time constant in seconds (`0` or `+inf` for the limits; NaN for
+    /// the polytropic model, which has none).
     pub fn tau_s(self) -> f64 {
         match self {
             HeatTransfer::Isothermal => 0.0,
             HeatTransfer::Adiabatic => f64::INFINITY,
             HeatTransfer::TimeConstant(tau) => tau,
+            HeatTransfer::Polytropic(_) => f64::NAN,
         }
     }
 }
@@ -81,13 +93,12 @@ pub fn temperature_rate_k_s(
     volume_rate_m3_s: f64,
     mass_rate_kg_s: f64,
 ) -> f64 {
-    let compression = || {
-        let dv_dt = volume_rate_m3_s / mass_kg - volume_m3 * mass_rate_kg_s / (mass_kg * mass_kg);
-        -(t_k / props.cv_j_per_kg_k) * props.dp_dt_pa_per_k * dv_dt
-    };
+    let dv_dt = || volume_rate_m3_s / mass_kg - volume_m3 * mass_rate_kg_s / (mass_kg * mass_kg);
+    let compression = || -(t_k / props.cv_j_per_kg_k) * props.dp_dt_pa_per_k * dv_dt();
     match heat {
         HeatTransfer::Isothermal => 0.0,
         HeatTransfer::Adiabatic => compression(),
         HeatTransfer::TimeConstant(tau) => (wall_t_k - t_k) / tau + compression(),
+        HeatTransfer::Polytropic(n) => -(n - 1.0) * t_k * dv_dt() * mass_kg / volume_m3,
     }
 }

@@ -323,8 +323,14 @@ impl Unit {
         check_range("stroke_extension_m", p.stroke_extension_m, 1e-3, 2.0)?;
         check_range("end_stop_stiffness_n_per_m", p.end_stop_stiffness_n_per_m, 0.0, 1e9)?;
         check_range("end_stop_damping_n_s_per_m", p.end_stop_damping_n_s_per_m, 0.0, 1e7)?;
-        if let HeatTransfer::TimeConstant(tau) = p.heat {
-            check_range("tau_s", tau, 1e-6, crate::thermal::MAX_FINITE_TAU_S)?;
+        match p.heat {
+            HeatTransfer::TimeConstant(tau) => {
+                check_range("tau_s", tau, 1e-6, crate::thermal::MAX_FINITE_TAU_S)?;
+            }
+            HeatTransfer::Polytropic(n) => {
+                check_range("polytropic_exponent", n, 1.0, 2.0)?;
+            }
+            _ => {}
         }
         p.valve6.validate()?;
         p.damper.validate()?;

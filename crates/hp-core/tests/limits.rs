@@ -123,3 +123,19 @@ fn tau_infinity_follows_the_reference_isentrope() {
     }
     assert!(checked >= 3);
 }
+
+#[test]
+fn polytropic_ideal_gas_keeps_p_v_to_the_n_constant() {
+    for n in [1.0, 1.25, 1.4] {
+        let unit = unit_with(|p| {
+            p.gas = Gas::Ideal;
+            p.heat = HeatTransfer::polytropic(n).unwrap();
+        });
+        let samples = run_uniform(&unit, sine(0.08, 0.5), HARD_ON, 4.0, 0.01, 1e-3);
+        let invariant = |s: &hp_core::rig::RigSample| s.unit.p_small_pa * s.v_small_m3.powf(n);
+        let first = invariant(&samples[0]);
+        for s in &samples {
+            assert!((invariant(s) / first - 1.0).abs() < 1e-9, "n={n}: {}", invariant(s) / first);
+        }
+    }
+}

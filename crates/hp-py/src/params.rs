@@ -115,7 +115,13 @@ pub fn gas(name: &str) -> PyResult<Gas> {
 pub fn unit(obj: &Bound<'_, PyAny>) -> PyResult<UnitParams> {
     let mut r = Reader::new(obj, "unit")?;
     let tau_s = r.f64("tau_s")?;
-    let heat = HeatTransfer::from_tau_s(tau_s).map_err(crate::errors::to_py)?;
+    let heat = match r.get_opt("polytropic_exponent")? {
+        Some(n) => {
+            let n: f64 = n.extract().map_err(|_| parameter("unit.polytropic_exponent must be a number or None"))?;
+            HeatTransfer::polytropic(n).map_err(crate::errors::to_py)?
+        }
+        None => HeatTransfer::from_tau_s(tau_s).map_err(crate::errors::to_py)?,
+    };
     let gas = gas(&r.string("gas")?)?;
     let mut d = r.sub("damper")?;
     let damper = Damper {
@@ -289,7 +295,13 @@ pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py,
     d.set_item("static_pressure_pa", p.static_pressure_pa)?;
     d.set_item("static_temperature_k", p.static_temperature_k)?;
     d.set_item("gas", p.gas.name())?;
-    d.set_item("tau_s", p.heat.tau_s())?;
+    match p.heat {
+        HeatTransfer::Polytropic(n) => {
+            d.set_item("tau_s", f64::INFINITY)?;
+            d.set_item("polytropic_exponent", n)?;
+        }
+        other => d.set_item("tau_s", other.tau_s())?,
+    }
     d.set_item("valve6_flow_area_m2", p.valve6.flow_area_m2)?;
     d.set_item("valve6_transition_pa", p.valve6.transition_pa)?;
     let damper = PyDict::new(py);
