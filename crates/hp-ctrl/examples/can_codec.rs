@@ -14,6 +14,8 @@
 //!   `tick INDEX` or `reject REASON`.
 //! - `period`: close the receiver's period -> `inputs FIELD=VALUE...`.
 //! - `diag`: the receiver's reject counters and link state.
+//! - `config`: the seed unit's static operating point (what the ECU's
+//!   parameters assume) -> `config static_pressure_pa=.. static_temperature_k=..`.
 //! - `ecu ID HEX`: the ECU application (`hp_ctrl::can::ecu::Ecu`, the code
 //!   the firmware runs) receives a frame -> `tick INDEX` or `ok`.
 //! - `ecu_period`: the ECU closes one control period -> `frames ID#HEX...`,
@@ -194,6 +196,10 @@ fn main() -> io::Result<()> {
                 },
             },
             ["period"] => inputs_line(&rx.end_period()),
+            ["config"] => {
+                let unit = hp_ctrl::Config::seed_unit().unit;
+                format!("config static_pressure_pa={:?} static_temperature_k={:?}", unit.static_pressure_pa, unit.static_temperature_k)
+            }
             ["ecu", id, data @ ..] => match parse_frame(id, data.first().copied().unwrap_or("")) {
                 Err(e) => format!("error {e}"),
                 Ok(f) => ecu.receive(&f).map_or_else(|| "ok".to_string(), |i| format!("tick {i}")),
