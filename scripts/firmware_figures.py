@@ -1,0 +1,141 @@
+#!/usr/bin/env python3
+"""Firmware figures: flash, static RAM, heap, stack and instructions per
+control step, measured on the built ELF files (scripts/firmware-build.sh).
+
+- Flash and static RAM: ``arm-none-eabi-size -A`` of the production
+  binaries (flash = vector table + .text + .rodata + .data; static RAM =
+  .data + .bss + .uninit).
+- Heap: zero if no allocator symbol is linked (``arm-none-eabi-nm``).
+- Instructions and stack: ``hp-fw-figures`` runs a scripted 6 s drive
+  through the whole ECU path under ``qemu-system-arm -icount shift=0``
+  (one instruction per virtual nanosecond) and times each part with
+  SysTick on the 25 MHz core clock: one tick = 40 instructions, checked by
+  timing 4000 ``nop`` instructions. Means are exact to well under one
+  instruction; maxima are quantised to 40 instructions. QEMU counts
+  instructions, not Cortex-M4 cycles.
+
+Budgets (issue 5): flash <= 32 KiB, RAM <= 8 KiB, <= 5000 instructions per
+control step. The figures are reported, not asserted: this is a
+measurement, not a test (exit status 0 unless the measurement failed).
+
+    scripts/firmware_figures.py [--json out/firmware-figures.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SYSCLK_HZ = 25_000_000
+NS_PER_INSTRUCTION = 1  # -icount shift=0
+INSTR_PER_TICK = 1e9 / SYSCLK_HZ / NS_PER_INSTRUCTION
+FLASH_BUDGET = 32 * 1024
+RAM_BUDGET = 8 * 1024
+STEP_BUDGET = 5000
+
+
+def build() -> dict[str, Path]:
+    run = subprocess.run([str(ROOT / "scripts" / "firmware-build.sh")], cwd=ROOT, capture_output=True, text=True)
+    sys.stderr.write(run.stderr[-3000:])
+    if run.returncode not in (0, 1):
+        raise SystemExit(f"firmware build failed ({run.returncode})")
+    return {name: Path(path) for kind, name, path in (line.split(maxsplit=2) for line in run.stdout.splitlines()) if kind == "elf"}
+
+
+def sizes(elf: Path) -> dict[str, int]:
+    out = subprocess.run(["arm-none-eabi-size", "-A", str(elf)], check=True, capture_output=True, text=True).stdout
+    sec = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) >= 2 and parts[0].startswith(".") and parts[1].isdigit():
+            sec[parts[0]] = int(parts[1])
+    flash = sum(sec.get(s, 0) for s in (".vector_table", ".text", ".rodata", ".data"))
+    ram = sum(sec.get(s, 0) for s in (".data", ".bss", ".uninit"))
+    return {"flash_bytes": flash, "static_ram_bytes": ram}
+
+
+def heap_bytes(elf: Path) -> int:
+    out = subprocess.run(["arm-none-eabi-nm", str(elf)], check=True, capture_output=True, text=True).stdout
+    allocators = re.findall(r"\b(__rust_alloc|__rg_alloc|__rdl_alloc|malloc|_sbrk)\b", out)
+    return 0 if not allocators else -1  # -1: an allocator is linked, heap unknown
+
+
+def measure(elf: Path) -> dict[str, float]:
+    cmd = [
+        "qemu-system-arm", "-M", "mps2-an386", "-nographic", "-monitor", "none", "-serial", "null",
+        "-semihosting-config", "enable=on,target=native", "-icount", "shift=0", "-kernel", str(elf),
+    ]  # fmt: skip
+    run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    line = next((l for l in run.stdout.splitlines() if l.startswith("figures ")), None)
+    if run.returncode != 0 or line is None:
+        raise SystemExit(f"figures run failed ({run.returncode}): {run.stdout}{run.stderr}")
+    raw = {k: int(v) for k, v in (w.split("=") for w in line.split()[1:])}
+    calib = raw["calib_4000_nops"] * INSTR_PER_TICK
+    if abs(calib - 4000) > INSTR_PER_TICK:
+        raise SystemExit(f"calibration off: 4000 nops measured as {calib:.0f} instructions")
+    n = raw["periods"]
+    fig: dict[str, float] = {"periods_timed": n, "calibration_4000_nops_instr": calib}
+    for part in ("rx", "step", "send", "period"):
+        fig[f"{part}_instr_mean"] = raw[f"{part}_sum"] * INSTR_PER_TICK / n
+        fig[f"{part}_instr_max"] = raw[f"{part}_max"] * INSTR_PER_TICK
+    fig["stack_init_bytes"] = raw["stack_init_bytes"]
+    fig["stack_loop_bytes"] = raw["stack_loop_bytes"]
+    for k in ("params_ok", "safe_periods", "valve5_open", "valve6_open", "frames_sent", "tx_dropped"):
+        fig[k] = raw[k]
+    return fig
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
+    args = ap.parse_args()
+    elfs = build()
+    figures: dict[str, object] = {}
+    for name in ("hp-fw-mps2", "hp-fw-pil", "hp-fw-stm32f4"):
+        figures[name] = {**sizes(elfs[name]), "heap_bytes": heap_bytes(elfs[name])}
+    run = measure(elfs["hp-fw-figures"])
+    figures["run"] = run
+    stack = max(run["stack_init_bytes"], run["stack_loop_bytes"])
+
+    print("Firmware figures (budgets: flash <= 32 KiB, RAM <= 8 KiB, step <= 5000 instructions)")
+    for name in ("hp-fw-mps2", "hp-fw-pil", "hp-fw-stm32f4"):
+        f = figures[name]
+        assert isinstance(f, dict)
+        print(
+            f"  {name:14s} flash {f['flash_bytes']:6d} B ({f['flash_bytes'] / 1024:5.1f} KiB) "
+            f"{'ok' if f['flash_bytes'] <= FLASH_BUDGET else 'OVER'}; static RAM {f['static_ram_bytes']:5d} B; "
+            f"heap {f['heap_bytes']} B"
+        )
+    print(
+        f"  stack high-water (figures build): {stack:.0f} B (start-up {run['stack_init_bytes']:.0f} B, "
+        f"control loop {run['stack_loop_bytes']:.0f} B); static RAM + stack = "
+        f"{stack + figures['hp-fw-mps2']['static_ram_bytes']:.0f} B "  # type: ignore[index]
+        f"{'ok' if stack + figures['hp-fw-mps2']['static_ram_bytes'] <= RAM_BUDGET else 'OVER'}"  # type: ignore[index]
+    )
+    print(f"  instructions per period over {run['periods_timed']:.0f} periods of a 10 m/s drive (mean / max):")
+    labels = {
+        "step": "controller step (hp_ctrl::step)",
+        "rx": "receive + check frames, close period",
+        "send": "encode + queue output frames",
+        "period": "whole period",
+    }
+    for part, label in labels.items():
+        mean, peak = run[f"{part}_instr_mean"], run[f"{part}_instr_max"]
+        mark = ("ok" if peak <= STEP_BUDGET else "OVER") if part == "step" else ""
+        print(f"    {label:38s} {mean:8.0f} / {peak:6.0f} {mark}")
+    print(
+        f"  (safe-state periods {run['safe_periods']:.0f}, valve 5 open {run['valve5_open']:.0f}, "
+        f"valve 6 open {run['valve6_open']:.0f}, frames sent {run['frames_sent']:.0f}, dropped {run['tx_dropped']:.0f})"
+    )
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(figures, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
