@@ -126,5 +126,5 @@ pub fn decode<F: Frame>(frame: &F) -> Result<(Message, u8), Reject> {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::indexing_slicing)] // Tests may unwrap.
+#[allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)] // Tests may panic.
 mod tests;

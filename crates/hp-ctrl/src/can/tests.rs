@@ -410,3 +410,82 @@ proptest! {
         }
     }
 }
+
+/// Collects what the ECU sends.
+#[derive(Default)]
+struct Sent(Vec<CanFrame>);
+
+impl ecu::Link for Sent {
+    fn receive(&mut self) -> Option<CanFrame> {
+        None
+    }
+    fn transmit(&mut self, frame: &CanFrame) -> bool {
+        self.0.push(*frame);
+        true
+    }
+}
+
+fn decoded(frames: &[CanFrame]) -> Vec<Message> {
+    frames.iter().map(|f| decode(f).unwrap().0).collect()
+}
+
+#[test]
+fn ecu_without_inputs_sends_safe_valve_commands_and_periodic_diagnostics() {
+    let mut ecu = ecu::Ecu::new();
+    assert!(ecu.has_params());
+    for period in 0..200u16 {
+        let mut sent = Sent::default();
+        ecu.period(&mut sent);
+        let msgs = decoded(&sent.0);
+        let Message::ValveCmd(cmd) = msgs[0] else { panic!("{msgs:?}") };
+        assert!(cmd.link_fault && !cmd.valve5_open && !cmd.valve6_open);
+        assert_eq!(cmd.step_index, period);
+        let Message::Status(status) = msgs[1] else { panic!("{msgs:?}") };
+        assert_ne!(status.diag & crate::diag::SAFE_STATE, 0);
+        // Diagnostics every 100th period (periods 99, 199).
+        assert_eq!(msgs.len(), if period % 100 == 99 { 4 } else { 2 });
+        if msgs.len() == 4 {
+            let Message::DiagLink(link) = msgs[3] else { panic!("{msgs:?}") };
+            assert!(link.link_fault);
+            assert_eq!(link.stale_groups, input_group::ALL as u8);
+        }
+    }
+}
+
+#[test]
+fn ecu_with_good_inputs_leaves_the_safe_state() {
+    let mut ecu = ecu::Ecu::new();
+    let mut tx = Transmitter::new();
+    let cfg = crate::Config::seed_unit();
+    let msgs = [
+        Message::Pressures(Pressures { p_small_pa: cfg.unit.static_pressure_pa, p_large_pa: cfg.unit.static_pressure_pa }),
+        Message::Strut(Strut { disp_m: 0.0 }),
+        Message::Body(Body { acc_m_s2: 0.0 }),
+        Message::Vehicle(Vehicle { speed_m_s: 10.0, brake_pressed: false, lat_acc_m_s2: 0.0, long_acc_m_s2: 0.0 }),
+        Message::Steering(Steering { angle_rad: 0.0, rate_rad_s: 0.0 }),
+        Message::Temperature(Temperature { t_gas_k: cfg.unit.static_temperature_k }),
+        Message::Driver(Driver { mode: DriverMode::Auto, ride_height_request_m: 0.0 }),
+    ];
+    let mut last = Vec::new();
+    for _ in 0..1000 {
+        for m in &msgs {
+            ecu.receive(&tx.frame(m).unwrap());
+        }
+        let mut sent = Sent::default();
+        ecu.period(&mut sent);
+        last = decoded(&sent.0);
+    }
+    let Message::ValveCmd(cmd) = last[0] else { panic!() };
+    assert!(!cmd.link_fault);
+    let Message::Status(status) = last[1] else { panic!() };
+    assert_eq!(status.diag & crate::diag::SAFE_STATE, 0, "diag {:#x}", status.diag);
+}
+
+#[test]
+fn ecu_without_parameters_stays_safe() {
+    let mut state = crate::State::new();
+    let inputs = crate::Inputs { fresh: input_group::ALL, ..Default::default() };
+    let out = ecu::control_step(None, &mut state, &inputs);
+    assert!(!out.valve5_open && !out.valve6_open);
+    assert_eq!(out.diag, crate::diag::SAFE_STATE);
+}
