@@ -489,3 +489,25 @@ fn ecu_without_parameters_stays_safe() {
     assert!(!out.valve5_open && !out.valve6_open);
     assert_eq!(out.diag, crate::diag::SAFE_STATE);
 }
+
+#[test]
+fn documented_frame_vectors() {
+    // docs/can.md; bytes computed with cantools and crccheck's CRC-8/GSM-A
+    // (python/hpctl/pil.py), independently of this codec.
+    let p = encode(&Message::Pressures(Pressures { p_small_pa: 14_811_300.0, p_large_pa: 12_000_000.0 }), 0).unwrap();
+    assert_eq!(p.payload(), &[0xF5, 0x00, 0xAA, 0x99, 0x16, 0x80, 0x4F, 0x12]);
+    let cmd = ValveCmd {
+        valve5_open: true,
+        valve6_open: true,
+        drive_mode: DriveMode::Ride,
+        spring_mode: SpringMode::Soft,
+        damper_mode: DamperMode::Low,
+        sequencer: SequencerState::Idle,
+        link_fault: false,
+        step_index: 1234,
+    };
+    let v = encode(&Message::ValveCmd(cmd), 5).unwrap();
+    assert_eq!(v.payload(), &[0x03, 0x05, 0x1B, 0x00, 0xD2, 0x04, 0x00, 0x00]);
+    assert_eq!(e2e::crc(PIL_TICK.data_id, &[0; 8]), 0x55);
+    assert_eq!(e2e::crc(STRUT.data_id, &[0; 8]), 0xB6);
+}
