@@ -62,7 +62,7 @@ impl Config {
         self.estimator.validate(self.monitor.dt_max_s)?;
         self.mode.validate()?;
         self.damper.validate()?;
-        self.ride_height.validate(&self.unit)?;
+        self.ride_height.validate(&self.unit, self.monitor.dt_max_s)?;
         Ok(())
     }
 }
@@ -92,9 +92,10 @@ pub enum ParamError {
     /// The gas model failed at the static charge state.
     Gas(hp_core::Error),
     /// The gas model gave no usable pressure in L at this temperature and
-    /// ride-height offset (not finite, or not falling as L's gas volume
-    /// grows): the unit is configured outside the gas model's range.
-    GasTable { t_k: f64, ride_height_m: f64, p_pa: f64 },
+    /// volume offset (see [`crate::gas_table`]; not finite, or not falling
+    /// as L's gas volume grows): the unit is configured outside the gas
+    /// model's range.
+    GasTable { t_k: f64, volume_offset_m: f64, p_pa: f64 },
 }
 
 impl fmt::Display for ParamError {
@@ -107,9 +108,9 @@ impl fmt::Display for ParamError {
                 write!(f, "{name} = {value:e} must be below {limit_name} = {limit:e}")
             }
             ParamError::Gas(e) => write!(f, "gas model at the static charge: {e}"),
-            ParamError::GasTable { t_k, ride_height_m, p_pa } => write!(
+            ParamError::GasTable { t_k, volume_offset_m, p_pa } => write!(
                 f,
-                "gas model gives no usable pressure in L at {t_k} K and ride height {ride_height_m} m \
+                "gas model gives no usable pressure in L at {t_k} K and volume offset {volume_offset_m} m \
                  (p = {p_pa:e} Pa): the unit is outside the gas model's range"
             ),
         }

@@ -5,6 +5,7 @@ use crate::damper::{self, DamperParams, DamperState};
 use crate::estimator::{self, EstimatorParams, EstimatorState};
 use crate::gas_table::LargeTable;
 use crate::input_group::{BODY, DRIVER, PRESSURES, STRUT, TEMPERATURE};
+use crate::load::{self, LoadParams, LoadState};
 use crate::mode::{self, ModeInputs, ModeParams, ModeState};
 use crate::monitor::{self, MonitorParams, MonitorState};
 use crate::ride_height::{self, RideHeightInputs, RideHeightParams, RideHeightState};
@@ -25,13 +26,21 @@ pub struct Params {
     mode: ModeParams,
     damper: DamperParams,
     ride_height: RideHeightParams,
+    load: LoadParams,
+    /// The stroke as ride-height offsets (extension end, compression end), m.
+    stroke_m: (f32, f32),
 }
 
 impl Params {
     /// Validates `config` ([`Config::validate`]) and compiles it.
     pub fn new(config: Config) -> Result<Self, ParamError> {
         config.validate()?;
-        let table = LargeTable::new(&config.unit, config.monitor.temperature_min_k, config.monitor.temperature_max_k)?;
+        let table = LargeTable::new(
+            &config.unit,
+            config.monitor.temperature_min_k,
+            config.monitor.temperature_max_k,
+            config.ride_height.request_max_m,
+        )?;
         Ok(Params {
             table,
             monitor: MonitorParams::new(&config.monitor, &config.unit),
@@ -39,6 +48,8 @@ impl Params {
             mode: ModeParams::new(&config.mode),
             damper: DamperParams::new(&config.damper),
             ride_height: RideHeightParams::new(&config.ride_height),
+            load: LoadParams::new(config.ride_height.load_pressure_tau_s, config.unit.static_pressure_pa),
+            stroke_m: (-config.unit.stroke_compression_m as f32, config.unit.stroke_extension_m as f32),
             config,
         })
     }
@@ -53,7 +64,7 @@ impl Params {
         &self.config
     }
 
-    /// The gas table of accumulator L (target pressures, height estimate).
+    /// The gas table of accumulator L (reference, target pressures, height estimate).
     pub fn large_table(&self) -> &LargeTable {
         &self.table
     }
@@ -71,6 +82,7 @@ pub struct State {
     mode: ModeState,
     damper: DamperState,
     ride_height: RideHeightState,
+    load: LoadState,
     /// Last valid ride-height estimate, m.
     ride_height_m: f32,
     /// Last valid target pressure of L, Pa.
@@ -86,6 +98,7 @@ impl State {
             mode: ModeState::new(),
             damper: DamperState::new(),
             ride_height: RideHeightState::new(),
+            load: LoadState::new(),
             ride_height_m: 0.0,
             p_large_target_pa: 0.0,
         }
@@ -161,14 +174,6 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         flags |= diag::REQUEST_CLAMPED;
     }
     let request_m = request_m as f32;
-    if usable(PRESSURES) && usable(TEMPERATURE) {
-        let t_k = inputs.t_gas_k as f32;
-        state.ride_height_m = params.table.ride_height_m(inputs.p_large_pa as f32, t_k);
-        state.p_large_target_pa = params.table.pressure_pa(request_m, t_k);
-    } else {
-        flags |= diag::HEIGHT_ESTIMATE_HELD;
-    }
-
     let vehicle = ModeInputs {
         speed_m_s: inputs.speed_m_s as f32,
         lat_acc_m_s2: inputs.lat_acc_m_s2 as f32,
@@ -177,6 +182,31 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         steer_rate_rad_s: inputs.steer_rate_rad_s as f32,
         brake_pressed: inputs.brake_pressed,
     };
+    // The load pressure from calm, valid periods only (see `load`).
+    let calm = !health.safe
+        && usable(PRESSURES)
+        && !params.ride_height.manoeuvring(vehicle.lat_acc_m_s2, vehicle.long_acc_m_s2, vehicle.brake_pressed);
+    let p_load_pa = load::step(
+        &params.load,
+        &mut state.load,
+        calm.then_some(inputs.p_small_pa as f32),
+        dt_us,
+    );
+    let reference_settled = state.load.averaged_us() >= params.ride_height.load_settle_us;
+    if usable(PRESSURES) && usable(TEMPERATURE) {
+        // Volume offsets of L's gas: the soft-mode rest state, the request
+        // relative to it, and what L holds now.
+        let table = &params.table;
+        let t_k = inputs.t_gas_k as f32;
+        let reference_m = table.offset_m(p_load_pa, t_k);
+        let (stroke_min_m, stroke_max_m) = params.stroke_m;
+        state.ride_height_m =
+            (table.offset_m(inputs.p_large_pa as f32, t_k) - reference_m).clamp(stroke_min_m, stroke_max_m);
+        state.p_large_target_pa = table.pressure_pa(reference_m + request_m, t_k);
+    } else {
+        flags |= diag::HEIGHT_ESTIMATE_HELD;
+    }
+
     let (drive_mode, triggers) =
         mode::step(&params.mode, &mut state.mode, &vehicle, inputs.driver_mode, health.safe, dt_us);
     flags |= triggers;
@@ -194,6 +224,7 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
             brake_pressed: vehicle.brake_pressed,
             soft_wanted: drive_mode == DriveMode::Ride,
             safe: health.safe,
+            reference_settled,
         },
         dt_us,
     );
@@ -218,6 +249,7 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         diag: flags,
         ride_height_m: f64::from(state.ride_height_m),
         p_large_target_pa: f64::from(state.p_large_target_pa),
+        p_load_pa: f64::from(p_load_pa),
         strut_vel_m_s: f64::from(state.estimator.strut_vel_m_s()),
         body_vel_m_s: f64::from(state.estimator.body_vel_m_s()),
     }

@@ -1,20 +1,30 @@
-//! The gas in accumulator L: the pressure that holds a ride-height offset.
+//! The gas in accumulator L: its pressure as a function of how much oil it
+//! holds.
 //!
-//! With valve 6 closed, L holds a fixed mass of gas `m_L` and whatever oil
-//! the sequencer moved into it. An offset `h` of the static position (negative
-//! = lowered) means `-A h` more oil in L, so L's gas volume is
-//! `V_L(h) = V_L0 + A h` and its pressure `p_L(h, T) = p(m_L / V_L(h), T)`
-//! from the equation of state. `m_L` comes from the static charge
-//! (`p_static`, `T_static`, `V_L0`).
+//! With valve 6 closed, L holds a fixed mass of gas `m_L` (from the static
+//! charge: `p_static`, `T_static`, `V_L0`) and whatever oil the sequencer
+//! moved into it. The table measures L's gas volume as strut travel, the
+//! *volume offset* `u = (V_L - V_L0) / A`: `u = -30 mm` means 30 mm of
+//! strut travel worth of oil more in L than at the static charge. Its
+//! pressure is `p_L(u, T) = p(m_L / (V_L0 + A u), T)` from the equation of
+//! state.
+//!
+//! The ride-height sequencer ([`crate::ride_height`]) works with
+//! differences of `u`: the reference `u_ref` is where L's gas sits at the
+//! estimated load pressure (the soft-mode rest state), a request `h` is the
+//! target `u_ref + h`, and the held offset is `u(p_L) - u_ref`.
 //!
 //! The step function must not solve the equation of state (a BWR pressure
 //! costs thousands of instructions on the ECU's double-precision-less FPU),
-//! so [`LargeTable::new`] tabulates `p_L(h, T)` once, over the whole stroke
-//! and the whole valid temperature range, and the step interpolates
-//! bilinearly in single precision: forwards for the target pressure of a
-//! request, backwards (pressure to offset) for the ride-height estimate.
-//! The same table serves both, so the estimate reaches the request exactly
-//! when `p_L` reaches the target pressure.
+//! so [`LargeTable::new`] tabulates `p_L` once, over the volume offsets of
+//! the stroke widened by the largest request on both sides (so any
+//! reference within the stroke plus any request is inside the table) and
+//! the whole valid temperature range, on a grid of gas density (where the
+//! pressure is nearly linear) and temperature, and the step interpolates
+//! bilinearly in single precision: forwards for a target pressure, backwards (pressure to
+//! volume offset) for the reference and the held offset. The same table
+//! serves all three, so the held offset reaches the request exactly when
+//! `p_L` reaches the target pressure.
 
 use hp_core::gas::{EquationOfState, Gas};
 use hp_core::presets;
@@ -67,7 +77,8 @@ impl UnitConfig {
         check("unit.static_temperature_k", self.static_temperature_k, 200.0, 600.0)?;
         check("unit.stroke_compression_m", self.stroke_compression_m, 1.0e-3, 1.0)?;
         check("unit.stroke_extension_m", self.stroke_extension_m, 1.0e-3, 1.0)?;
-        // Lowering to the compression end stop must leave gas in L.
+        // Compressing L's gas by the whole stroke must leave gas in L (the
+        // table's widening by the largest request is checked with it).
         check_below(
             "unit.piston_area_m2 * unit.stroke_compression_m",
             self.piston_area_m2 * self.stroke_compression_m,
@@ -79,18 +90,31 @@ impl UnitConfig {
 
 /// Temperature nodes of the table.
 pub const TABLE_TEMPERATURES: usize = 16;
-/// Ride-height nodes of the table.
-pub const TABLE_HEIGHTS: usize = 21;
+/// Density nodes of the table.
+pub const TABLE_DENSITIES: usize = 21;
 
-/// `p_L(h, T)` on a regular grid, Pa.
+/// `p_L` on a regular grid of gas density and temperature, Pa.
+///
+/// The grid is in density, not volume: the pressure of a gas is nearly
+/// linear in its density (exactly, bilinear in density and temperature,
+/// for an ideal gas), so bilinear interpolation leaves only the real-gas
+/// curvature as error. Volume offsets convert to densities through the
+/// fixed gas mass, `rho = m_L / (V_L0 + A u)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LargeTable {
-    /// `p_pa[i][j]` at temperature node `i`, ride-height node `j`.
-    p_pa: [[f32; TABLE_HEIGHTS]; TABLE_TEMPERATURES],
+    /// `p_pa[i][j]` at temperature node `i`, density node `j`.
+    p_pa: [[f32; TABLE_DENSITIES]; TABLE_TEMPERATURES],
     t0_k: f32,
     t_step_k: f32,
-    h0_m: f32,
-    h_step_m: f32,
+    rho0_kg_m3: f32,
+    rho_step_kg_m3: f32,
+    /// Gas mass, volume at the static charge and piston area, for the
+    /// conversion between volume offsets and densities.
+    mass_kg: f32,
+    v0_m3: f32,
+    area_m2: f32,
+    /// The tabulated volume offsets, m.
+    u_range_m: (f32, f32),
 }
 
 /// Position of a value on a regular grid: the lower node and the weight of
@@ -116,16 +140,16 @@ fn lerp(a: f32, b: f32, w: f32) -> f32 {
     a + w * (b - a)
 }
 
-/// `p_L` over the ride-height nodes at one temperature.
+/// `p_L` over the density nodes at one temperature.
 struct Column<'a> {
-    lo: &'a [f32; TABLE_HEIGHTS],
-    hi: &'a [f32; TABLE_HEIGHTS],
+    lo: &'a [f32; TABLE_DENSITIES],
+    hi: &'a [f32; TABLE_DENSITIES],
     weight: f32,
 }
 
 impl Column<'_> {
     fn at(&self, j: usize) -> f32 {
-        // Callers pass j < TABLE_HEIGHTS; the fallback is never taken.
+        // Callers pass j < TABLE_DENSITIES; the fallback is never taken.
         match (self.lo.get(j), self.hi.get(j)) {
             (Some(&a), Some(&b)) => lerp(a, b, self.weight),
             _ => 0.0,
@@ -134,32 +158,37 @@ impl Column<'_> {
 }
 
 impl LargeTable {
-    /// Tabulates `p_L` for heights over the whole stroke and temperatures
-    /// over `[t_min_k, t_max_k]`.
-    pub fn new(unit: &UnitConfig, t_min_k: f64, t_max_k: f64) -> Result<Self, ParamError> {
+    /// Tabulates `p_L` for volume offsets over the stroke widened by
+    /// `margin_m` on both sides (the largest ride-height request) and
+    /// temperatures over `[t_min_k, t_max_k]`.
+    pub fn new(unit: &UnitConfig, t_min_k: f64, t_max_k: f64, margin_m: f64) -> Result<Self, ParamError> {
         let gas = unit.gas;
         let rho_static = gas
             .density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k)
             .map_err(ParamError::Gas)?;
         let mass_kg = rho_static * unit.large_volume_m3;
+        let u_range_m = (-(unit.stroke_compression_m + margin_m), unit.stroke_extension_m + margin_m);
+        let volume_m3 = |u_m: f64| unit.large_volume_m3 + unit.piston_area_m2 * u_m;
+        let rho0 = mass_kg / volume_m3(u_range_m.1);
+        let rho_step = (mass_kg / volume_m3(u_range_m.0) - rho0) / (TABLE_DENSITIES - 1) as f64;
         let t_step_k = (t_max_k - t_min_k) / (TABLE_TEMPERATURES - 1) as f64;
-        let h0_m = -unit.stroke_compression_m;
-        let h_step_m = (unit.stroke_compression_m + unit.stroke_extension_m) / (TABLE_HEIGHTS - 1) as f64;
-        let mut p_pa = [[0.0_f32; TABLE_HEIGHTS]; TABLE_TEMPERATURES];
+        let mut p_pa = [[0.0_f32; TABLE_DENSITIES]; TABLE_TEMPERATURES];
         for (i, row) in p_pa.iter_mut().enumerate() {
             let t_k = t_min_k + t_step_k * i as f64;
-            let mut previous = f32::INFINITY;
+            let mut previous = 0.0_f32;
             for (j, cell) in row.iter_mut().enumerate() {
-                let h_m = h0_m + h_step_m * j as f64;
-                let volume_m3 = unit.large_volume_m3 + unit.piston_area_m2 * h_m;
-                let p = gas.pressure_pa(mass_kg / volume_m3, t_k);
+                let rho = rho0 + rho_step * j as f64;
+                let p = gas.pressure_pa(rho, t_k);
                 let p32 = p as f32;
-                let usable = p.is_finite()
+                let usable = rho.is_finite()
+                    && rho > 0.0
+                    && p.is_finite()
                     && p > hp_core::gas::PRESSURE_RANGE_PA.0
                     && p < hp_core::gas::PRESSURE_RANGE_PA.1
-                    && p32 < previous;
+                    && p32 > previous;
                 if !usable {
-                    return Err(ParamError::GasTable { t_k, ride_height_m: h_m, p_pa: p });
+                    let volume_offset_m = (mass_kg / rho - unit.large_volume_m3) / unit.piston_area_m2;
+                    return Err(ParamError::GasTable { t_k, volume_offset_m, p_pa: p });
                 }
                 *cell = p32;
                 previous = p32;
@@ -169,8 +198,12 @@ impl LargeTable {
             p_pa,
             t0_k: t_min_k as f32,
             t_step_k: t_step_k as f32,
-            h0_m: h0_m as f32,
-            h_step_m: h_step_m as f32,
+            rho0_kg_m3: rho0 as f32,
+            rho_step_kg_m3: rho_step as f32,
+            mass_kg: mass_kg as f32,
+            v0_m3: unit.large_volume_m3 as f32,
+            area_m2: unit.piston_area_m2 as f32,
+            u_range_m: (u_range_m.0 as f32, u_range_m.1 as f32),
         })
     }
 
@@ -184,44 +217,49 @@ impl LargeTable {
         }
     }
 
-    /// Smallest and largest tabulated ride-height offset, m.
-    pub fn height_range_m(&self) -> (f32, f32) {
-        (self.h0_m, self.h0_m + self.h_step_m * (TABLE_HEIGHTS - 1) as f32)
+    /// Smallest and largest tabulated volume offset, m.
+    pub fn offset_range_m(&self) -> (f32, f32) {
+        self.u_range_m
     }
 
-    /// Pressure in L that holds the offset `h_m` at gas temperature `t_k`, Pa.
-    /// Arguments outside the table are clamped to its edges.
-    pub fn pressure_pa(&self, h_m: f32, t_k: f32) -> f32 {
+    /// Pressure of L's gas at the volume offset `u_m` and gas temperature
+    /// `t_k`, Pa. Arguments outside the table are clamped to its edges.
+    pub fn pressure_pa(&self, u_m: f32, t_k: f32) -> f32 {
+        let (u_min, u_max) = self.u_range_m;
+        // `max` first: a NaN offset becomes the table's edge.
+        let u_m = u_m.max(u_min).min(u_max);
+        let rho = self.mass_kg / (self.v0_m3 + self.area_m2 * u_m);
         let column = self.column(t_k);
-        let at = GridPoint::locate(h_m, self.h0_m, self.h_step_m, TABLE_HEIGHTS);
+        let at = GridPoint::locate(rho, self.rho0_kg_m3, self.rho_step_kg_m3, TABLE_DENSITIES);
         lerp(column.at(at.node), column.at(at.node + 1), at.weight)
     }
 
-    /// The offset that L's pressure `p_pa` holds at gas temperature `t_k`,
-    /// m: the inverse of [`LargeTable::pressure_pa`], clamped to the stroke.
-    pub fn ride_height_m(&self, p_pa: f32, t_k: f32) -> f32 {
+    /// The volume offset at which L's gas has the pressure `p_pa` at gas
+    /// temperature `t_k`, m: the inverse of [`LargeTable::pressure_pa`],
+    /// clamped to the table.
+    pub fn offset_m(&self, p_pa: f32, t_k: f32) -> f32 {
         let column = self.column(t_k);
-        let (h_min, h_max) = self.height_range_m();
-        // The pressure falls as the offset (L's gas volume) grows.
-        let (mut lo, mut hi) = (0_usize, TABLE_HEIGHTS - 1);
-        let (p_lo, p_hi) = (column.at(lo), column.at(hi));
-        if p_pa >= p_lo || p_pa.is_nan() {
-            return h_min;
+        let (u_min, u_max) = self.u_range_m;
+        // The pressure rises with the density.
+        let (mut lo, mut hi) = (0_usize, TABLE_DENSITIES - 1);
+        if p_pa <= column.at(lo) || p_pa.is_nan() {
+            return u_max;
         }
-        if p_pa <= p_hi {
-            return h_max;
+        if p_pa >= column.at(hi) {
+            return u_min;
         }
         while hi - lo > 1 {
             let mid = (lo + hi) / 2;
-            if column.at(mid) >= p_pa {
+            if column.at(mid) <= p_pa {
                 lo = mid;
             } else {
                 hi = mid;
             }
         }
         let (p_a, p_b) = (column.at(lo), column.at(hi));
-        // p_a >= p_pa > p_b, and the table falls strictly, so p_a > p_b.
-        let fraction = (p_a - p_pa) / (p_a - p_b);
-        (self.h0_m + self.h_step_m * (lo as f32 + fraction)).clamp(h_min, h_max)
+        // p_a <= p_pa < p_b, and the table rises strictly, so p_b > p_a.
+        let fraction = (p_pa - p_a) / (p_b - p_a);
+        let rho = self.rho0_kg_m3 + self.rho_step_kg_m3 * (lo as f32 + fraction);
+        ((self.mass_kg / rho - self.v0_m3) / self.area_m2).clamp(u_min, u_max)
     }
 }

@@ -118,7 +118,8 @@ pub struct Inputs {
     pub t_gas_k: f64,
     /// The driver's mode switch.
     pub driver_mode: DriverMode,
-    /// Requested ride height relative to nominal, m (negative = lower).
+    /// Requested ride height relative to the soft-mode rest height, m
+    /// (negative = lower).
     pub ride_height_request_m: f64,
     /// Which input groups ([`input_group`]) received a new value this period.
     pub fresh: u16,
@@ -139,12 +140,15 @@ pub struct Outputs {
     pub sequencer: SequencerState,
     /// Diagnostic flags, see [`crate::diag`].
     pub diag: u32,
-    /// Estimated ride-height offset from nominal held by the oil in L, m
-    /// (negative = lowered); see `docs/controller.md`.
+    /// Estimated ride-height offset held by the oil in L, m (negative =
+    /// lowered), from the height the soft spring would settle at (L's gas
+    /// at the load pressure); see `docs/controller.md`.
     pub ride_height_m: f64,
-    /// The pressure in L that corresponds to the (clamped) ride-height
-    /// request at the measured gas temperature, Pa.
+    /// The pressure in L that holds the (clamped) ride-height request at
+    /// the measured gas temperature and the estimated load pressure, Pa.
     pub p_large_target_pa: f64,
+    /// Estimated static load pressure (slow low-pass of `p_S`), Pa.
+    pub p_load_pa: f64,
     /// Estimated strut compression rate, m/s (positive = compressing).
     pub strut_vel_m_s: f64,
     /// Estimated body vertical velocity, m/s (positive = up).

@@ -14,6 +14,7 @@
 //! - [`damper`]: valve 5, on-off skyhook.
 //! - [`ride_height`]: valve 6, pump-free ride-height sequencing and the
 //!   spring mode.
+//! - [`load`]: the static load pressure, the ride height's zero reference.
 //! - [`gas_table`]: the gas in accumulator L, tabulated once.
 //!
 //! Numerics: the ECU (Cortex-M4F) has a single-precision FPU only, where a
@@ -36,6 +37,7 @@ pub mod diag;
 pub mod estimator;
 pub mod gas_table;
 mod io;
+pub mod load;
 pub mod mode;
 pub mod monitor;
 pub mod ride_height;

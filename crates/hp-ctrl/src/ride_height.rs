@@ -13,32 +13,43 @@
 //! stays closed for `valve6_min_off_s` (about its response time), so it
 //! cannot chatter.
 //!
-//! Progress is measured as the ride-height offset held by L's oil, from
-//! `p_L` and the gas temperature through [`crate::gas_table`]; comparing the
-//! estimate with the request is comparing `p_L` with the target pressure,
-//! because both come from the same table. A change starts when the estimate
-//! is more than `tolerance_m` from the request and runs until it reaches the
-//! request.
+//! **The zero of the ride height** is the state valve 6 would leave at rest
+//! in soft mode: L's gas at the load pressure ([`crate::load`], a slow
+//! low-pass of `p_S`), at the measured temperature. In volume offsets of
+//! L's gas ([`crate::gas_table`]) that is `u_ref = u(p_load, T)`; a request
+//! `h` (negative = lower) targets `u_ref + h`, i.e.
+//! `V_L = V_L(p_load, T) + A h`, and the held offset is `u(p_L, T) - u_ref`. With the load
+//! carried by S at the same pressure either way, S's gas and hence the
+//! strut sit `h` from where the soft spring would leave them. So a
+//! temperature change alone never moves the body through a mode change
+//! (hot gas expands in soft and hard mode alike), while an offset locked
+//! into L by closing valve 6 mid-stroke is still sequenced away. Progress
+//! compares the held offset with the request, which is comparing `p_L`
+//! with the target pressure, because both come from the same table. A
+//! change starts when the held offset is more than `tolerance_m` from the
+//! request and runs until it reaches the request.
 //!
 //! Valve 6 is also the spring switch, and an open valve 6 lets S and L
-//! equalise, which undoes any offset. So a non-nominal ride height can only
-//! be held with valve 6 closed: **the ride height has priority over the soft
+//! equalise, which undoes any offset. So a non-zero ride height can only be
+//! held with valve 6 closed: **the ride height has priority over the soft
 //! spring**. While an offset is requested (or the spring is hard anyway, in
-//! Handling, when the sequencer keeps the nominal height), ride-height
+//! Handling, when the sequencer keeps the zero offset), ride-height
 //! control is engaged and the spring is hard except for the sequencing
 //! pulses. The driver asked for the height explicitly (ground clearance, a
 //! low silhouette, a stable platform); silently giving it up for comfort
 //! would surprise them, and the hard spring is the safer of the two. With
 //! no offset requested in Ride mode the sequencer is `Idle` and valve 6 is
-//! open: S and L equalise and the height returns to nominal by itself.
+//! open: S and L equalise and the offset returns to zero by itself.
 //!
 //! Sequencing pauses (`Blocked`, valve 6 closed) while cornering, braking
 //! or accelerating hard, and resumes after `resume_s` of calm, as air
 //! suspensions do: moving oil during a manoeuvre would change the height
-//! under load transfer and lock in a wrong one.
+//! under load transfer and lock in a wrong one. After power-on it also
+//! waits until the load-pressure estimate has averaged `load_settle_s` of
+//! calm driving: before that the zero is not known well enough.
 
 use crate::clock::seconds_to_us;
-use crate::config::{check, ParamError};
+use crate::config::{check, check_below, ParamError};
 use crate::diag;
 use crate::gas_table::UnitConfig;
 use crate::{SequencerState, SpringMode};
@@ -62,6 +73,11 @@ pub struct RideHeightConfig {
     pub block_long_acc_m_s2: f64,
     /// Calm time after a pause (or the safe state) before sequencing resumes, s.
     pub resume_s: f64,
+    /// Time constant of the load-pressure estimate ([`crate::load`]), s.
+    pub load_pressure_tau_s: f64,
+    /// Calm time the load-pressure estimate must have averaged (since
+    /// power-on) before sequencing starts, s.
+    pub load_settle_s: f64,
 }
 
 impl Default for RideHeightConfig {
@@ -77,21 +93,38 @@ impl Default for RideHeightConfig {
             block_lat_acc_m_s2: 1.5,
             block_long_acc_m_s2: 1.5,
             resume_s: 1.0,
+            // The body modes are at 1-1.5 Hz: 20 s passes 1/125 of a 1 Hz
+            // swing (2 MPa -> 16 kPa, 0.35 mm of height) and follows a
+            // payload change within a minute.
+            load_pressure_tau_s: 20.0,
+            // A +-2 MPa swing at 1.5 Hz averaged over 5 s leaves at most
+            // 85 kPa (1.9 mm of height), within the 3 mm tolerance.
+            load_settle_s: 5.0,
         }
     }
 }
 
 impl RideHeightConfig {
-    pub(crate) fn validate(&self, unit: &UnitConfig) -> Result<(), ParamError> {
+    pub(crate) fn validate(&self, unit: &UnitConfig, dt_max_s: f64) -> Result<(), ParamError> {
         let stroke = unit.stroke_compression_m.min(unit.stroke_extension_m);
         check("ride_height.request_max_m", self.request_max_m, 0.0, 0.9 * stroke)?;
+        // The gas table spans the stroke widened by the largest request:
+        // L's gas must not vanish at its compressed end.
+        check_below(
+            "unit.piston_area_m2 * (unit.stroke_compression_m + ride_height.request_max_m)",
+            unit.piston_area_m2 * (unit.stroke_compression_m + self.request_max_m),
+            "unit.large_volume_m3",
+            unit.large_volume_m3,
+        )?;
         check("ride_height.request_deadband_m", self.request_deadband_m, 0.0, self.request_max_m)?;
         check("ride_height.tolerance_m", self.tolerance_m, 1.0e-4, 0.05)?;
         check("ride_height.valve6_margin_pa", self.valve6_margin_pa, 0.0, 1.0e7)?;
         check("ride_height.valve6_min_off_s", self.valve6_min_off_s, 0.0, 1.0)?;
         check("ride_height.block_lat_acc_m_s2", self.block_lat_acc_m_s2, 0.0, 30.0)?;
         check("ride_height.block_long_acc_m_s2", self.block_long_acc_m_s2, 0.0, 30.0)?;
-        check("ride_height.resume_s", self.resume_s, 0.0, 60.0)
+        check("ride_height.resume_s", self.resume_s, 0.0, 60.0)?;
+        check("ride_height.load_pressure_tau_s", self.load_pressure_tau_s, dt_max_s, 3600.0)?;
+        check("ride_height.load_settle_s", self.load_settle_s, 0.0, self.load_pressure_tau_s)
     }
 }
 
@@ -106,6 +139,7 @@ pub struct RideHeightParams {
     block_lat_acc_m_s2: f32,
     block_long_acc_m_s2: f32,
     resume_us: u32,
+    pub(crate) load_settle_us: u32,
 }
 
 impl RideHeightParams {
@@ -119,7 +153,14 @@ impl RideHeightParams {
             block_lat_acc_m_s2: c.block_lat_acc_m_s2 as f32,
             block_long_acc_m_s2: c.block_long_acc_m_s2 as f32,
             resume_us: seconds_to_us(c.resume_s),
+            load_settle_us: seconds_to_us(c.load_settle_s),
         }
+    }
+
+    /// Cornering, braking or accelerating hard: sequencing pauses, and the
+    /// load-pressure estimate does not take the load transfer in.
+    pub(crate) fn manoeuvring(&self, lat_acc_m_s2: f32, long_acc_m_s2: f32, brake_pressed: bool) -> bool {
+        lat_acc_m_s2.abs() > self.block_lat_acc_m_s2 || long_acc_m_s2.abs() > self.block_long_acc_m_s2 || brake_pressed
     }
 
     /// The request the sequencer works to: clamped to `request_max_m`, 0
@@ -140,7 +181,8 @@ impl RideHeightParams {
 pub struct RideHeightInputs {
     /// Effective request, m (see [`RideHeightParams::effective_request_m`]).
     pub request_m: f32,
-    /// Ride-height offset held by the oil in L, m.
+    /// Ride-height offset held by the oil in L (from the soft-mode rest
+    /// state, see the module docs), m.
     pub height_m: f32,
     /// The pressures exactly as measured (the valve-timing comparison runs
     /// in double precision so its margin is exact).
@@ -153,6 +195,9 @@ pub struct RideHeightInputs {
     pub soft_wanted: bool,
     /// The outputs are the safe state.
     pub safe: bool,
+    /// The load-pressure estimate (the zero reference) has averaged long
+    /// enough to sequence to.
+    pub reference_settled: bool,
 }
 
 /// The sequencer's commands.
@@ -193,9 +238,7 @@ impl Default for RideHeightState {
 /// Runs the sequencer and commands valve 6.
 pub fn step(p: &RideHeightParams, s: &mut RideHeightState, i: &RideHeightInputs, dt_us: u32) -> RideHeightOutputs {
     s.since_close_us = s.since_close_us.saturating_add(dt_us);
-    let dynamics = i.lat_acc_m_s2.abs() > p.block_lat_acc_m_s2
-        || i.long_acc_m_s2.abs() > p.block_long_acc_m_s2
-        || i.brake_pressed;
+    let dynamics = p.manoeuvring(i.lat_acc_m_s2, i.long_acc_m_s2, i.brake_pressed);
     s.calm_us = if i.safe || dynamics { 0 } else { s.calm_us.saturating_add(dt_us) };
     let engaged = i.request_m != 0.0 || !i.soft_wanted;
     let mut flags = 0;
@@ -205,7 +248,7 @@ pub fn step(p: &RideHeightParams, s: &mut RideHeightState, i: &RideHeightInputs,
     } else if !engaged {
         s.phase = SequencerState::Holding;
         (SequencerState::Idle, true)
-    } else if dynamics || s.calm_us < p.resume_us {
+    } else if dynamics || s.calm_us < p.resume_us || !i.reference_settled {
         s.phase = SequencerState::Holding;
         flags |= diag::SEQUENCER_PAUSED;
         (SequencerState::Blocked, false)

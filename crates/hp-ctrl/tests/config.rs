@@ -41,7 +41,7 @@ type Spoiler = (&'static str, fn(&mut Config));
 #[test]
 fn out_of_range_fields_are_rejected() {
     let seed = Config::seed_unit();
-    let cases: [Spoiler; 8] = [
+    let cases: [Spoiler; 9] = [
         ("unit.piston_area_m2", |c| c.unit.piston_area_m2 = 0.0),
         ("unit.static_temperature_k", |c| c.unit.static_temperature_k = f64::INFINITY),
         ("monitor.recovery_s", |c| c.monitor.recovery_s = -0.1),
@@ -50,6 +50,7 @@ fn out_of_range_fields_are_rejected() {
         ("mode.handling_hold_s", |c| c.mode.handling_hold_s = 1e9),
         ("damper.valve5_min_interval_s", |c| c.damper.valve5_min_interval_s = -1.0),
         ("ride_height.request_max_m", |c| c.ride_height.request_max_m = 0.2),
+        ("ride_height.load_pressure_tau_s", |c| c.ride_height.load_pressure_tau_s = 0.0),
     ];
     for (field, spoil) in cases {
         let mut config = seed;
@@ -81,10 +82,23 @@ fn a_large_accumulator_too_small_for_the_stroke_is_rejected() {
 }
 
 #[test]
+fn the_gas_table_must_leave_gas_in_l_beyond_the_stroke_by_the_largest_request() {
+    // The table spans the stroke widened by request_max_m on both sides.
+    let mut config = Config::seed_unit();
+    let a = config.unit.piston_area_m2;
+    config.unit.large_volume_m3 = a * (config.unit.stroke_compression_m + 0.5 * config.ride_height.request_max_m);
+    assert!(matches!(config.validate(), Err(ParamError::NotBelow { limit_name: "unit.large_volume_m3", .. })));
+    config.ride_height.request_max_m *= 0.4;
+    assert!(config.validate().is_ok(), "{:?}", config.validate());
+}
+
+#[test]
 fn a_unit_outside_the_gas_models_range_is_rejected_not_tabulated() {
     // L nearly emptied of gas at full lowering: above 300 MPa.
     let mut config = Config::seed_unit();
     config.unit.large_volume_m3 = 1.02 * config.unit.piston_area_m2 * config.unit.stroke_compression_m;
     config.unit.static_pressure_pa = 1.0e8;
+    config.ride_height.request_max_m = 0.0;
+    config.ride_height.request_deadband_m = 0.0;
     assert!(matches!(Params::new(config), Err(ParamError::GasTable { .. })), "{:?}", Params::new(config).err());
 }

@@ -144,7 +144,7 @@ fn a_finite_oversized_request_is_clamped_not_a_fault() {
     let out = step(&params, &mut state, &inputs, DT_S);
     assert_eq!(out.diag & diag::SAFE_STATE, 0);
     assert_ne!(out.diag & diag::REQUEST_CLAMPED, 0);
-    let target_height_m = common::large_height_m(&params, out.p_large_target_pa, inputs.t_gas_k);
+    let target_height_m = common::held_offset_m(&params, out.p_large_target_pa, out.p_load_pa, inputs.t_gas_k);
     assert!((target_height_m + max).abs() < common::TABLE_HEIGHT_ACCURACY_M, "{target_height_m}");
 }
 

@@ -34,6 +34,8 @@ fn config_strategy() -> impl Strategy<Value = Config> {
             c.monitor.recovery_s = recovery;
             c.mode.handling_hold_s = hold;
             c.ride_height.resume_s = resume;
+            c.ride_height.load_settle_s = 0.5 * resume;
+            c.ride_height.load_pressure_tau_s = 0.5;
             c.damper.valve5_min_interval_s = v5;
             c.ride_height.valve6_min_off_s = v6;
             c.ride_height.valve6_margin_pa = margin;
@@ -356,6 +358,10 @@ fn check_outputs_valid(config: &Config, outs: &[Outputs]) -> Result<(), TestCase
             out.ride_height_m >= -u.stroke_compression_m - 1e-6 && out.ride_height_m <= u.stroke_extension_m + 1e-6
         );
         prop_assert!(out.p_large_target_pa.is_finite() && out.p_large_target_pa >= 0.0);
+        // The load pressure is a mean of valid pressures (or the configured one).
+        let m = &config.monitor;
+        prop_assert!(out.p_load_pa >= m.pressure_min_pa.min(u.static_pressure_pa) * 0.999);
+        prop_assert!(out.p_load_pa <= m.pressure_max_pa.max(u.static_pressure_pa) * 1.001);
         prop_assert!(out.strut_vel_m_s.is_finite() && out.body_vel_m_s.is_finite());
         prop_assert_eq!(out.valve5_open, out.damper_mode == DamperMode::Low);
         prop_assert_eq!(out.diag & !defined, 0);

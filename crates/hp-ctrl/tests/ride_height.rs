@@ -3,7 +3,10 @@
 
 mod common;
 
-use common::{calm, in_ride, large_height_m, large_pressure_pa, seed, DT_S, TABLE_HEIGHT_ACCURACY_M};
+use common::{
+    calm, held_offset_m, in_ride, large_offset_m, large_pressure_pa, seed, target_pressure_pa, DT_S,
+    TABLE_HEIGHT_ACCURACY_M,
+};
 use hp_core::gas::EquationOfState;
 use hp_ctrl::{diag, step, DriveMode, DriverMode, Inputs, Outputs, Params, SequencerState, SpringMode, State};
 
@@ -11,19 +14,24 @@ use hp_ctrl::{diag, step, DriveMode, DriverMode, Inputs, Outputs, Params, Sequen
 fn the_table_reproduces_the_equation_of_state_both_ways() {
     let params = seed();
     let table = params.large_table();
-    let unit = params.config().unit;
     let m = params.config().monitor;
+    let (u_min, u_max) = table.offset_range_m();
+    let (u_min, u_max) = (f64::from(u_min), f64::from(u_max));
+    // It covers the stroke widened by the largest request.
+    let unit = params.config().unit;
+    let request_max_m = params.config().ride_height.request_max_m;
+    assert!(u_min <= -(unit.stroke_compression_m + request_max_m) + 1e-6, "{u_min}");
+    assert!(u_max >= unit.stroke_extension_m + request_max_m - 1e-6, "{u_max}");
     let mut worst_m: f64 = 0.0;
-    // Off-node points over the whole stroke and temperature range.
+    // Off-node points over the whole table and temperature range.
     for ti in 0..=43 {
         let t_k = m.temperature_min_k + (m.temperature_max_k - m.temperature_min_k) * ti as f64 / 43.0;
-        for hi in 0..=97 {
-            let h_m = -unit.stroke_compression_m
-                + (unit.stroke_compression_m + unit.stroke_extension_m) * hi as f64 / 97.0;
-            let p_table = f64::from(table.pressure_pa(h_m as f32, t_k as f32));
-            let forward_m = large_height_m(&params, p_table, t_k) - h_m;
-            let p_eos = large_pressure_pa(&params, h_m, t_k);
-            let backward_m = f64::from(table.ride_height_m(p_eos as f32, t_k as f32)) - h_m;
+        for ui in 0..=97 {
+            let u_m = u_min + (u_max - u_min) * ui as f64 / 97.0;
+            let p_table = f64::from(table.pressure_pa(u_m as f32, t_k as f32));
+            let forward_m = large_offset_m(&params, p_table, t_k) - u_m;
+            let p_eos = large_pressure_pa(&params, u_m, t_k);
+            let backward_m = f64::from(table.offset_m(p_eos as f32, t_k as f32)) - u_m;
             worst_m = worst_m.max(forward_m.abs()).max(backward_m.abs());
         }
     }
@@ -31,25 +39,51 @@ fn the_table_reproduces_the_equation_of_state_both_ways() {
 }
 
 #[test]
-fn the_static_charge_reads_as_nominal_and_hot_gas_as_raised() {
+fn l_at_the_load_pressure_reads_as_zero_offset_at_any_temperature() {
+    // Soft mode at rest: p_L = p_S = the load pressure. That is the zero of
+    // the ride height, hot or cold: temperature alone is no offset.
     let params = seed();
     let unit = params.config().unit;
     let mut state = in_ride(&params);
     let out = step(&params, &mut state, &calm(&params), DT_S);
     assert!(out.ride_height_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{}", out.ride_height_m);
-    // The same pressure in hotter gas means more gas volume: more oil in
-    // S and the strut, a raised body. Reference: the gas law directly.
-    let t_hot_k = unit.static_temperature_k + 60.0;
-    let hot = Inputs { t_gas_k: t_hot_k, ..calm(&params) };
+    // Up to the temperature at which the soft spring's rest state reaches
+    // the extension end stop (about 70 K above the charge for the seed unit).
+    for t_k in [unit.static_temperature_k - 60.0, unit.static_temperature_k + 40.0, unit.static_temperature_k + 70.0] {
+        let inputs = Inputs { t_gas_k: t_k, ..calm(&params) };
+        let mut state = State::new();
+        let out = common::run(&params, &mut state, &inputs, 0.1);
+        assert!(out.ride_height_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{t_k} K: {}", out.ride_height_m);
+        // The target of a zero request is the load pressure itself, and of
+        // -30 mm the pressure of L's gas squeezed by 30 mm of strut travel
+        // from its volume at the load pressure (reference: the EOS).
+        assert!((out.p_large_target_pa / unit.static_pressure_pa - 1.0).abs() < 2e-3, "{}", out.p_large_target_pa);
+        let inputs = Inputs { ride_height_request_m: -0.03, ..inputs };
+        let out = step(&params, &mut state, &inputs, DT_S);
+        let expected_pa = target_pressure_pa(&params, -0.03, unit.static_pressure_pa, t_k);
+        let error_m = held_offset_m(&params, out.p_large_target_pa, unit.static_pressure_pa, t_k) + 0.03;
+        assert!(error_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{t_k} K: {} vs {expected_pa}", out.p_large_target_pa);
+    }
+}
+
+#[test]
+fn the_zero_offset_follows_the_measured_load() {
+    // A heavier payload: the unit settles at rest with 10 % more pressure
+    // in S (and, soft, in L). That is the new zero, not a lowering.
+    let params = seed();
+    let unit = params.config().unit;
+    let p_heavy_pa = 1.1 * unit.static_pressure_pa;
+    let heavy = Inputs { p_small_pa: p_heavy_pa, p_large_pa: p_heavy_pa, ..calm(&params) };
     let mut state = State::new();
-    let out = common::run(&params, &mut state, &hot, 0.1);
-    let expected_m = large_height_m(&params, unit.static_pressure_pa, t_hot_k);
-    assert!(expected_m > 0.01, "{expected_m}");
-    assert!((out.ride_height_m - expected_m).abs() < TABLE_HEIGHT_ACCURACY_M, "{} vs {expected_m}", out.ride_height_m);
-    // And the target pressure of a zero request is temperature compensated.
-    let expected_pa = large_pressure_pa(&params, 0.0, t_hot_k);
-    assert!(large_height_m(&params, out.p_large_target_pa, t_hot_k).abs() < TABLE_HEIGHT_ACCURACY_M);
-    assert!(out.p_large_target_pa > unit.static_pressure_pa && expected_pa > unit.static_pressure_pa);
+    let out = common::run(&params, &mut state, &heavy, 3.0);
+    assert!((out.p_load_pa / p_heavy_pa - 1.0).abs() < 1e-6, "{}", out.p_load_pa);
+    assert!(out.ride_height_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{}", out.ride_height_m);
+    assert_eq!(out.sequencer, SequencerState::Idle);
+    let inputs = Inputs { ride_height_request_m: 0.03, ..heavy };
+    let out = step(&params, &mut state, &inputs, DT_S);
+    let t_k = unit.static_temperature_k;
+    let error_m = held_offset_m(&params, out.p_large_target_pa, p_heavy_pa, t_k) - 0.03;
+    assert!(error_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{error_m}");
 }
 
 /// Accumulator L behind an ideal-orifice valve 6, with S's pressure swung
@@ -86,9 +120,12 @@ impl ToyUnit {
     fn p_large_pa(&self, params: &Params) -> f64 {
         params.config().unit.gas.pressure_pa(self.gas_mass_kg / self.v_large_m3, self.t_k)
     }
+    /// The offset L holds from the soft-mode rest state: L's gas volume
+    /// against its volume at the (mean) load pressure, the static one.
     fn height_m(&self, params: &Params) -> f64 {
         let unit = params.config().unit;
-        (self.v_large_m3 - unit.large_volume_m3) / unit.piston_area_m2
+        let u_m = (self.v_large_m3 - unit.large_volume_m3) / unit.piston_area_m2;
+        u_m - large_offset_m(params, unit.static_pressure_pa, self.t_k)
     }
     fn inputs(&self, params: &Params, request_m: f64, driver: DriverMode) -> Inputs {
         Inputs {
@@ -156,10 +193,15 @@ fn lowering_then_raising_by_30_mm_without_a_pump() {
     assert_eq!(out.sequencer, SequencerState::Holding, "not done after {took_s} s");
     let height_m = plant.height_m(&params);
     assert!((height_m + 0.03).abs() < tolerance_m, "lowered to {height_m}");
-    // It stops once L's pressure reaches the target, i.e. at or just past it.
-    let p_target = large_pressure_pa(&params, -0.03, plant.t_k);
+    // It stops once L's pressure reaches the target, i.e. at or just past
+    // it; the target and the estimate are relative to the controller's load
+    // estimate (a mean of the swinging p_S, close to the static pressure).
+    let p_load_pa = out.p_load_pa;
+    assert!((p_load_pa / params.config().unit.static_pressure_pa - 1.0).abs() < 0.01, "{p_load_pa}");
+    let p_target = target_pressure_pa(&params, -0.03, p_load_pa, plant.t_k);
     assert!(plant.p_large_pa(&params) >= p_target - 1.0e3, "{} vs {p_target}", plant.p_large_pa(&params));
-    assert!((out.ride_height_m - height_m).abs() < TABLE_HEIGHT_ACCURACY_M);
+    let expected_m = held_offset_m(&params, plant.p_large_pa(&params), p_load_pa, plant.t_k);
+    assert!((out.ride_height_m - expected_m).abs() < TABLE_HEIGHT_ACCURACY_M, "{} vs {expected_m}", out.ride_height_m);
     // Ride mode, but the height holds the spring hard.
     assert_eq!(out.drive_mode, DriveMode::Ride);
     assert_ne!(out.diag & diag::HEIGHT_HOLDS_SPRING, 0);
@@ -180,7 +222,7 @@ fn lowering_then_raising_by_30_mm_without_a_pump() {
 }
 
 #[test]
-fn in_handling_the_sequencer_keeps_the_nominal_height() {
+fn in_handling_the_sequencer_keeps_the_zero_offset() {
     // Sport: valve 6 stays closed, so an offset locked into L is sequenced
     // back to the (zero) request instead of being equalised away.
     let params = seed();
@@ -192,6 +234,84 @@ fn in_handling_the_sequencer_keeps_the_nominal_height() {
     assert_eq!(out.sequencer, SequencerState::Holding);
     assert_eq!(out.drive_mode, DriveMode::Handling);
     assert!(plant.height_m(&params).abs() < tolerance_m, "{}", plant.height_m(&params));
+}
+
+#[test]
+fn a_hot_unit_entering_handling_keeps_its_height() {
+    // 40 K above the charge temperature, L's gas at the load pressure (where
+    // the soft spring left it) is 47 mm of strut travel larger than at the
+    // charge. Handling with a zero request must not sequence that away.
+    let params = seed();
+    let unit = params.config().unit;
+    let mut plant = ToyUnit::new(&params);
+    plant.t_k = unit.static_temperature_k + 40.0;
+    let u_rest_m = large_offset_m(&params, unit.static_pressure_pa, plant.t_k);
+    assert!(u_rest_m > 0.04, "{u_rest_m}");
+    plant.v_large_m3 = unit.large_volume_m3 + unit.piston_area_m2 * u_rest_m;
+    let v_rest_m3 = plant.v_large_m3;
+    let mut state = State::new();
+    for _ in 0..20_000 {
+        let out = step(&params, &mut state, &plant.inputs(&params, 0.0, DriverMode::Sport), DT_S);
+        assert_eq!(out.drive_mode, DriveMode::Handling);
+        assert!(!out.valve6_open, "{out:?}");
+        assert!(matches!(out.sequencer, SequencerState::Holding | SequencerState::Blocked), "{out:?}");
+        plant.advance(&params, out.valve6_open);
+    }
+    assert_eq!(plant.v_large_m3, v_rest_m3);
+}
+
+#[test]
+fn the_load_pressure_is_a_slow_mean_of_calm_valid_periods() {
+    let params = seed();
+    let unit = params.config().unit;
+    let rh = params.config().ride_height;
+    let mut state = in_ride(&params);
+    let p0_pa = 1.05 * unit.static_pressure_pa;
+    let (amplitude_pa, f_hz) = (2.0e6, 1.2);
+    let mut out = Outputs::default();
+    let mut worst_pa: f64 = 0.0;
+    for k in 0..160_000 {
+        let t_s = k as f64 * DT_S;
+        let p_s = p0_pa + amplitude_pa * (2.0 * std::f64::consts::PI * f_hz * t_s).sin();
+        out = step(&params, &mut state, &Inputs { p_small_pa: p_s, p_large_pa: p_s, ..calm(&params) }, DT_S);
+        // After the start (a running mean including the 6 s at the static
+        // pressure, then the low-pass) has decayed below 1 kPa.
+        if t_s > 7.0 * rh.load_pressure_tau_s {
+            worst_pa = worst_pa.max((out.p_load_pa - p0_pa).abs());
+        }
+    }
+    // A first-order low-pass passes a sine at f reduced by 1/sqrt(1 + (2 pi f tau)^2).
+    let ripple_pa = amplitude_pa / (1.0 + (2.0 * std::f64::consts::PI * f_hz * rh.load_pressure_tau_s).powi(2)).sqrt();
+    assert!(worst_pa < 1.1 * ripple_pa + 5.0e3, "{worst_pa} vs {ripple_pa}");
+    // Cornering, braking, and the safe state do not move it.
+    let before = out.p_load_pa;
+    let far = Inputs { p_small_pa: 0.8 * p0_pa, p_large_pa: 0.8 * p0_pa, ..calm(&params) };
+    for spoiler in [
+        Inputs { lat_acc_m_s2: 1.1 * rh.block_lat_acc_m_s2, ..far },
+        Inputs { long_acc_m_s2: -1.1 * rh.block_long_acc_m_s2, ..far },
+        Inputs { brake_pressed: true, ..far },
+        Inputs { link_fault: true, ..far },
+        Inputs { t_gas_k: f64::NAN, ..far },
+    ] {
+        for _ in 0..1000 {
+            out = step(&params, &mut state, &spoiler, DT_S);
+        }
+        assert_eq!(out.p_load_pa, before, "{spoiler:?}");
+    }
+}
+
+#[test]
+fn before_any_calm_period_the_load_pressure_is_the_configured_static_pressure() {
+    let params = seed();
+    let unit = params.config().unit;
+    let mut state = State::new();
+    let inputs = Inputs { p_small_pa: 0.9 * unit.static_pressure_pa, ..calm(&params) };
+    // Power-on is the safe state: no update, the configured value.
+    let out = common::run(&params, &mut state, &inputs, 0.2);
+    assert_eq!(out.p_load_pa, f64::from(unit.static_pressure_pa as f32));
+    // After recovery the first calm sample replaces it (a running mean).
+    let out = common::run(&params, &mut state, &inputs, 0.4);
+    assert!((out.p_load_pa / (0.9 * unit.static_pressure_pa) - 1.0).abs() < 1e-6, "{}", out.p_load_pa);
 }
 
 #[test]

@@ -34,10 +34,11 @@ pub fn run(params: &Params, state: &mut State, inputs: &Inputs, seconds: f64) ->
     out
 }
 
-/// A controller past recovery and the handling hold, in Ride on a calm road.
+/// A controller past recovery, the handling hold and the load-pressure
+/// settling time (0.5 + 5 s), in Ride on a calm road.
 pub fn in_ride(params: &Params) -> State {
     let mut state = State::new();
-    let out = run(params, &mut state, &calm(params), 3.0);
+    let out = run(params, &mut state, &calm(params), 6.0);
     assert_eq!(out.drive_mode, DriveMode::Ride);
     assert_eq!(out.diag & diag::SAFE_STATE, 0);
     state
@@ -63,22 +64,36 @@ pub fn large_gas_mass_kg(params: &Params) -> f64 {
     unit.gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap() * unit.large_volume_m3
 }
 
-/// Pressure in L holding the ride-height offset `h_m` at `t_k`, from the
-/// equation of state.
-pub fn large_pressure_pa(params: &Params, h_m: f64, t_k: f64) -> f64 {
+/// Pressure of L's gas at the volume offset `u_m` (L's gas volume change
+/// as strut travel, see `hp_ctrl::gas_table`) at `t_k`, from the equation
+/// of state.
+pub fn large_pressure_pa(params: &Params, u_m: f64, t_k: f64) -> f64 {
     use hp_core::gas::EquationOfState;
     let unit = &params.config().unit;
-    let volume_m3 = unit.large_volume_m3 + unit.piston_area_m2 * h_m;
+    let volume_m3 = unit.large_volume_m3 + unit.piston_area_m2 * u_m;
     unit.gas.pressure_pa(large_gas_mass_kg(params) / volume_m3, t_k)
 }
 
-/// The ride-height offset that the pressure `p_pa` in L holds at `t_k`,
+/// The volume offset at which L's gas has the pressure `p_pa` at `t_k`,
 /// from the equation of state (density solve).
-pub fn large_height_m(params: &Params, p_pa: f64, t_k: f64) -> f64 {
+pub fn large_offset_m(params: &Params, p_pa: f64, t_k: f64) -> f64 {
     use hp_core::gas::EquationOfState;
     let unit = &params.config().unit;
     let volume_m3 = large_gas_mass_kg(params) / unit.gas.density_kg_m3(p_pa, t_k).unwrap();
     (volume_m3 - unit.large_volume_m3) / unit.piston_area_m2
+}
+
+/// The ride-height offset L's pressure `p_pa` holds relative to the
+/// soft-mode rest state at the load pressure `p_load_pa` (L's gas at the
+/// load pressure), from the equation of state.
+pub fn held_offset_m(params: &Params, p_pa: f64, p_load_pa: f64, t_k: f64) -> f64 {
+    large_offset_m(params, p_pa, t_k) - large_offset_m(params, p_load_pa, t_k)
+}
+
+/// The pressure in L that holds the offset `h_m` from the soft-mode rest
+/// state at the load pressure `p_load_pa`, from the equation of state.
+pub fn target_pressure_pa(params: &Params, h_m: f64, p_load_pa: f64, t_k: f64) -> f64 {
+    large_pressure_pa(params, large_offset_m(params, p_load_pa, t_k) + h_m, t_k)
 }
 
 /// How closely the controller's gas table must reproduce the equation of
