@@ -26,7 +26,7 @@ for tool in "$RUSTC" "$CARGO" arm-none-eabi-ld arm-none-eabi-nm arm-none-eabi-si
 done
 
 build() {
-    (cd crates/hp-fw && "$CARGO" build --release --locked "$@")
+    (cd crates/hp-fw && "$CARGO" build --release "$@")
 }
 
 echo "== cross-build (emulator board: hp-fw-mps2, hp-fw-pil)" >&2
