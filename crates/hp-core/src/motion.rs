@@ -126,14 +126,14 @@ fn hermite(ts: &[f64], xs: &[f64], t: f64) -> (f64, f64) {
     let (Some(&t_first), Some(&t_last)) = (ts.first(), ts.get(n.wrapping_sub(1))) else {
         return (0.0, 0.0);
     };
-    if t <= t_first {
+    if t < t_first {
         return (xs.first().copied().unwrap_or(0.0), 0.0);
     }
-    if t >= t_last {
+    if t > t_last {
         return (xs.get(n - 1).copied().unwrap_or(0.0), 0.0);
     }
-    // Interval i with ts[i] <= t < ts[i+1].
-    let i = ts.partition_point(|&ti| ti <= t).saturating_sub(1);
+    // Interval i with ts[i] <= t <= ts[i+1] (the last interval includes its end).
+    let i = ts.partition_point(|&ti| ti <= t).saturating_sub(1).min(n.saturating_sub(2));
     let pt = |j: usize| (ts.get(j).copied().unwrap_or(0.0), xs.get(j).copied().unwrap_or(0.0));
     let (t0, x0) = pt(i);
     let (t1, x1) = pt(i + 1);

@@ -117,6 +117,11 @@ fn sampled_motion_interpolates_smoothly_and_exactly_at_samples() {
     for (ti, xi) in t.iter().zip(&x) {
         assert!((m.at(*ti).0 - xi).abs() < 1e-15);
     }
+    // The velocity at the first and last samples is the curve's, not the
+    // zero of the hold outside: an integrator's first stage sits exactly there.
+    assert!((m.at(t[0]).1 - 0.15).abs() < 0.02);
+    assert!((m.at(t[49]).1 - 0.15 * (3.0 * t[49]).cos()).abs() < 0.02);
+    assert_eq!(m.at(t[49] + 1.0), (x[49], 0.0));
     // Between samples it is close to the smooth function and its derivative.
     for k in 1..400 {
         let tt = k as f64 * 0.002;
