@@ -29,7 +29,5 @@ pub mod stm32f4;
 /// linked into a binary.
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
-    loop {
-        cortex_m::asm::udf();
-    }
+    cortex_m::asm::udf()
 }
