@@ -87,7 +87,7 @@ fn scenario(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mut heapless::Vec<
     let _ = msgs.push(Message::Pressures(Pressures { p_small_pa: p_pa, p_large_pa: p_pa }));
     let _ = msgs.push(Message::Strut(Strut { disp_m: 0.01 * f64::from(sin) }));
     let _ = msgs.push(Message::Body(Body { acc_m_s2: -0.8 * f64::from(cos) }));
-    if k % 10 == 0 {
+    if k.is_multiple_of(10) {
         let _ = msgs.push(Message::Vehicle(Vehicle {
             speed_m_s: 10.0,
             brake_pressed: false,
@@ -99,7 +99,7 @@ fn scenario(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mut heapless::Vec<
             rate_rad_s: f64::from(steer * 2.0 * core::f32::consts::PI),
         }));
     }
-    if k % 100 == 0 {
+    if k.is_multiple_of(100) {
         let _ = msgs.push(Message::Temperature(Temperature { t_gas_k: cfg.unit.static_temperature_k }));
         let request = if t_s >= 4.5 { -0.02 } else { 0.0 };
         let _ = msgs.push(Message::Driver(Driver { mode: DriverMode::Auto, ride_height_request_m: request }));
@@ -132,7 +132,7 @@ fn stack_high_water_bytes() -> u32 {
     // deepest point.
     unsafe {
         let top = core::ptr::addr_of!(_stack_start) as usize;
-        let mut p = core::ptr::addr_of!(__sheap) as *const u32;
+        let mut p = core::ptr::addr_of!(__sheap);
         while (p as usize) < top && p.read_volatile() == STACK_PAINT {
             p = p.add(1);
         }
@@ -143,7 +143,12 @@ fn stack_high_water_bytes() -> u32 {
 #[entry]
 fn main() -> ! {
     paint_stack();
-    let Some(mut core) = cortex_m::Peripherals::take() else { debug::exit(debug::EXIT_FAILURE); loop {} };
+    let Some(mut core) = cortex_m::Peripherals::take() else {
+        debug::exit(debug::EXIT_FAILURE);
+        loop {
+            cortex_m::asm::wfi();
+        }
+    };
     core.SYST.set_clock_source(SystClkSource::Core);
     core.SYST.set_reload(0x00FF_FFFF);
     core.SYST.clear_current();
