@@ -7,4 +7,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/firmware-build.sh >/dev/null
+# Lints: the firmware crate with the host toolchain's clippy (it compiles
+# for the host too; the cross toolchain has no clippy).
+for features in mps2 figures stm32f4; do
+    (cd crates/hp-fw && CARGO_TARGET_DIR=target/host-clippy cargo clippy -q --features "$features" --lib --bins \
+        --target "$(rustc -vV | sed -n 's/^host: //p')" -- -D warnings)
+done
 python3 scripts/firmware_figures.py --json out/firmware-figures.json
