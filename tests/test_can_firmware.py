@@ -86,7 +86,7 @@ class HostEcu:
 
     def __init__(self):
         out = subprocess.run(
-            ["cargo", "build", "-q", "-p", "hp-ctrl", "--example", "can_codec", "--message-format=json"],
+            ["cargo", "build", "-q", "--release", "-p", "hp-ctrl", "--example", "can_codec", "--message-format=json"],
             cwd=ROOT, check=True, capture_output=True, text=True,
         ).stdout  # fmt: skip
         import json
