@@ -105,29 +105,13 @@ pub struct InputDecoder {
 
 impl InputDecoder {
     /// Power-on state: every message stale, no rejects.
-    pub const fn new(params: LinkParams) -> Self {
+    pub fn new(params: LinkParams) -> Self {
         InputDecoder {
             params,
-            inputs: Inputs {
-                p_small_pa: 0.0,
-                p_large_pa: 0.0,
-                strut_disp_m: 0.0,
-                body_acc_m_s2: 0.0,
-                speed_m_s: 0.0,
-                lat_acc_m_s2: 0.0,
-                long_acc_m_s2: 0.0,
-                steer_angle_rad: 0.0,
-                steer_rate_rad_s: 0.0,
-                brake_pressed: false,
-                t_gas_k: 0.0,
-                driver_mode: crate::DriverMode::Auto,
-                ride_height_request_m: 0.0,
-                fresh: 0,
-                link_fault: true,
-            },
+            inputs: Inputs { link_fault: true, ..Inputs::default() },
             fresh: 0,
             slots: [NEW_SLOT; Kind::ECU_RX.len()],
-            rejects: DiagE2e { crc: 0, length: 0, unknown_id: 0, repeated: 0, skipped: 0, range: 0 },
+            rejects: DiagE2e::default(),
             timeouts: 0,
             window_rejects: 0,
             window_age: 0,
