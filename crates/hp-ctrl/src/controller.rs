@@ -5,7 +5,7 @@ use crate::damper::{self, DamperParams, DamperState};
 use crate::estimator::{self, EstimatorParams, EstimatorState};
 use crate::gas_table::LargeTable;
 use crate::input_group::{BODY, DRIVER, PRESSURES, STRUT, TEMPERATURE};
-use crate::load::{self, LoadParams, LoadState};
+use crate::load::{self, LoadInputs, LoadParams, LoadState};
 use crate::mode::{self, ModeInputs, ModeParams, ModeState};
 use crate::monitor::{self, MonitorParams, MonitorState};
 use crate::ride_height::{self, RideHeightInputs, RideHeightParams, RideHeightState};
@@ -185,13 +185,15 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
     // The load pressure from calm, valid periods only (see `load`).
     let calm = !health.safe
         && usable(PRESSURES)
+        && usable(STRUT)
+        && usable(BODY)
         && !params.ride_height.manoeuvring(vehicle.lat_acc_m_s2, vehicle.long_acc_m_s2, vehicle.brake_pressed);
-    let p_load_pa = load::step(
-        &params.load,
-        &mut state.load,
-        calm.then_some(inputs.p_small_pa as f32),
-        dt_us,
-    );
+    let load_inputs = calm.then(|| LoadInputs {
+        p_small_pa: inputs.p_small_pa as f32,
+        strut_disp_m: inputs.strut_disp_m as f32,
+        body_acc_m_s2: inputs.body_acc_m_s2 as f32 - state.estimator.body_acc_offset_m_s2(),
+    });
+    let p_load_pa = load::step(&params.load, &mut state.load, load_inputs, dt_us);
     let reference_settled = state.load.averaged_us() >= params.ride_height.load_settle_us;
     if usable(PRESSURES) && usable(TEMPERATURE) {
         // Volume offsets of L's gas: the soft-mode rest state, the request

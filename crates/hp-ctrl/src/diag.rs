@@ -42,7 +42,8 @@ pub const fn group(group: u16) -> u32 {
 /// The ride-height request was outside the configured range and was clamped.
 pub const REQUEST_CLAMPED: u32 = 1 << 16;
 /// Ride-height sequencing is paused by driving dynamics (cornering, braking,
-/// hard acceleration) or waiting for the calm time after them.
+/// hard acceleration), waiting for the calm time after them, or (after
+/// power-on) for the load-pressure estimate to settle.
 pub const SEQUENCER_PAUSED: u32 = 1 << 17;
 /// Ride mode wants the soft spring but a ride-height offset is requested or
 /// held, so valve 6 stays closed (the ride height has priority).

@@ -84,6 +84,11 @@ impl EstimatorState {
     pub fn body_vel_m_s(&self) -> f32 {
         self.body_vel_m_s
     }
+
+    /// The tracked accelerometer offset, m/s^2 (0 before the first sample).
+    pub fn body_acc_offset_m_s2(&self) -> f32 {
+        self.acc_offset_m_s2.unwrap_or(0.0)
+    }
 }
 
 /// Advances both estimates by `dt_s`; `None` marks an unusable input.

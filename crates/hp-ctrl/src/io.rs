@@ -52,8 +52,8 @@ pub enum DriveMode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[repr(u8)]
 pub enum SequencerState {
-    /// Ride-height control not engaged: no offset requested and the spring
-    /// is soft (valve 6 open, S and L equalise to the nominal height).
+    /// Ride-height control not engaged: no offset requested or held and
+    /// the spring is soft (valve 6 open, S and L equalise).
     #[default]
     Idle = 0,
     /// Moving oil from S into L (lowering); valve 6 pulses while p_S > p_L.
@@ -63,7 +63,8 @@ pub enum SequencerState {
     /// Target reached; valve 6 held closed to keep the oil where it is.
     Holding = 3,
     /// Ride-height control engaged but paused (cornering, braking, hard
-    /// acceleration, waiting for calm, or a fault); valve 6 held closed.
+    /// acceleration, waiting for calm or for the load estimate, or a
+    /// fault); valve 6 held closed.
     Blocked = 4,
 }
 

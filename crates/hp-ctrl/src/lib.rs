@@ -17,6 +17,9 @@
 //! - [`load`]: the static load pressure, the ride height's zero reference.
 //! - [`gas_table`]: the gas in accumulator L, tabulated once.
 //!
+//! [`closed_loop`] runs the controller on the plant model of `hp-core`
+//! (host simulation and tests; not used by the firmware).
+//!
 //! Numerics: the ECU (Cortex-M4F) has a single-precision FPU only, where a
 //! double-precision operation costs about a hundred instructions, so the
 //! filters, thresholds and the gas table work in `f32` (inputs are rounded
@@ -30,6 +33,7 @@
 
 pub mod can;
 pub mod clock;
+pub mod closed_loop;
 pub mod config;
 mod controller;
 pub mod damper;

@@ -39,7 +39,10 @@
 //! low silhouette, a stable platform); silently giving it up for comfort
 //! would surprise them, and the hard spring is the safer of the two. With
 //! no offset requested in Ride mode the sequencer is `Idle` and valve 6 is
-//! open: S and L equalise and the offset returns to zero by itself.
+//! open (the soft spring). It gets there only once the held offset is
+//! within `tolerance_m` of zero: an offset still held when the request
+//! returns to zero (or when Handling ends, or at power-on) is first
+//! sequenced back, so releasing valve 6 never makes the body jump.
 //!
 //! Sequencing pauses (`Blocked`, valve 6 closed) while cornering, braking
 //! or accelerating hard, and resumes after `resume_s` of calm, as air
@@ -220,12 +223,22 @@ pub struct RideHeightState {
     since_close_us: u32,
     /// Time without driving dynamics that pause sequencing, us.
     calm_us: u32,
+    /// Ride-height control engaged (valve 6 held closed except for
+    /// sequencing); kept through the safe state.
+    engaged: bool,
 }
 
 impl RideHeightState {
-    /// Power-on: valve 6 closed, nothing in progress.
+    /// Power-on: valve 6 closed, holding whatever L holds (a vehicle parked
+    /// lowered stays lowered until it is sequenced back).
     pub const fn new() -> Self {
-        RideHeightState { phase: SequencerState::Holding, valve6_open: false, since_close_us: 0, calm_us: 0 }
+        RideHeightState {
+            phase: SequencerState::Holding,
+            valve6_open: false,
+            since_close_us: 0,
+            calm_us: 0,
+            engaged: true,
+        }
     }
 }
 
@@ -240,7 +253,16 @@ pub fn step(p: &RideHeightParams, s: &mut RideHeightState, i: &RideHeightInputs,
     s.since_close_us = s.since_close_us.saturating_add(dt_us);
     let dynamics = p.manoeuvring(i.lat_acc_m_s2, i.long_acc_m_s2, i.brake_pressed);
     s.calm_us = if i.safe || dynamics { 0 } else { s.calm_us.saturating_add(dt_us) };
-    let engaged = i.request_m != 0.0 || !i.soft_wanted;
+    // Engaged while an offset is requested or the spring is hard anyway;
+    // released to the soft spring only once the held offset is back within
+    // tolerance of zero, so that releasing never makes the body jump.
+    if !i.safe {
+        let wants_soft_at_zero = i.request_m == 0.0 && i.soft_wanted;
+        let in_motion = matches!(s.phase, SequencerState::Lowering | SequencerState::Raising);
+        let at_zero = i.height_m.abs() <= p.tolerance_m && !in_motion;
+        s.engaged = !wants_soft_at_zero || (s.engaged && !at_zero);
+    }
+    let engaged = s.engaged;
     let mut flags = 0;
     let (sequencer, want_open) = if i.safe {
         s.phase = SequencerState::Holding;

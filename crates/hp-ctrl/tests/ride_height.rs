@@ -222,6 +222,52 @@ fn lowering_then_raising_by_30_mm_without_a_pump() {
 }
 
 #[test]
+fn returning_to_zero_is_sequenced_before_the_spring_goes_soft() {
+    let params = seed();
+    let rh = params.config().ride_height;
+    let mut state = in_ride(&params);
+    let mut plant = ToyUnit::new(&params);
+    let (out, _) = sequence(&params, &mut state, &mut plant, -0.03, DriverMode::Auto, 60.0);
+    assert_eq!(out.sequencer, SequencerState::Holding);
+    // Back to a zero request in Ride: raise by sequencing (valve 6 only
+    // while p_L > p_S), and open it for the soft spring only once the held
+    // offset is within tolerance of zero.
+    let mut raising_periods = 0;
+    let mut idle_at = None;
+    for k in 0..60_000 {
+        let inputs = plant.inputs(&params, 0.0, DriverMode::Auto);
+        let out = step(&params, &mut state, &inputs, DT_S);
+        match out.sequencer {
+            SequencerState::Raising => {
+                raising_periods += 1;
+                if out.valve6_open {
+                    assert!(inputs.p_large_pa - inputs.p_small_pa > rh.valve6_margin_pa);
+                }
+                assert_ne!(out.diag & diag::HEIGHT_HOLDS_SPRING, 0);
+            }
+            SequencerState::Idle => {
+                assert_eq!(out.spring_mode, SpringMode::Soft);
+                idle_at = Some(k);
+                break;
+            }
+            other => assert!(matches!(other, SequencerState::Holding | SequencerState::Blocked), "{out:?}"),
+        }
+        plant.advance(&params, out.valve6_open);
+    }
+    assert!(raising_periods > 0 && idle_at.is_some(), "{raising_periods} {idle_at:?}");
+    // Valve 6 opens for the soft spring once its minimum off time is over.
+    let min_off_periods = (rh.valve6_min_off_s / DT_S).round() as usize;
+    let opened = (0..=min_off_periods).any(|_| {
+        let out = step(&params, &mut state, &plant.inputs(&params, 0.0, DriverMode::Auto), DT_S);
+        out.valve6_open
+    });
+    assert!(opened);
+    // The controller's estimate was within tolerance; the plant's offset
+    // too, up to the error of the load estimate (a mean of the swing).
+    assert!(plant.height_m(&params).abs() < rh.tolerance_m + 1.0e-3, "{}", plant.height_m(&params));
+}
+
+#[test]
 fn in_handling_the_sequencer_keeps_the_zero_offset() {
     // Sport: valve 6 stays closed, so an offset locked into L is sequenced
     // back to the (zero) request instead of being equalised away.
@@ -298,6 +344,45 @@ fn the_load_pressure_is_a_slow_mean_of_calm_valid_periods() {
         }
         assert_eq!(out.p_load_pa, before, "{spoiler:?}");
     }
+}
+
+#[test]
+fn the_load_pressure_ignores_the_damper_and_the_body_acceleration() {
+    // A body bouncing on the strut at 1.5 Hz over a fixed base, the gas
+    // carrying the load and the body's inertia (p_strut = p_load (1 + a/g)),
+    // a damper stronger in rebound than in compression between strut and S,
+    // and an accelerometer reading 0.2 m/s^2 high. The mean of p_S is off
+    // by the damper's asymmetry; the estimate must not be.
+    let params = seed();
+    let unit = params.config().unit;
+    let g = 9.80665;
+    let p_load_pa = 1.03 * unit.static_pressure_pa;
+    let (amplitude_m, w) = (0.01, 2.0 * std::f64::consts::PI * 1.5);
+    // Damper pressure drop per strut velocity, Pa s/m (30 and 40 kN s/m).
+    let (k_compression, k_rebound) = (30.0e3 / unit.piston_area_m2, 40.0e3 / unit.piston_area_m2);
+    let mut state = in_ride(&params);
+    let (mut sum_pa, mut count) = (0.0, 0.0);
+    let mut out = Outputs::default();
+    for k in 0..150_000 {
+        let t_s = k as f64 * DT_S;
+        let x = amplitude_m * (w * t_s).sin();
+        let v = amplitude_m * w * (w * t_s).cos();
+        // Strut compression x means the body is at -x: a = -x''.
+        let a = amplitude_m * w * w * (w * t_s).sin();
+        let p_strut = p_load_pa * (1.0 + a / g);
+        let p_s = if v > 0.0 { p_strut - k_compression * v } else { p_strut + k_rebound * -v };
+        let inputs =
+            Inputs { p_small_pa: p_s, p_large_pa: p_s, strut_disp_m: x, body_acc_m_s2: a + 0.2, ..calm(&params) };
+        out = step(&params, &mut state, &inputs, DT_S);
+        if t_s > 100.0 {
+            sum_pa += p_s;
+            count += 1.0;
+        }
+    }
+    let mean_bias_pa = sum_pa / count - p_load_pa;
+    assert!(mean_bias_pa > 0.1e6, "the signal's mean is biased by {mean_bias_pa} Pa");
+    let error_pa = out.p_load_pa - p_load_pa;
+    assert!(error_pa.abs() < 10.0e3, "estimate off by {error_pa} Pa (mean of p_S off by {mean_bias_pa} Pa)");
 }
 
 #[test]
