@@ -48,7 +48,7 @@ impl Params {
             mode: ModeParams::new(&config.mode),
             damper: DamperParams::new(&config.damper),
             ride_height: RideHeightParams::new(&config.ride_height),
-            load: LoadParams::new(config.ride_height.load_pressure_tau_s, config.unit.static_pressure_pa),
+            load: LoadParams::new(config.ride_height.load_pressure_tau_s, &config.unit),
             stroke_m: (-config.unit.stroke_compression_m as f32, config.unit.stroke_extension_m as f32),
             config,
         })

@@ -21,8 +21,9 @@
 //! or a period in which it does not change, which includes rest), and
 //! corrects the sample for the body's acceleration `a` (offset removed,
 //! see [`crate::estimator`]): `p_S / (1 + a / g)`. In the same closed
-//! loop that leaves 0.05 MPa (1 mm). Samples with `|a| > g / 2` are not
-//! taken. The correction neglects the atmospheric part of the absolute
+//! loop that leaves 0.05 MPa (1 mm). No sample is taken with `|a| > g / 2`
+//! or with the strut beyond its stroke (an end stop then carries part of
+//! the load). The correction neglects the atmospheric part of the absolute
 //! pressure (0.1 MPa times `a / g`, which averages out with `a`).
 //!
 //! **Filter.** Only calm, valid periods count: not in the safe state,
@@ -44,6 +45,7 @@
 //! within 5 kPa (0.1 mm of ride height) of a constant pressure.
 
 use crate::clock::seconds_to_us;
+use crate::gas_table::UnitConfig;
 
 /// Standard gravity, m/s^2.
 const GRAVITY_M_S2: f32 = 9.806_65;
@@ -54,13 +56,19 @@ pub struct LoadParams {
     /// The configured static pressure: start value and offset of the state.
     static_pressure_pa: f32,
     tau_us: u32,
+    /// The stroke (extension end, compression end) as strut compression, m.
+    stroke_m: (f32, f32),
 }
 
 impl LoadParams {
-    /// `tau_s` is `ride_height.load_pressure_tau_s`, `static_pressure_pa`
-    /// the unit's configured static pressure.
-    pub fn new(tau_s: f64, static_pressure_pa: f64) -> Self {
-        LoadParams { static_pressure_pa: static_pressure_pa as f32, tau_us: seconds_to_us(tau_s) }
+    /// `tau_s` is `ride_height.load_pressure_tau_s`; the unit gives the
+    /// configured static pressure and the stroke.
+    pub fn new(tau_s: f64, unit: &UnitConfig) -> Self {
+        LoadParams {
+            static_pressure_pa: unit.static_pressure_pa as f32,
+            tau_us: seconds_to_us(tau_s),
+            stroke_m: (-unit.stroke_extension_m as f32, unit.stroke_compression_m as f32),
+        }
     }
 }
 
@@ -80,7 +88,8 @@ pub struct LoadInputs {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Previous {
     disp_m: f32,
-    /// Its load-pressure sample, `p_S / (1 + a / g)`, Pa (`None`: `|a| > g/2`).
+    /// Its load-pressure sample, `p_S / (1 + a / g)`, Pa (`None`: `|a| > g/2`
+    /// or the strut on an end stop).
     sample_pa: Option<f32>,
 }
 
@@ -133,7 +142,9 @@ impl LoadState {
 ///
 /// ```
 /// use hp_ctrl::load::{self, LoadInputs, LoadParams, LoadState};
-/// let p = LoadParams::new(20.0, 15.0e6);
+/// use hp_ctrl::gas_table::UnitConfig;
+/// let unit = UnitConfig { static_pressure_pa: 15.0e6, ..UnitConfig::seed_unit() };
+/// let p = LoadParams::new(20.0, &unit);
 /// let mut s = LoadState::new();
 /// assert_eq!(load::step(&p, &mut s, None, 1000), 15.0e6);
 /// // At rest every period after the first (which starts the turning-point
@@ -154,7 +165,12 @@ pub fn step(p: &LoadParams, s: &mut LoadState, inputs: Option<LoadInputs>, dt_us
     };
     s.since_sample_us = s.since_sample_us.saturating_add(dt_us);
     let acc_g = i.body_acc_m_s2 / GRAVITY_M_S2;
-    let now = Previous { disp_m: i.strut_disp_m, sample_pa: (acc_g.abs() <= 0.5).then(|| i.p_small_pa / (1.0 + acc_g)) };
+    let (stroke_min_m, stroke_max_m) = p.stroke_m;
+    let off_the_stops = i.strut_disp_m >= stroke_min_m && i.strut_disp_m <= stroke_max_m;
+    let now = Previous {
+        disp_m: i.strut_disp_m,
+        sample_pa: (acc_g.abs() <= 0.5 && off_the_stops).then(|| i.p_small_pa / (1.0 + acc_g)),
+    };
     if let Some(previous) = s.previous.replace(now) {
         let direction = if now.disp_m > previous.disp_m {
             1
