@@ -43,9 +43,10 @@ fn road(params: &Params) -> Vec<Inputs> {
 fn bench_step(c: &mut Criterion) {
     let params = Params::seed_unit().unwrap();
     let periods = road(&params);
-    // Past recovery and the hold, so the normal path runs.
+    // Past recovery, the hold and the load estimate's settling (0.5 + 5 s),
+    // so the normal path runs, sequencing included.
     let mut warm = State::new();
-    for _ in 0..3 {
+    for _ in 0..7 {
         for inputs in &periods {
             step(&params, &mut warm, inputs, DT_S);
         }
