@@ -25,6 +25,19 @@ __all__ = [
     "CHANNELS",
     "Plant",
     "__version__",
+    "Controller",
+    "ctrl_seed_config",
+    "closed_loop",
+    "closed_loop_many",
+    "CTRL_DIAG_FLAGS",
+    "CTRL_INPUT_GROUPS",
+    "CTRL_DRIVER_MODES",
+    "CTRL_DRIVE_MODES",
+    "CTRL_SPRING_MODES",
+    "CTRL_DAMPER_MODES",
+    "CTRL_SEQUENCER_STATES",
+    "CTRL_INPUT_FIELDS",
+    "CTRL_SCENARIO_FIELDS",
 ]
 CHANNELS: list[str]
 
@@ -66,3 +79,38 @@ class Plant:
     def static_disp_m(self) -> float: ...
     def sample(self) -> dict[str, float]: ...
     def step(self, dt_s: float, valve5_open: bool, valve6_open: bool) -> dict[str, float]: ...
+
+# The controller (hp-ctrl): see hpctl.control and hpctl.closed_loop.
+CTRL_DIAG_FLAGS: dict[str, int]
+CTRL_INPUT_GROUPS: dict[str, int]
+CTRL_DRIVER_MODES: list[str]
+CTRL_DRIVE_MODES: list[str]
+CTRL_SPRING_MODES: list[str]
+CTRL_DAMPER_MODES: list[str]
+CTRL_SEQUENCER_STATES: list[str]
+CTRL_INPUT_FIELDS: list[str]
+CTRL_SCENARIO_FIELDS: list[str]
+
+def ctrl_seed_config() -> dict[str, Any]: ...
+def closed_loop(
+    unit: dict[str, Any],
+    rig: dict[str, Any],
+    scenario: dict[str, NDArray[Any]],
+    dt_s: float,
+    ambient_k: float,
+    config: dict[str, Any] | None = None,
+    max_dt_s: float = 1e-3,
+    channels: Sequence[str] | None = None,
+    record_every: int = 1,
+    t_gas_sensor_tau_s: float = 1.0,
+    progress: Callable[[int, int], object] | None = None,
+) -> dict[str, dict[str, NDArray[Any]]]: ...
+def closed_loop_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[dict[str, dict[str, NDArray[Any]]] | HpctlError]: ...
+@final
+class Controller:
+    def __new__(cls, config: dict[str, Any] | None = None) -> Controller: ...
+    @property
+    def config(self) -> dict[str, Any]: ...
+    def reset(self) -> None: ...
+    def step(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]: ...
+    def step_many(self, inputs: dict[str, NDArray[Any]], dt_s: float | NDArray[np.float64]) -> dict[str, NDArray[Any]]: ...

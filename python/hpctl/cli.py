@@ -293,5 +293,50 @@ def _errors(rep: Reporter) -> Iterator[None]:
         sys.exit(EXIT_INTERNAL)
 
 
+@main.command("closed-loop")
+@click.option("--unit", "unit_file", type=click.Path(exists=True, dir_okay=False, path_type=Path), help="Unit description (TOML, [unit] table); default: the built-in seed unit.")
+@click.option("--road-class", type=click.Choice(list("ABCDEFGH"), case_sensitive=False), default="C", show_default=True, help="ISO 8608 road class.")
+@click.option("--speed-m-s", type=float, default=10.0, show_default=True, help="Vehicle speed, m/s.")
+@click.option("--lower-m", type=float, default=0.03, show_default=True, help="How far to lower the ride height (then raise it back), m.")
+@click.option("--seed", type=int, default=1, show_default=True, help="Road seed (same seed, same road).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/closed-loop"), show_default=True, help="Output folder.")
+@click.option("--quiet", "-q", is_flag=True, help="No tables.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
+def closed_loop(unit_file: Path | None, road_class: str, speed_m_s: float, lower_m: float, seed: int, out_dir: Path, quiet: bool, as_json: bool) -> None:
+    """Run the controller in closed loop with the unit (3000 kg SDOF) over a
+    random road: lower the ride height without a pump and raise it back,
+    then switch modes on a lane change and a braking burst. Writes PNG plots
+    and summary.json into the output folder."""
+    rep = Reporter(quiet, as_json)
+    with _errors(rep):
+        from hpctl import closed_loop as cl
+
+        unit = _load_unit(unit_file, None, None)
+        summary = cl.demo(out_dir, road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
+        (out_dir / "summary.json").write_text(json.dumps(_jsonable(summary), indent=2) + "\n")
+        if as_json:
+            click.echo(json.dumps(_jsonable(summary), indent=2))
+        else:
+            t = Table(title=f"Pump-free ride height (class {summary['road_class']}, {speed_m_s:g} m/s), mm")
+            for col in ("change", "target", "held at rest", "estimate", "on the road", "time [s]", "valve-6 openings"):
+                t.add_column(col, justify="right")
+            for name in ("lowering", "raising"):
+                s = summary[name]
+                t.add_row(name, _fmt(s["target_m"], 1e3, 1), _fmt(s["held_offset_m"], 1e3, 1), _fmt(s["estimate_m"], 1e3, 1),
+                          _fmt(s["road_mean_change_m"], 1e3, 1), _fmt(s["time_to_reach_s"]), str(s["valve6_openings"]))
+            rep.out.print(t)
+            t = Table(title="Pressures when done, MPa")
+            for col in ("change", "p_S", "p_L", "target p_L", "load (estimate)", "load (true)"):
+                t.add_column(col, justify="right")
+            for name in ("lowering", "raising"):
+                s = summary[name]
+                t.add_row(name, *(_fmt(s[k], 1e-6, 2) for k in ("p_small_pa", "p_large_pa", "p_large_target_pa", "p_load_estimate_pa", "p_load_true_pa")))
+            rep.out.print(t)
+            m = summary["modes"]
+            rep.out.print(f"Handling entered at {', '.join(f'{x:.2f}' for x in m['handling_entered_s']) or '-'} s, Ride again at "
+                          f"{', '.join(f'{x:.2f}' for x in m['ride_returned_s']) or '-'} s; triggers: {', '.join(m['triggers']) or '-'}")
+            rep.out.print(f"[bold]Wrote[/bold] plots and summary.json to {out_dir}/")
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod ctrl;
 mod errors;
 mod params;
 mod plant;
@@ -13,6 +14,7 @@ mod sim;
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     sim::register(m)?;
+    ctrl::register(m)?;
     m.add_class::<plant::Plant>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

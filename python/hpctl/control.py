@@ -1,0 +1,248 @@
+"""The valve-switching controller (Rust, ``hp-ctrl``) from Python.
+
+:class:`Controller` holds the compiled parameters and the state of one
+controller and steps it one control period at a time (:meth:`Controller.step`,
+typed :class:`Inputs` in, :class:`Outputs` out) or many at once
+(:meth:`Controller.step_many`, arrays in and out, for long sequences and
+property tests). The configuration is a nested dict in SI units, like
+:func:`seed_config` returns; every key is required and unknown keys are
+rejected.
+
+NaN, infinite, out-of-range and stale inputs are legal: the controller
+answers them with its documented safe state (``docs/controller.md``). Only
+structurally wrong calls (unknown or missing keys, wrong types, undefined
+enum values) raise :class:`hpctl.ParameterError`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from enum import IntEnum, IntFlag
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hpctl import _core
+
+
+class DriverMode(IntEnum):
+    """The driver's mode switch."""
+
+    AUTO = 0
+    COMFORT = 1
+    SPORT = 2
+
+
+class DriveMode(IntEnum):
+    RIDE = 0
+    HANDLING = 1
+
+
+class SpringMode(IntEnum):
+    """Valve 6 closed (hard, S alone) or open (soft, S + L)."""
+
+    HARD = 0
+    SOFT = 1
+
+
+class DamperMode(IntEnum):
+    """Valve 5 closed (high damping) or open (bypass, low)."""
+
+    HIGH = 0
+    LOW = 1
+
+
+class SequencerState(IntEnum):
+    IDLE = 0
+    LOWERING = 1
+    RAISING = 2
+    HOLDING = 3
+    BLOCKED = 4
+
+
+class InputGroup(IntFlag):
+    """Input groups, one bit each (``Inputs.fresh``)."""
+
+    PRESSURES = 1 << 0
+    STRUT = 1 << 1
+    BODY = 1 << 2
+    VEHICLE = 1 << 3
+    STEERING = 1 << 4
+    TEMPERATURE = 1 << 5
+    DRIVER = 1 << 6
+    ALL = (1 << 7) - 1
+
+
+class Diag(IntFlag):
+    """Diagnostic flags of ``Outputs.diag`` (``docs/controller.md``)."""
+
+    SAFE_STATE = 1 << 0
+    RECOVERING = 1 << 1
+    BAD_DT = 1 << 2
+    LINK_FAULT = 1 << 3
+    NOT_FINITE = 1 << 4
+    OUT_OF_RANGE = 1 << 5
+    RATE_LIMIT = 1 << 6
+    STALE = 1 << 7
+    GROUP_PRESSURES = 1 << 8
+    GROUP_STRUT = 1 << 9
+    GROUP_BODY = 1 << 10
+    GROUP_VEHICLE = 1 << 11
+    GROUP_STEERING = 1 << 12
+    GROUP_TEMPERATURE = 1 << 13
+    GROUP_DRIVER = 1 << 14
+    REQUEST_CLAMPED = 1 << 16
+    SEQUENCER_PAUSED = 1 << 17
+    HEIGHT_HOLDS_SPRING = 1 << 18
+    HEIGHT_ESTIMATE_HELD = 1 << 19
+    TRIGGER_LATERAL = 1 << 20
+    TRIGGER_STEER_RATE = 1 << 21
+    TRIGGER_LONGITUDINAL = 1 << 22
+    TRIGGER_BRAKE = 1 << 23
+    TRIGGER_SPEED = 1 << 24
+    TRIGGER_SPORT = 1 << 25
+    HANDLING_HOLD = 1 << 26
+
+
+#: All handling-trigger flags.
+TRIGGERS = (
+    Diag.TRIGGER_LATERAL | Diag.TRIGGER_STEER_RATE | Diag.TRIGGER_LONGITUDINAL | Diag.TRIGGER_BRAKE | Diag.TRIGGER_SPEED | Diag.TRIGGER_SPORT
+)
+
+
+def group_flag(group: InputGroup) -> Diag:
+    """The diag flag saying that ``group`` caused a fault."""
+    return Diag(int(group) << 8)
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What the ECU measures in one period, SI units."""
+
+    p_small_pa: float
+    p_large_pa: float
+    t_gas_k: float
+    strut_disp_m: float = 0.0
+    body_acc_m_s2: float = 0.0
+    speed_m_s: float = 0.0
+    lat_acc_m_s2: float = 0.0
+    long_acc_m_s2: float = 0.0
+    steer_angle_rad: float = 0.0
+    steer_rate_rad_s: float = 0.0
+    brake_pressed: bool = False
+    driver_mode: DriverMode = DriverMode.AUTO
+    ride_height_request_m: float = 0.0
+    fresh: InputGroup = InputGroup.ALL
+    link_fault: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["driver_mode"] = int(self.driver_mode)
+        d["fresh"] = int(self.fresh)
+        return d
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What the controller commands and reports in one period."""
+
+    valve5_open: bool
+    valve6_open: bool
+    drive_mode: DriveMode
+    spring_mode: SpringMode
+    damper_mode: DamperMode
+    sequencer: SequencerState
+    diag: Diag
+    ride_height_m: float
+    p_large_target_pa: float
+    p_load_pa: float
+    strut_vel_m_s: float
+    body_vel_m_s: float
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Outputs:
+        return cls(
+            valve5_open=bool(d["valve5_open"]),
+            valve6_open=bool(d["valve6_open"]),
+            drive_mode=DriveMode(d["drive_mode"]),
+            spring_mode=SpringMode(d["spring_mode"]),
+            damper_mode=DamperMode(d["damper_mode"]),
+            sequencer=SequencerState(d["sequencer"]),
+            diag=Diag(d["diag"]),
+            ride_height_m=float(d["ride_height_m"]),
+            p_large_target_pa=float(d["p_large_target_pa"]),
+            p_load_pa=float(d["p_load_pa"]),
+            strut_vel_m_s=float(d["strut_vel_m_s"]),
+            body_vel_m_s=float(d["body_vel_m_s"]),
+        )
+
+    @property
+    def safe(self) -> bool:
+        """The outputs are the safe state."""
+        return bool(self.diag & Diag.SAFE_STATE)
+
+
+#: Input fields and their array dtypes for :meth:`Controller.step_many`.
+INPUT_DTYPES: dict[str, type] = {
+    f.name: (bool if f.name in ("brake_pressed", "link_fault") else np.int64 if f.name in ("driver_mode", "fresh") else np.float64)
+    for f in fields(Inputs)
+}
+
+
+def input_arrays(inputs: Mapping[str, ArrayLike]) -> dict[str, NDArray[Any]]:
+    """``inputs`` (a value or an array per field; missing fields as the
+    :class:`Inputs` defaults; fields without a default are required) as
+    equally long contiguous arrays of the dtypes :meth:`Controller.step_many`
+    takes."""
+    unknown = set(inputs) - set(INPUT_DTYPES)
+    if unknown:
+        raise _core.ParameterError(f"unknown input field(s) {sorted(unknown)} (known: {', '.join(INPUT_DTYPES)})")
+    lengths = {np.size(v) for v in inputs.values() if np.ndim(v) > 0}
+    if len(lengths) > 1:
+        raise _core.ParameterError(f"input arrays of unequal lengths {sorted(lengths)}")
+    n = lengths.pop() if lengths else 1
+    out: dict[str, NDArray[Any]] = {}
+    for f in fields(Inputs):
+        if f.name in inputs:
+            value = inputs[f.name]
+        elif isinstance(f.default, (int, float, bool)):
+            value = f.default
+        else:
+            raise _core.ParameterError(f"missing input field {f.name}")
+        out[f.name] = np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=INPUT_DTYPES[f.name]), (n,)))
+    return out
+
+
+def seed_config() -> dict[str, Any]:
+    """The seed unit's controller configuration (nested dict, SI units)."""
+    return _core.ctrl_seed_config()
+
+
+class Controller:
+    """One controller: compiled parameters and state, starting at power-on
+    (the safe state)."""
+
+    def __init__(self, config: Mapping[str, Any] | None = None) -> None:
+        self._core = _core.Controller(None if config is None else dict(config))
+
+    @property
+    def config(self) -> dict[str, Any]:
+        return self._core.config
+
+    def reset(self) -> None:
+        """Back to power-on."""
+        self._core.reset()
+
+    def step(self, inputs: Inputs, dt_s: float) -> Outputs:
+        """One control period."""
+        return Outputs.from_dict(self._core.step(inputs.to_dict(), float(dt_s)))
+
+    def step_many(self, inputs: Mapping[str, ArrayLike], dt_s: float | ArrayLike) -> dict[str, NDArray[Any]]:
+        """Consecutive periods: ``inputs`` as for :func:`input_arrays`,
+        ``dt_s`` one step size or one per period. Returns the outputs as
+        arrays (enums as their numeric values, ``diag`` as uint32)."""
+        arrays = input_arrays(inputs)
+        dt: float | NDArray[np.float64] = float(np.asarray(dt_s)) if np.ndim(dt_s) == 0 else np.ascontiguousarray(dt_s, dtype=np.float64)
+        return self._core.step_many(arrays, dt)
