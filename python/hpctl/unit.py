@@ -67,6 +67,14 @@ class Damper:
     off_compression: DamperCurve
     off_rebound: DamperCurve
 
+    def scaled(self, gain: float) -> Damper:
+        """Every pressure drop multiplied by ``gain`` (same flows)."""
+
+        def s(c: DamperCurve) -> DamperCurve:
+            return DamperCurve(c.bleed_pa_s_per_m3 * gain, c.orifice_pa_s2_per_m6 * gain, c.blowoff_pa * gain, c.blowoff_slope_pa_s_per_m3 * gain)
+
+        return Damper(s(self.on_compression), s(self.on_rebound), s(self.off_compression), s(self.off_rebound))
+
 
 @dataclass(frozen=True)
 class Friction:

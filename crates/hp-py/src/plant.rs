@@ -3,7 +3,7 @@
 
 use crate::errors::{guard, to_py};
 use crate::params::{self, RigSpec};
-use crate::sim::{channel_value, CHANNELS};
+use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind, RigSample, RigState};
 use hp_core::unit::{Unit, Valves};
 use pyo3::prelude::*;
@@ -39,8 +39,8 @@ impl Plant {
 
 fn to_dict<'py>(py: Python<'py>, s: &RigSample) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    for name in CHANNELS {
-        d.set_item(name, channel_value(name, s))?;
+    for (name, value) in CHANNELS.iter().zip(channel_values(s)) {
+        d.set_item(name, value)?;
     }
     Ok(d)
 }

@@ -45,43 +45,43 @@ pub const CHANNELS: [&str; 31] = [
     "damper_on",
 ];
 
-pub fn channel_value(name: &str, s: &RigSample) -> f64 {
+/// Every channel's value, in the order of [`CHANNELS`].
+pub fn channel_values(s: &RigSample) -> [f64; CHANNELS.len()] {
     let u = &s.unit;
     let flag = |b: bool| if b { 1.0 } else { 0.0 };
-    match name {
-        "time_s" => s.time_s,
-        "disp_m" => s.disp_m,
-        "vel_m_s" => s.vel_m_s,
-        "force_n" => u.force_measured_n,
-        "force_true_n" => u.force_n,
-        "p_strut_pa" => u.p_strut_pa,
-        "p_gas_pa" => u.p_small_measured_pa,
-        "p_gas2_pa" => u.p_large_measured_pa,
-        "p_gas_true_pa" => u.p_small_pa,
-        "p_gas2_true_pa" => u.p_large_pa,
-        "t_gas_k" => u.t_small_k,
-        "t_gas2_k" => u.t_large_k,
-        "t_wall_k" => u.t_wall_k,
-        "t_oil_k" => u.t_oil_k,
-        "v_gas_m3" => s.v_small_m3,
-        "v_gas2_m3" => s.v_large_m3,
-        "damper_force_n" => u.damper_force_n,
-        "damper_power_w" => u.damper_power_w,
-        "friction_force_n" => u.friction_force_n,
-        "flow_damper_m3_s" => u.flow_damper_m3_s,
-        "flow_valve6_m3_s" => u.flow_valve6_m3_s,
-        "e_damper_j" => s.e_damper_j,
-        "e_friction_j" => s.e_friction_j,
-        "e_valve6_j" => s.e_valve6_j,
-        "body_disp_m" => s.body_disp_m,
-        "body_vel_m_s" => s.body_vel_m_s,
-        "body_acc_m_s2" => s.body_acc_m_s2,
-        "base_disp_m" => s.base_disp_m,
-        "cavitating" => flag(u.cavitating),
-        "spring_hard" => flag(s.valves.spring_hard()),
-        "damper_on" => flag(s.valves.damper_on()),
-        _ => f64::NAN,
-    }
+    [
+        s.time_s,
+        s.disp_m,
+        s.vel_m_s,
+        u.force_measured_n,
+        u.force_n,
+        u.p_strut_pa,
+        u.p_small_measured_pa,
+        u.p_large_measured_pa,
+        u.p_small_pa,
+        u.p_large_pa,
+        u.t_small_k,
+        u.t_large_k,
+        u.t_wall_k,
+        u.t_oil_k,
+        s.v_small_m3,
+        s.v_large_m3,
+        u.damper_force_n,
+        u.damper_power_w,
+        u.friction_force_n,
+        u.flow_damper_m3_s,
+        u.flow_valve6_m3_s,
+        s.e_damper_j,
+        s.e_friction_j,
+        s.e_valve6_j,
+        s.body_disp_m,
+        s.body_vel_m_s,
+        s.body_acc_m_s2,
+        s.base_disp_m,
+        flag(u.cavitating),
+        flag(s.valves.spring_hard()),
+        flag(s.valves.damper_on()),
+    ]
 }
 
 /// One simulation, fully owned so it can run on another thread.
@@ -164,8 +164,9 @@ impl Case {
         let rig = Rig::new(&unit, kind, self.ambient_k, valves_at(0))?;
         let mut out: Vec<Vec<f64>> = self.channels.iter().map(|_| Vec::with_capacity(self.times_s.len())).collect();
         run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), |i, s| {
+            let values = channel_values(s);
             for (column, &c) in out.iter_mut().zip(&self.channels) {
-                column.push(channel_value(CHANNELS.get(c).copied().unwrap_or(""), s));
+                column.push(values.get(c).copied().unwrap_or(f64::NAN));
             }
             tick(i)
         })?;
