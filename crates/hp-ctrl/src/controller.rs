@@ -203,7 +203,9 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         let reference_m = table.offset_m(p_load_pa, t_k);
         let (stroke_min_m, stroke_max_m) = params.stroke_m;
         state.ride_height_m =
-            (table.offset_m(inputs.p_large_pa as f32, t_k) - reference_m).clamp(stroke_min_m, stroke_max_m);
+            // max/min rather than clamp: clamp keeps a panic path for bounds
+            // it cannot prove ordered, and the firmware must link none.
+            (table.offset_m(inputs.p_large_pa as f32, t_k) - reference_m).max(stroke_min_m).min(stroke_max_m);
         state.p_large_target_pa = table.pressure_pa(reference_m + request_m, t_k);
     } else {
         flags |= diag::HEIGHT_ESTIMATE_HELD;

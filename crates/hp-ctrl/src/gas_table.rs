@@ -260,6 +260,7 @@ impl LargeTable {
         // p_a <= p_pa < p_b, and the table rises strictly, so p_b > p_a.
         let fraction = (p_pa - p_a) / (p_b - p_a);
         let rho = self.rho0_kg_m3 + self.rho_step_kg_m3 * (lo as f32 + fraction);
-        ((self.mass_kg / rho - self.v0_m3) / self.area_m2).clamp(u_min, u_max)
+        // max/min rather than clamp, which keeps a panic path.
+        ((self.mass_kg / rho - self.v0_m3) / self.area_m2).max(u_min).min(u_max)
     }
 }

@@ -172,7 +172,8 @@ impl RideHeightParams {
         if !request_m.is_finite() || request_m.abs() <= self.request_deadband_m {
             (0.0, false)
         } else if request_m.abs() > self.request_max_m {
-            (request_m.clamp(-self.request_max_m, self.request_max_m), true)
+            // max/min rather than clamp, which keeps a panic path.
+            (request_m.max(-self.request_max_m).min(self.request_max_m), true)
         } else {
             (request_m, false)
         }
