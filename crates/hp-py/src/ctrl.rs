@@ -130,8 +130,16 @@ pub fn ctrl_seed_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 
 // ---------------------------------------------------------- inputs/outputs
 
+/// A named field of an input struct, as an accessor (one list serves
+/// reading and writing).
 type FloatField<T> = (&'static str, fn(&mut T) -> &mut f64);
 type BoolField<T> = (&'static str, fn(&mut T) -> &mut bool);
+
+/// The value of `field` in a copy of `x`.
+fn get<T: Copy, V: Copy>(x: &T, field: fn(&mut T) -> &mut V) -> V {
+    let mut copy = *x;
+    *field(&mut copy)
+}
 
 const INPUT_FLOATS: [FloatField<Inputs>; 11] = [
     ("p_small_pa", |i| &mut i.p_small_pa),
@@ -289,11 +297,11 @@ fn outputs_to_arrays<'py>(py: Python<'py>, outs: &[Outputs]) -> PyResult<Bound<'
 fn inputs_to_arrays<'py>(py: Python<'py>, inputs: &[Inputs]) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     for (name, field) in INPUT_FLOATS {
-        let column: Vec<f64> = inputs.iter().map(|i| *field(&mut { *i })).collect();
+        let column: Vec<f64> = inputs.iter().map(|i| get(i, field)).collect();
         d.set_item(name, column.into_pyarray(py))?;
     }
     for (name, field) in INPUT_BOOLS {
-        let column: Vec<bool> = inputs.iter().map(|i| *field(&mut { *i })).collect();
+        let column: Vec<bool> = inputs.iter().map(|i| get(i, field)).collect();
         d.set_item(name, column.into_pyarray(py))?;
     }
     d.set_item("driver_mode", inputs.iter().map(|i| i.driver_mode as i64).collect::<Vec<i64>>().into_pyarray(py))?;
