@@ -69,10 +69,12 @@ class Steps:
 
 @dataclass(frozen=True)
 class Sampled:
-    """Samples interpolated by a C1 cubic (e.g. a measured displacement)."""
+    """Samples interpolated by a C1 cubic (e.g. a measured displacement):
+    through the given velocities if there are, else with three-point ones."""
 
     time_s: FloatArray
     disp_m: FloatArray
+    vel_m_s: FloatArray | None = None
     kind: Literal["sampled"] = "sampled"
 
 
@@ -81,7 +83,10 @@ Motion = Union[Hold, Sine, Step, Steps, Sampled]
 
 def _motion_dict(m: Motion) -> dict[str, Any]:
     if isinstance(m, Sampled):
-        return {"kind": "sampled", "time_s": np.asarray(m.time_s, float).tolist(), "disp_m": np.asarray(m.disp_m, float).tolist()}
+        d: dict[str, Any] = {"kind": "sampled", "time_s": np.asarray(m.time_s, float).tolist(), "disp_m": np.asarray(m.disp_m, float).tolist()}
+        if m.vel_m_s is not None:
+            d["vel_m_s"] = np.asarray(m.vel_m_s, float).tolist()
+        return d
     return dict(vars(m))
 
 

@@ -21,6 +21,10 @@ pub enum Motion<'a> {
     /// curve (Catmull-Rom tangents, valid for irregular spacing); held
     /// constant outside the samples. `time_s` must increase strictly.
     Sampled { time_s: &'a [f64], disp_m: &'a [f64] },
+    /// Samples with their velocities (the curve's tangents), interpolated
+    /// by the cubic Hermite curve through both: for measured data whose
+    /// velocity the caller estimated to higher order than three points give.
+    SampledVelocity { time_s: &'a [f64], disp_m: &'a [f64], vel_m_s: &'a [f64] },
 }
 
 /// Raised-cosine ramp from 0 to 1 over `[0, 1]` and its derivative.
@@ -56,6 +60,20 @@ impl<'a> Motion<'a> {
                 check_range("count", f64::from(count), 1.0, 1e6)?;
                 check_range("ramp_s", ramp_s, 1e-6, 1e6)?;
                 check_range("dwell_s", dwell_s, 0.0, 1e6).map(|_| ())
+            }
+            Motion::SampledVelocity { time_s, disp_m, vel_m_s } => {
+                if vel_m_s.len() != time_s.len() {
+                    return Err(Error::OutOfRange {
+                        name: "vel_m_s.len",
+                        value: vel_m_s.len() as f64,
+                        min: time_s.len() as f64,
+                        max: time_s.len() as f64,
+                    });
+                }
+                for &v in vel_m_s {
+                    check_range("vel_m_s", v, -1e3, 1e3)?;
+                }
+                Motion::Sampled { time_s, disp_m }.validate()
             }
             Motion::Sampled { time_s, disp_m } => {
                 if time_s.len() != disp_m.len() {
@@ -106,7 +124,8 @@ impl<'a> Motion<'a> {
                 }
                 (increment_m * (level + dir * r), increment_m * dir * dr / ramp_s)
             }
-            Motion::Sampled { time_s, disp_m } => hermite(time_s, disp_m, t_s),
+            Motion::Sampled { time_s, disp_m } => hermite(time_s, disp_m, None, t_s),
+            Motion::SampledVelocity { time_s, disp_m, vel_m_s } => hermite(time_s, disp_m, Some(vel_m_s), t_s),
         }
     }
 
@@ -114,14 +133,15 @@ impl<'a> Motion<'a> {
     pub fn natural_duration_s(&self) -> Option<f64> {
         match *self {
             Motion::Steps { count, ramp_s, dwell_s, .. } => Some(2.0 * f64::from(count) * (ramp_s + dwell_s)),
-            Motion::Sampled { time_s, .. } => time_s.last().copied(),
+            Motion::Sampled { time_s, .. } | Motion::SampledVelocity { time_s, .. } => time_s.last().copied(),
             _ => None,
         }
     }
 }
 
-/// Cubic Hermite interpolation with Catmull-Rom (three-point) tangents.
-fn hermite(ts: &[f64], xs: &[f64], t: f64) -> (f64, f64) {
+/// Cubic Hermite interpolation, with the given tangents or else
+/// Catmull-Rom (three-point) ones.
+fn hermite(ts: &[f64], xs: &[f64], tangents: Option<&[f64]>, t: f64) -> (f64, f64) {
     let n = ts.len().min(xs.len());
     let (Some(&t_first), Some(&t_last)) = (ts.first(), ts.get(n.wrapping_sub(1))) else {
         return (0.0, 0.0);
@@ -139,17 +159,23 @@ fn hermite(ts: &[f64], xs: &[f64], t: f64) -> (f64, f64) {
     let (t1, x1) = pt(i + 1);
     let slope = |ta: f64, xa: f64, tb: f64, xb: f64| (xb - xa) / (tb - ta);
     let s01 = slope(t0, x0, t1, x1);
-    let m0 = if i == 0 {
-        s01
-    } else {
-        let (tm, xm) = pt(i - 1);
-        slope(tm, xm, t1, x1)
-    };
-    let m1 = if i + 2 >= n {
-        s01
-    } else {
-        let (tp, xp) = pt(i + 2);
-        slope(t0, x0, tp, xp)
+    let (m0, m1) = match tangents {
+        Some(v) => (v.get(i).copied().unwrap_or(s01), v.get(i + 1).copied().unwrap_or(s01)),
+        None => {
+            let m0 = if i == 0 {
+                s01
+            } else {
+                let (tm, xm) = pt(i - 1);
+                slope(tm, xm, t1, x1)
+            };
+            let m1 = if i + 2 >= n {
+                s01
+            } else {
+                let (tp, xp) = pt(i + 2);
+                slope(t0, x0, tp, xp)
+            };
+            (m0, m1)
+        }
     };
     let h = t1 - t0;
     let u = (t - t0) / h;

@@ -206,14 +206,15 @@ fn effects(mut e: Reader<'_>) -> PyResult<Effects> {
 #[derive(Debug, Clone)]
 pub enum MotionSpec {
     Fixed(Motion<'static>),
-    Sampled { time_s: Vec<f64>, disp_m: Vec<f64> },
+    Sampled { time_s: Vec<f64>, disp_m: Vec<f64>, vel_m_s: Option<Vec<f64>> },
 }
 
 impl MotionSpec {
     pub fn motion(&self) -> Motion<'_> {
         match self {
             MotionSpec::Fixed(m) => *m,
-            MotionSpec::Sampled { time_s, disp_m } => Motion::Sampled { time_s, disp_m },
+            MotionSpec::Sampled { time_s, disp_m, vel_m_s: None } => Motion::Sampled { time_s, disp_m },
+            MotionSpec::Sampled { time_s, disp_m, vel_m_s: Some(vel_m_s) } => Motion::SampledVelocity { time_s, disp_m, vel_m_s },
         }
     }
 }
@@ -245,7 +246,10 @@ pub fn motion(obj: &Bound<'_, PyAny>, path: &str) -> PyResult<MotionSpec> {
                 dwell_s: r.f64("dwell_s")?,
             })
         }
-        "sampled" => MotionSpec::Sampled { time_s: r.vec("time_s")?, disp_m: r.vec("disp_m")? },
+        "sampled" => {
+            let vel_m_s = if r.get_opt("vel_m_s")?.is_some() { Some(r.vec("vel_m_s")?) } else { None };
+            MotionSpec::Sampled { time_s: r.vec("time_s")?, disp_m: r.vec("disp_m")?, vel_m_s }
+        }
         other => {
             return Err(parameter(format!(
                 "{path}.kind = {other:?} is not a motion (one of: hold, sine, step, steps, sampled)"

@@ -1,0 +1,299 @@
+"""Finding what the model lacks: fit a declared model, analyse the residual,
+try each candidate effect, keep the one the evidence supports, repeat.
+
+The evidence for a candidate is twofold: the Bayesian information criterion
+(the fit improvement net of the parameters it costs, per added parameter)
+and two-fold cross-validation over records (parameters fitted on half the
+records must predict the other half better). The loop stops when the
+residual is indistinguishable from the noise ("nothing left"), or when it is
+still structured but no candidate earns its place ("unexplained structure"):
+it never forces an effect onto the data.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hpctl import metrics
+from hpctl.effects import LIBRARY
+from hpctl.fit import Dataset, FitResult, fit, predict, prepare, uses_damper
+from hpctl.records import RigRecord
+
+# Decision thresholds. They are statistical, not tuned to a dataset: a BIC
+# difference above 10 is "very strong" evidence on Kass & Raftery's scale.
+# A residual is structured when it is well above the noise level (by 10 %
+# pooled over everything, 50 % in one channel), or moderately above it and
+# strongly correlated from sample to sample. The noise level includes the
+# input displacement's noise carried through the model, which after the
+# input smoothing is itself correlated over about ten samples: so a lag-1
+# autocorrelation up to about 0.3 is what a complete model leaves, and 0.5
+# is the bar for structure.
+BIC_STRONG = 10.0
+POOLED_RMS_RATIO = 1.1
+CHANNEL_RMS_RATIO = 1.5
+CORRELATED_RMS_RATIO = 1.2
+AUTOCORR_STRUCTURED = 0.5
+
+VERDICTS = ("effects_found", "nothing_left", "unexplained_structure")
+
+
+def autocorr(r: NDArray[np.float64], lag: int = 1) -> float:
+    r = r - r.mean()
+    den = float(r @ r)
+    return float(r[:-lag] @ r[lag:] / den) if den > 0 and len(r) > lag else 0.0
+
+
+@dataclass
+class ResidualReport:
+    """What the residual of a fit looks like, per record and channel."""
+
+    rms_ratio: float
+    structured: bool
+    rows: list[dict[str, Any]]
+    correlations: list[dict[str, Any]]
+
+
+REGRESSORS = ("disp_m", "vel_m_s", "sign_vel", "acc_m_s2", "time_s", "dissipated_j", "p_gas_pa", "t_gas_k")
+
+
+def _regressors(d: Dataset) -> dict[str, NDArray[np.float64]]:
+    rec, t = d.record, d.times_s
+    x = rec["base_disp_m"] - rec["body_disp_m"] if rec.kind == "sdof" else rec["disp_m"]
+    from hpctl.fit import _smooth
+
+    xs = _smooth(t, x)
+    v = np.gradient(xs, t)
+    a = np.gradient(v, t)
+    out = {"disp_m": xs, "vel_m_s": v, "sign_vel": np.sign(v), "acc_m_s2": a, "time_s": t}
+    if "force_n" in rec:
+        out["dissipated_j"] = np.concatenate(([0.0], np.cumsum(np.abs(0.5 * (rec["force_n"][1:] + rec["force_n"][:-1]) * np.diff(xs)))))
+    for c in ("p_gas_pa", "t_gas_k"):
+        if c in rec:
+            out[c] = rec[c]
+    return out
+
+
+def analyse(result: FitResult) -> ResidualReport:
+    """Whiteness, size relative to the noise, and correlation with the
+    physical quantities, of each residual."""
+    rows, corr = [], []
+    structured = False
+    for i, d in enumerate(result.datasets):
+        regs = _regressors(d)
+        for c in d.targets:
+            r = result.residuals(i, c)
+            if not np.all(np.isfinite(r)):
+                rows.append({"record": d.name, "channel": c, "rms_ratio": math.inf, "autocorr": math.nan, "structured": True})
+                structured = True
+                continue
+            z = r / d.weight_sigma[c]
+            ratio = float(np.sqrt(np.mean(z**2)))
+            rho = autocorr(z)
+            s = ratio > CHANNEL_RMS_RATIO or (ratio > CORRELATED_RMS_RATIO and abs(rho) > AUTOCORR_STRUCTURED)
+            structured |= s
+            rows.append({"record": d.name, "channel": c, "rms_ratio": ratio, "autocorr": rho, "structured": s,
+                         "frequency_hz": d.record.test.frequency_hz, "amplitude_m": d.record.test.amplitude_m})
+            for name, g in regs.items():
+                if np.ptp(g) > 0:
+                    corr.append({"record": d.name, "channel": c, "regressor": name, "r": float(np.corrcoef(r, g)[0, 1])})
+    return ResidualReport(result.rms_ratio, structured or result.rms_ratio > POOLED_RMS_RATIO, rows, corr)
+
+
+def applicable(effect: str, datasets: Sequence[Dataset]) -> bool:
+    """Whether the records could reveal ``effect`` at all (saves fitting
+    effects the data cannot identify)."""
+    def any_rec(pred: Callable[[Dataset], bool]) -> bool:
+        return any(pred(d) for d in datasets)
+
+    if effect == "valve_lag":
+        return any_rec(lambda d: bool(np.any(np.diff(d.spring_hard.astype(int)))) or bool(np.any(np.diff(d.damper_on.astype(int)))))
+    if effect == "heat_buildup":
+        return any_rec(lambda d: bool(d.damper_on.any()) and d.times_s[-1] - d.times_s[0] > 300)
+    if effect == "leakage":
+        return any_rec(lambda d: d.times_s[-1] - d.times_s[0] > 600)
+    if effect == "oil_compliance":
+        # Compliance shows where the damper pack builds pressure.
+        return any_rec(lambda d: bool(d.damper_on.any())) and uses_damper(datasets)
+    return True
+
+
+@dataclass
+class Candidate:
+    effect: str
+    added_params: int
+    result: FitResult
+    delta_bic: float
+    cv_before: float | None = None
+    cv_after: float | None = None
+
+    @property
+    def score(self) -> float:
+        """BIC improvement per added parameter (at least one)."""
+        return self.delta_bic / max(1, self.added_params)
+
+    @property
+    def cv_improves(self) -> bool | None:
+        if self.cv_before is None or self.cv_after is None:
+            return None
+        return self.cv_after < self.cv_before
+
+
+@dataclass
+class Round:
+    before: FitResult
+    analysis: ResidualReport
+    candidates: list[Candidate]
+    accepted: Candidate | None
+
+
+@dataclass
+class Diagnosis:
+    start_effects: tuple[str, ...]
+    rounds: list[Round]
+    final: FitResult
+    final_analysis: ResidualReport
+    verdict: str
+    found: list[str] = field(default_factory=list)
+
+    @property
+    def initial(self) -> FitResult:
+        return self.rounds[0].before if self.rounds else self.final
+
+
+def cross_validation(datasets: Sequence[Dataset], effects: Sequence[str], start: dict[str, float]) -> float:
+    """Two-fold cross-validation: fit on alternate blocks of every record,
+    predict the other blocks; the sum of the prediction RSS (noise units).
+
+    Blocks within records rather than whole records, because some effects
+    show in one record only (valve switching, a long hold, a heat run):
+    held out whole, that record could not be predicted by a fit that never
+    saw the effect, whatever the effect's merit."""
+    total = 0.0
+    fit_damper = uses_damper(datasets)
+    for train, test in ((0, 1), (1, 0)):
+        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train)
+        rss, _ = predict(r, datasets, fold=test)
+        total += rss
+    return total
+
+
+Progress = Callable[[str], None]
+
+
+def diagnose(
+    records: Sequence[RigRecord],
+    start_effects: Sequence[str],
+    *,
+    candidates: Sequence[str] | None = None,
+    max_rounds: int = 6,
+    progress: Progress | None = None,
+) -> Diagnosis:
+    """Runs the diagnosis loop from the declared model ``start_effects``."""
+    say = progress or (lambda _m: None)
+    datasets = prepare(records)
+    pool = [e for e in (candidates or LIBRARY) if e in LIBRARY]
+    effects = tuple(e for e in LIBRARY if e in start_effects)
+    say(f"fitting the declared model ({', '.join(effects) or 'classical polytropic ideal gas'})")
+    current = fit(datasets, effects)
+    rounds: list[Round] = []
+    found: list[str] = []
+    for _ in range(max_rounds):
+        analysis = analyse(current)
+        if not analysis.structured:
+            rounds.append(Round(current, analysis, [], None))
+            break
+        tried = []
+        for e in pool:
+            if e in effects or not applicable(e, datasets):
+                continue
+            say(f"trying {e}")
+            trial = fit(datasets, effects + (e,), initial=current.values)
+            added = len(trial.model.params) - len(current.model.params)
+            tried.append(Candidate(e, added, trial, current.bic - trial.bic))
+        tried.sort(key=lambda c: c.score, reverse=True)
+        accepted = None
+        for c in tried[:3]:
+            if c.delta_bic <= BIC_STRONG:
+                break
+            say(f"cross-validating {c.effect}")
+            c.cv_before = cross_validation(datasets, effects, current.values)
+            c.cv_after = cross_validation(datasets, effects + (c.effect,), c.result.values)
+            if c.cv_improves is not False:
+                accepted = c
+                break
+        rounds.append(Round(current, analysis, tried, accepted))
+        if accepted is None:
+            break
+        found.append(accepted.effect)
+        effects = tuple(e for e in LIBRARY if e in effects + (accepted.effect,))
+        current = accepted.result
+    final_analysis = analyse(current)
+    if found:
+        verdict = "effects_found"
+    elif final_analysis.structured:
+        verdict = "unexplained_structure"
+    else:
+        verdict = "nothing_left"
+    return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found)
+
+
+def loop_areas(result: FitResult) -> list[dict[str, Any]]:
+    """Measured and modelled loop areas of the sine records by frequency:
+    a thermal loop vanishes at very low and very high frequency, a Coulomb
+    friction loop does not."""
+    out = []
+    for i, d in enumerate(result.datasets):
+        f = d.record.test.frequency_hz
+        sim = result.sims[i]
+        if d.record.kind != "characterisation" or d.record.test.excitation != "sine" or not f or isinstance(sim, Exception):
+            continue
+        if f * (d.times_s[-1] - d.times_s[0]) < 1.0:
+            continue
+        m = metrics.last_cycle(d.times_s, f)
+        x = d.record["disp_m"][m]
+        out.append({"record": d.name, "frequency_hz": f, "amplitude_m": d.record.test.amplitude_m,
+                    "measured_j": metrics.loop_area_j(x, d.targets["force_n"][m]), "model_j": metrics.loop_area_j(x, sim["force_n"][m])})
+    return sorted(out, key=lambda r: r["frequency_hz"])
+
+
+def summary(diag: Diagnosis) -> dict[str, Any]:
+    """The conclusion, machine-readable."""
+    def err(r: FitResult) -> dict[str, Any]:
+        return {"rms_ratio": r.rms_ratio, "bic": r.bic, "channels": [vars(s) for s in r.stats]}
+
+    steps = []
+    for rnd in diag.rounds:
+        if rnd.accepted is None:
+            continue
+        c = rnd.accepted
+        steps.append({
+            "effect": c.effect,
+            "params": {p.name: c.result.values[p.name] for p in LIBRARY[c.effect].params},
+            "stderr": {p.name: c.result.stderr.get(p.name) for p in LIBRARY[c.effect].params},
+            "delta_bic": c.delta_bic,
+            "cv_rss_before": c.cv_before,
+            "cv_rss_after": c.cv_after,
+            "rms_ratio_before": rnd.before.rms_ratio,
+            "rms_ratio_after": c.result.rms_ratio,
+        })
+    return {
+        "verdict": diag.verdict,
+        "start_model": list(diag.start_effects),
+        "effects": steps,
+        "final_model": list(diag.final.model.effects),
+        "final_params": diag.final.values,
+        "final_stderr": diag.final.stderr,
+        "error_before": err(diag.initial),
+        "error_after": err(diag.final),
+        "loop_area_by_frequency": loop_areas(diag.final),
+        "candidates_last_round": [
+            {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score}
+            for c in (diag.rounds[-1].candidates if diag.rounds else [])
+        ],
+    }
