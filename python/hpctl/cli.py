@@ -36,7 +36,9 @@ class Reporter:
     def __init__(self, quiet: bool, as_json: bool) -> None:
         self.quiet = quiet
         self.as_json = as_json
-        self.out = Console(quiet=quiet or as_json)
+        # Tables keep their columns when written to a file or a pipe.
+        wide = None if sys.stdout.isatty() else 160
+        self.out = Console(quiet=quiet or as_json, width=wide)
         self.err = Console(stderr=True, quiet=quiet)
         # Errors are printed even with --quiet.
         self.errors = Console(stderr=True)
@@ -337,6 +339,10 @@ def closed_loop(unit_file: Path | None, road_class: str, speed_m_s: float, lower
                           f"{', '.join(f'{x:.2f}' for x in m['ride_returned_s']) or '-'} s; triggers: {', '.join(m['triggers']) or '-'}")
             rep.out.print(f"[bold]Wrote[/bold] plots and summary.json to {out_dir}/")
 
+
+from hpctl import cli_calibrate as _calibrate  # noqa: E402
+
+_calibrate.register(main)
 
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -146,18 +146,21 @@ MODELS: dict[str, tuple[str, ...]] = {
 
 
 def parse_model(spec: str) -> tuple[str, ...]:
-    """A model by name (``classical``, ``seed``, ``full``) or as a
-    comma-separated list of effect names (``none`` for the bare classical)."""
-    if spec in MODELS:
-        return MODELS[spec]
-    names = tuple(n.strip() for n in spec.split(",") if n.strip() and n.strip() != "none")
-    unknown = [n for n in names if n not in LIBRARY]
-    if unknown:
-        from hpctl.errors import ParameterError
+    """A model by name (``classical``, ``seed``, ``full``), a comma-separated
+    list of effect names, or both (``seed,friction``); ``none`` or
+    ``classical`` alone is the bare classical polytropic ideal gas."""
+    names: list[str] = []
+    for token in (t.strip() for t in spec.split(",")):
+        if token in MODELS:
+            names += MODELS[token]
+        elif token in LIBRARY:
+            names.append(token)
+        elif token not in ("", "none"):
+            from hpctl.errors import ParameterError
 
-        raise ParameterError(
-            f"--model: unknown effect {unknown[0]!r}; expected a model ({', '.join(MODELS)}) or effects from: {', '.join(LIBRARY)}"
-        )
+            raise ParameterError(
+                f"--model: unknown effect {token!r}; expected a model ({', '.join(MODELS)}) or effects from: {', '.join(LIBRARY)}"
+            )
     return tuple(n for n in LIBRARY if n in names)
 
 

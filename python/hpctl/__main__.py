@@ -1,0 +1,5 @@
+"""``python -m hpctl``: the command line."""
+
+from hpctl.cli import main
+
+main()

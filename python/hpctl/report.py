@@ -1,0 +1,230 @@
+"""Reports of fits and diagnoses: PNG plots and a Markdown document a user
+hands to a colleague."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from hpctl.diagnose import Diagnosis, loop_areas  # noqa: E402
+from hpctl.effects import LIBRARY  # noqa: E402
+from hpctl.fit import FitResult, derivative  # noqa: E402
+
+
+def _input(result: FitResult, i: int) -> tuple[np.ndarray, str]:
+    rec = result.datasets[i].record
+    if rec.kind == "sdof":
+        return rec["base_disp_m"] - rec["body_disp_m"], "strut compression (base - body)"
+    return rec["disp_m"], "strut compression"
+
+
+def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
+    """Per record: measured vs simulated over time, and the residual over
+    time, displacement and velocity."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for i, d in enumerate(result.datasets):
+        sim = result.sims[i]
+        if isinstance(sim, Exception):
+            continue
+        channel = "force_n" if "force_n" in d.targets else next(iter(d.targets))
+        scale, unit = (1e-3, "kN") if channel == "force_n" else (1e3, "mm") if channel.endswith("_m") else (1e-6, "MPa")
+        t = d.times_s
+        x, xlabel = _input(result, i)
+        v = derivative(t, x)
+        r = (sim[channel] - d.targets[channel]) * scale
+        fig, ax = plt.subplots(2, 2, figsize=(11, 7))
+        ax[0, 0].plot(t, d.targets[channel] * scale, ".", ms=2, label="measured")
+        ax[0, 0].plot(t, sim[channel] * scale, "-", lw=1, label="model")
+        ax[0, 0].set_xlabel("time [s]")
+        ax[0, 0].set_ylabel(f"{channel} [{unit}]")
+        ax[0, 0].legend()
+        ax[0, 1].plot(t, r, ".", ms=2)
+        ax[0, 1].set_xlabel("time [s]")
+        ax[1, 0].plot(1e3 * x, r, ".", ms=2)
+        ax[1, 0].set_xlabel(f"{xlabel} [mm]")
+        ax[1, 1].plot(v, r, ".", ms=2)
+        ax[1, 1].set_xlabel("velocity [m/s]")
+        for a in (ax[0, 1], ax[1, 0], ax[1, 1]):
+            a.set_ylabel(f"residual (model - measured) [{unit}]")
+            a.axhline(0, color="k", lw=0.5)
+        for a in ax.ravel():
+            a.grid(True, alpha=0.3)
+        fig.suptitle(f"{d.name}: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}")
+        fig.tight_layout()
+        path = out_dir / f"{prefix}_{d.name}.png"
+        fig.savefig(path, dpi=90)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def loop_area_plot(results: Sequence[tuple[str, FitResult]], path: Path) -> Path | None:
+    """Loop area against frequency: measured and per model. A thermal loop
+    vanishes at both ends of the frequency range; a friction loop does not."""
+    rows = [(label, loop_areas(r)) for label, r in results]
+    if not rows or not rows[0][1]:
+        return None
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    measured = rows[0][1]
+    ax.semilogx([m["frequency_hz"] for m in measured], [m["measured_j"] for m in measured], "ko", label="measured")
+    for label, areas in rows:
+        ax.semilogx([m["frequency_hz"] for m in areas], [m["model_j"] for m in areas], "-", label=label)
+    ax.set_xlabel("excitation frequency [Hz]")
+    ax.set_ylabel("force-displacement loop area [J]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _fmt(x: float | None, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:.{digits}g}"
+
+
+def params_table(result: FitResult) -> list[str]:
+    lines = ["| parameter | value | standard error |", "|---|---|---|"]
+    for p in result.model.params:
+        lines.append(f"| `{p.name}` | {_fmt(result.values[p.name], 5)} | {_fmt(result.stderr.get(p.name), 2)} |")
+    return lines
+
+
+def error_table(before: FitResult, after: FitResult | None = None) -> list[str]:
+    head = "| record | channel | noise | RMS | NRMS | max | loop area error [J] |"
+    if after is None:
+        lines = [head, "|---|---|---|---|---|---|---|"]
+        for s in before.stats:
+            lines.append(f"| {s.record} | {s.channel} | {_fmt(s.noise)} | {_fmt(s.rms)} | {_fmt(s.nrms)} | {_fmt(s.max_abs)} | {_fmt(s.loop_area_error_j)} |")
+        return lines
+    lines = ["| record | channel | noise | RMS before | RMS after | NRMS before | NRMS after | max before | max after | loop area error before [J] | after [J] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for a, b in zip(before.stats, after.stats):
+        lines.append(
+            f"| {a.record} | {a.channel} | {_fmt(a.noise)} | {_fmt(a.rms)} | {_fmt(b.rms)} | {_fmt(a.nrms)} | {_fmt(b.nrms)} | "
+            f"{_fmt(a.max_abs)} | {_fmt(b.max_abs)} | {_fmt(a.loop_area_error_j)} | {_fmt(b.loop_area_error_j)} |"
+        )
+    return lines
+
+
+def fit_report(result: FitResult, out_dir: Path) -> Path:
+    """fit.md with parameters, errors and plots."""
+    plots = record_plots(result, out_dir, "fit")
+    lines = [
+        "# hpctl fit",
+        "",
+        f"Model: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}; "
+        f"{result.n} residuals; residual RMS / noise = {result.rms_ratio:.3f}; BIC = {result.bic:.1f}; {result.message}",
+        "",
+        "## Parameters",
+        "",
+        *params_table(result),
+        "",
+        "## Residual per record and channel (SI units)",
+        "",
+        *error_table(result),
+        "",
+        "## Plots",
+        "",
+        *[f"![{p.stem}]({p.name})" for p in plots],
+        "",
+    ]
+    path = out_dir / "fit.md"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
+    """report.md: the story from the declared model to the verdict."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    initial, final = diag.initial, diag.final
+    lines = [
+        "# hpctl diagnosis",
+        "",
+        f"**Verdict: {diag.verdict.replace('_', ' ')}.**",
+        "",
+    ]
+    if diag.found:
+        lines.append(f"The declared model ({', '.join(diag.start_effects) or 'classical polytropic ideal gas'}) lacked: "
+                     + ", ".join(f"`{e}` ({LIBRARY[e].description})" for e in diag.found) + ".")
+    elif diag.verdict == "nothing_left":
+        lines.append("The residual of the declared model is indistinguishable from the measurement noise: nothing is left to explain.")
+    else:
+        lines.append("Structured residual remains that no effect in the library explains (see the residual analysis below).")
+    lines += ["", "## Records", "", "| record | kind | excitation | frequency [Hz] | amplitude [m] | samples |", "|---|---|---|---|---|---|"]
+    for d in final.datasets:
+        t = d.record.test
+        lines.append(f"| {d.name} | {d.record.kind} | {t.excitation} | {_fmt(t.frequency_hz)} | {_fmt(t.amplitude_m)} | {len(d.times_s)} |")
+    lines += ["", "## Steps", "",
+              "| step | model | residual RMS / noise | BIC | added effect | BIC gain | per parameter | CV error before | CV error after |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for k, rnd in enumerate(diag.rounds):
+        c = rnd.accepted
+        model = ", ".join(rnd.before.model.effects) or "classical"
+        if c is None:
+            lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | - | - | - | - | - |")
+        else:
+            lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | `{c.effect}` | {c.delta_bic:.1f} | "
+                         f"{c.score:.1f} | {_fmt(c.cv_before, 4)} | {_fmt(c.cv_after, 4)} |")
+    lines.append(f"| final | {', '.join(final.model.effects) or 'classical'} | {final.rms_ratio:.3g} | {final.bic:.1f} | | | | | |")
+    for k, rnd in enumerate(diag.rounds):
+        if not rnd.candidates:
+            continue
+        lines += ["", f"### Candidates tried at step {k}", "", "| effect | added parameters | BIC gain | per parameter | residual RMS / noise |", "|---|---|---|---|---|"]
+        for c in rnd.candidates:
+            lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {c.result.rms_ratio:.3g} |")
+    lines += ["", "## Final parameters", "", *params_table(final), "",
+              "## Error before and after", "",
+              f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units).", "",
+              *error_table(initial, final), ""]
+    # Thermal versus friction hysteresis.
+    areas_initial, areas_final = loop_areas(initial), loop_areas(final)
+    if areas_final:
+        lines += ["## Loop area against frequency", "",
+                  "A thermal loop vanishes at very low frequency (isothermal) and very high frequency (adiabatic); "
+                  "a Coulomb friction loop keeps its area at every frequency.", "",
+                  "| frequency [Hz] | amplitude [m] | measured [J] | declared model [J] | final model [J] |", "|---|---|---|---|---|"]
+        for a, b in zip(areas_initial, areas_final):
+            lines.append(f"| {a['frequency_hz']:g} | {_fmt(a['amplitude_m'])} | {a['measured_j']:.1f} | {a['model_j']:.1f} | {b['model_j']:.1f} |")
+        png = loop_area_plot([("declared model", initial), ("final model", final)], out_dir / "loop_areas.png")
+        if png:
+            lines += ["", f"![loop areas]({png.name})"]
+    lines += ["", "## Residual analysis of the final model", "",
+              "| record | channel | RMS / noise | lag-1 autocorrelation | structured |", "|---|---|---|---|---|"]
+    for row in diag.final_analysis.rows:
+        lines.append(f"| {row['record']} | {row['channel']} | {row['rms_ratio']:.3g} | {row['autocorr']:.2f} | {'yes' if row['structured'] else 'no'} |")
+    strongest = sorted(diag.final_analysis.correlations, key=lambda c: -abs(c["r"]))[:8]
+    if strongest:
+        lines += ["", "Strongest correlations of the final residual with physical quantities:", "",
+                  "| record | channel | quantity | correlation |", "|---|---|---|---|"]
+        lines += [f"| {c['record']} | {c['channel']} | {c['regressor']} | {c['r']:+.2f} |" for c in strongest]
+    before = record_plots(initial, out_dir, "declared")
+    after = record_plots(final, out_dir, "final")
+    lines += ["", "## Plots", "", "Declared model:", "", *[f"![{p.stem}]({p.name})" for p in before], "", "Final model:", "",
+              *[f"![{p.stem}]({p.name})" for p in after], ""]
+    path = out_dir / "report.md"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def fit_summary(result: FitResult) -> dict[str, Any]:
+    return {
+        "model": list(result.model.effects),
+        "params": result.values,
+        "stderr": result.stderr,
+        "rms_ratio": result.rms_ratio,
+        "bic": result.bic,
+        "converged": result.success,
+        "channels": [vars(s) for s in result.stats],
+    }

@@ -1,0 +1,108 @@
+"""`hpctl rig`, `hpctl fit`, `hpctl diagnose` and `hpctl demo` from the
+command line: outputs checked for sense, exit codes for bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+
+from hpctl.cli import main
+from hpctl.effects import LIBRARY
+from hpctl.records import read_record
+
+
+def hpctl(*args: str) -> tuple[int, str, str]:
+    r = CliRunner().invoke(main, list(args))
+    return r.exit_code, r.stdout, r.stderr
+
+
+@pytest.fixture(scope="module")
+def leaky_rig(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("rig")
+    code, _, err = hpctl("rig", "--out", str(out), "--effect", "leakage", "--set", "leak_time_constant_s=40000", "--seed", "3", "--quiet")
+    assert code == 0, err
+    return out
+
+
+def test_rig_writes_records_that_do_not_name_their_effects(leaky_rig: Path) -> None:
+    names = sorted(p.stem for p in leaky_rig.glob("*.csv"))
+    assert names == sorted(["hold", "sine_0.01hz", "sine_0.03hz", "sine_0.1hz", "sine_0.3hz", "sine_1hz"])
+    for n in names:
+        rec = read_record(leaky_rig / n)
+        text = (leaky_rig / f"{n}.toml").read_text() + (leaky_rig / f"{n}.csv").read_text(encoding="utf-8")[:200]
+        assert "leak" not in text and rec.kind == "characterisation"
+    truth = json.loads((leaky_rig / "truth.json").read_text())
+    assert truth["effects"] == ["heat_transfer", "real_gas", "leakage"]
+    assert truth["params"]["leak_time_constant_s"] == 40000
+
+
+def test_diagnose_finds_the_leak_and_reports_it(leaky_rig: Path, tmp_path: Path) -> None:
+    code, out, err = hpctl("diagnose", str(leaky_rig), "--model", "seed", "--out", str(tmp_path), "--json", "--quiet")
+    assert code == 0, err
+    s: dict[str, Any] = json.loads(out)
+    assert s["verdict"] == "effects_found"
+    (step,) = s["effects"]
+    assert step["effect"] == "leakage"
+    assert step["params"]["leak_time_constant_s"] == pytest.approx(40000, rel=0.1)
+    assert step["rms_ratio_after"] < 1.1 < step["rms_ratio_before"]
+    assert s["error_after"]["rms_ratio"] < s["error_before"]["rms_ratio"]
+    report = (tmp_path / "report.md").read_text()
+    assert "`leakage`" in report and "Error before and after" in report
+    for line in report.splitlines():
+        if line.startswith("!["):
+            assert (tmp_path / line.split("(")[1].rstrip(")")).exists()
+
+
+def test_fit_prints_parameters_with_uncertainty(leaky_rig: Path, tmp_path: Path) -> None:
+    code, out, err = hpctl("fit", *(str(p) for p in sorted(leaky_rig.glob("*.toml"))), "--model", "seed,leakage", "--out", str(tmp_path), "--json", "--quiet")
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["model"] == ["heat_transfer", "real_gas", "leakage"]
+    assert s["params"]["leak_time_constant_s"] == pytest.approx(40000, rel=0.1)
+    assert 0 < s["stderr"]["leak_time_constant_s"] < 4000
+    assert (tmp_path / "fit.md").exists() and (tmp_path / "fit_hold.png").exists()
+
+
+def test_list_effects_names_the_library() -> None:
+    code, out, _ = hpctl("diagnose", "--list-effects", "--json")
+    assert code == 0 and set(json.loads(out)) == set(LIBRARY)
+    code, out, _ = hpctl("diagnose", "--list-effects")
+    assert all(name in out for name in LIBRARY)
+
+
+def test_demo_tells_the_whole_story(tmp_path: Path) -> None:
+    code, out, err = hpctl("demo", "--out", str(tmp_path), "--json", "--quiet")
+    assert code == 0, err
+    s = json.loads(out)
+    assert [e["effect"] for e in s["effects"]] == ["heat_transfer", "real_gas", "friction"]
+    before = [e["rms_ratio_before"] for e in s["effects"]]
+    assert before == sorted(before, reverse=True) and s["error_after"]["rms_ratio"] < 1.1
+    assert s["final_params"]["friction_coulomb_n"] == pytest.approx(350, rel=0.1)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["diagnose", "--model", "seed,magic"], "unknown effect 'magic'"),
+        (["diagnose"], "give at least one rig record"),
+        (["rig", "--set", "warp_factor=9"], "expected PARAM=VALUE"),
+        (["rig", "--set", "leak_time_constant_s=fast"], "is not a number"),
+    ],
+)
+def test_bad_input_exits_2(tmp_path: Path, args: list[str], message: str) -> None:
+    code, out, err = hpctl(*args, "--out", str(tmp_path / "o"))
+    assert code == 2 and message in (err + out)
+
+
+def test_malformed_record_exits_2_naming_the_file(leaky_rig: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    for suffix in (".csv", ".toml"):
+        (bad / f"hold{suffix}").write_text((leaky_rig / f"hold{suffix}").read_text())
+    (bad / "hold.toml").write_text((bad / "hold.toml").read_text().replace("pressure_pa", "pressure_bar"))
+    code, _, err = hpctl("fit", str(bad / "hold"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "hold.toml" in err and "pressure_bar" in err
