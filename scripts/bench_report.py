@@ -1,0 +1,59 @@
+"""Collects criterion's results (target/criterion) into a Markdown table:
+absolute times and ratios against the baseline of the same run.
+
+    cargo bench -p hp-core --bench physics
+    cargo bench -p hp-ctrl --bench step
+    python scripts/bench_report.py
+
+Benchmarks, not tests: nothing here fails because a machine is slow.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CRITERION = ROOT / "target" / "criterion"
+
+
+def estimate_ns(bench_dir: Path) -> float | None:
+    f = bench_dir / "new" / "estimates.json"
+    if not f.exists():
+        return None
+    data = json.loads(f.read_text())
+    return float(data["median"]["point_estimate"])
+
+
+def main() -> None:
+    if not CRITERION.exists():
+        sys.exit("no criterion results: run the cargo bench commands in this script's docstring first")
+    results: dict[str, float] = {}
+    for est in CRITERION.rglob("new/estimates.json"):
+        bench = est.parent.parent
+        name = str(bench.relative_to(CRITERION))
+        if name.endswith("/report") or "report" in bench.parts[-1:]:
+            continue
+        value = estimate_ns(bench)
+        if value is not None:
+            results[name] = value
+    baseline = results.get("baseline/exp")
+    print("| benchmark | median | per | ratio to one libm exp (same run) |")
+    print("|---|---|---|---|")
+    for name in sorted(results):
+        ns = results[name]
+        shown = f"{ns / 1e6:.3f} ms" if ns > 1e5 else f"{ns:.1f} ns"
+        ratio = f"{ns / baseline:,.1f}" if baseline else "-"
+        print(f"| `{name}` | {shown} | call | {ratio} |")
+    run = results.get("sdof_10s_at_1khz/run")
+    if run:
+        print()
+        print(f"SDOF real-time factor at 1 kHz: {10.0 / (run * 1e-9):,.0f} simulated seconds per wall second (target >= 2000).")
+    eos = results.get("eos_props/bwr-textbook")
+    if eos:
+        print(f"BWR state (pressure, two derivatives, c_v): {eos:.1f} ns (target <= 100 ns).")
+
+
+if __name__ == "__main__":
+    main()
