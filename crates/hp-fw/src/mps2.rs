@@ -20,11 +20,18 @@ const UART0_BASE: usize = 0x4000_4000;
 const DATA: usize = UART0_BASE;
 const STATE: usize = UART0_BASE + 0x4;
 const CTRL: usize = UART0_BASE + 0x8;
+const INTCLEAR: usize = UART0_BASE + 0xC;
 const BAUDDIV: usize = UART0_BASE + 0x10;
 const STATE_TX_FULL: u32 = 1 << 0;
 const STATE_RX_FULL: u32 = 1 << 1;
 const CTRL_TX_EN: u32 = 1 << 0;
 const CTRL_RX_EN: u32 = 1 << 1;
+const CTRL_RX_INT_EN: u32 = 1 << 3;
+const INT_RX: u32 = 1 << 1;
+/// NVIC interrupt set-enable register 0; UART0's receive interrupt is
+/// IRQ 0 on the AN385/AN386 images.
+const NVIC_ISER0: usize = 0xE000_E100;
+const UART0_RX_IRQ: u32 = 0;
 
 fn read_reg(addr: usize) -> u32 {
     // SAFETY: a fixed, aligned MMIO register of the board's UART0.
@@ -37,14 +44,28 @@ fn write_reg(addr: usize, value: u32) {
 }
 
 /// Enables UART0 at 115200 Bd (QEMU ignores the rate but needs a legal
-/// divider before it moves bytes).
+/// divider before it moves bytes), with its receive interrupt, which only
+/// wakes the core from [`SlcanLink::wait`] (the bytes are polled).
 pub fn uart_init() {
     write_reg(BAUDDIV, SYSCLK_HZ / 115_200);
-    write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN);
+    write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INT_EN);
+    write_reg(NVIC_ISER0, 1 << UART0_RX_IRQ);
+}
+
+/// The only device interrupt enabled is UART0's receive interrupt; its
+/// handler only acknowledges it (the main loop, woken from `wfi`, polls
+/// the byte).
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(_irqn: i16) {
+    write_reg(INTCLEAR, INT_RX);
+}
+
+fn uart_rx_ready() -> bool {
+    read_reg(STATE) & STATE_RX_FULL != 0
 }
 
 fn uart_read() -> Option<u8> {
-    (read_reg(STATE) & STATE_RX_FULL != 0).then(|| read_reg(DATA) as u8)
+    uart_rx_ready().then(|| read_reg(DATA) as u8)
 }
 
 fn uart_try_write(byte: u8) -> bool {
@@ -90,6 +111,20 @@ impl SlcanLink {
             }
             self.out.pop_front();
         }
+    }
+
+    /// Sleeps until an interrupt (a received byte, the SysTick) if there
+    /// is nothing to do: no byte waiting and nothing left to send. Checked
+    /// with interrupts masked, so a byte arriving just before `wfi` still
+    /// wakes it (a pending interrupt ends `wfi` even while masked; its
+    /// handler runs after the critical section). Polling the UART in a
+    /// tight loop instead costs QEMU most of its time in the emulator.
+    pub fn wait(&mut self) {
+        cortex_m::interrupt::free(|_| {
+            if self.out.is_empty() && !uart_rx_ready() {
+                cortex_m::asm::wfi();
+            }
+        });
     }
 }
 
@@ -148,5 +183,5 @@ pub fn main(timing: crate::run::Timing) -> ! {
         core.SYST.enable_interrupt();
         core.SYST.enable_counter();
     }
-    crate::run::run(&mut ecu, &mut link, || TICKS.load(core::sync::atomic::Ordering::Relaxed), SlcanLink::flush, timing)
+    crate::run::run(&mut ecu, &mut link, || TICKS.load(core::sync::atomic::Ordering::Relaxed), SlcanLink::flush, SlcanLink::wait, timing)
 }

@@ -15,15 +15,26 @@ pub enum Timing {
 
 /// Runs the ECU forever. `ticks` reads a counter that the 1 kHz timer
 /// interrupt increments; `service` moves bytes between the hardware and
-/// the link's queues. Neither may block.
+/// the link's queues; neither may block. `wait` is called when a pass
+/// found no frame: it may sleep until the next interrupt if the board
+/// wakes on both the timer and received data (or return at once).
 ///
 /// If the loop ever falls behind the timer, the missed ticks are skipped:
 /// one period runs per observed change of the counter.
-pub fn run<L: Link>(ecu: &mut Ecu, link: &mut L, ticks: impl Fn() -> u32, service: impl Fn(&mut L), timing: Timing) -> ! {
+pub fn run<L: Link>(
+    ecu: &mut Ecu,
+    link: &mut L,
+    ticks: impl Fn() -> u32,
+    service: impl Fn(&mut L),
+    wait: impl Fn(&mut L),
+    timing: Timing,
+) -> ! {
     let mut done = ticks();
     loop {
         service(link);
+        let mut idle = true;
         while let Some(frame) = link.receive() {
+            idle = false;
             if ecu.receive(&frame).is_some() && timing == Timing::LockStep {
                 ecu.period(link);
                 // Frames after the tick belong to the next period.
@@ -34,6 +45,11 @@ pub fn run<L: Link>(ecu: &mut Ecu, link: &mut L, ticks: impl Fn() -> u32, servic
         if timing == Timing::Timer && now != done {
             done = now;
             ecu.period(link);
+            idle = false;
+        }
+        if idle {
+            service(link);
+            wait(link);
         }
     }
 }

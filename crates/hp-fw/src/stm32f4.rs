@@ -187,7 +187,7 @@ pub fn main() -> ! {
     cp.SYST.clear_current();
     cp.SYST.enable_interrupt();
     cp.SYST.enable_counter();
-    run(&mut ecu, &mut link, || TICKS.load(core::sync::atomic::Ordering::Relaxed), |_| {}, Timing::Timer)
+    run(&mut ecu, &mut link, || TICKS.load(core::sync::atomic::Ordering::Relaxed), |_| {}, |_| {}, Timing::Timer)
 }
 
 fn park() -> ! {
