@@ -87,6 +87,13 @@ def measure(elf: Path) -> dict[str, float]:
     fig["stack_loop_bytes"] = raw["stack_loop_bytes"]
     for k in ("params_ok", "safe_periods", "valve5_open", "valve6_open", "frames_sent", "tx_dropped"):
         fig[k] = raw[k]
+    # Per-frame codec costs: `frame rx|tx NAME sum=.. max=.. n=..` (ticks).
+    for l in run.stdout.splitlines():
+        words = l.split()
+        if len(words) >= 6 and words[0] == "frame":
+            f = {k: int(v) for k, v in (w.split("=") for w in words[3:])}
+            fig[f"frame_{words[1]}_{words[2]}_instr_mean"] = f["sum"] * INSTR_PER_TICK / max(f["n"], 1)
+            fig[f"frame_{words[1]}_{words[2]}_instr_max"] = f["max"] * INSTR_PER_TICK
     return fig
 
 
@@ -128,6 +135,11 @@ def main() -> None:
         mean, peak = run[f"{part}_instr_mean"], run[f"{part}_instr_max"]
         mark = ("ok" if peak <= STEP_BUDGET else "OVER") if part == "step" else ""
         print(f"    {label:38s} {mean:8.0f} / {peak:6.0f} {mark}")
+    print("  instructions per frame (mean / max over 100 frames each):")
+    for direction, label in (("rx", "receive"), ("tx", "encode")):
+        for key in sorted(k for k in run if k.startswith(f"frame_{direction}_") and k.endswith("_mean")):
+            name = key[len(f"frame_{direction}_") : -len("_instr_mean")]
+            print(f"    {label} {name:31s} {run[key]:8.0f} / {run[key.replace('_mean', '_max')]:6.0f}")
     print(
         f"  (safe-state periods {run['safe_periods']:.0f}, valve 5 open {run['valve5_open']:.0f}, "
         f"valve 6 open {run['valve6_open']:.0f}, frames sent {run['frames_sent']:.0f}, dropped {run['tx_dropped']:.0f})"

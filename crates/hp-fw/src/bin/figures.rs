@@ -15,10 +15,10 @@ use core::sync::atomic::{compiler_fence, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
-use hp_ctrl::can::messages::{Body, Driver, Pressures, Steering, Strut, Temperature, Vehicle};
-use hp_ctrl::can::{CanFrame, Message, Transmitter};
-use hp_ctrl::{Config, DriverMode};
 use hp_ctrl::can::ecu::{Ecu, Link};
+use hp_ctrl::can::messages::{Body, DiagE2e, DiagLink, Driver, PilTick, Pressures, Status, Steering, Strut, Temperature, ValveCmd, Vehicle};
+use hp_ctrl::can::{CanFrame, InputDecoder, LinkParams, Message, Transmitter};
+use hp_ctrl::{Config, DriverMode, Outputs};
 use hp_fw as _; // the panic handler
 
 /// Periods run; the first WARMUP are not timed (power-on safe state,
@@ -26,6 +26,8 @@ use hp_fw as _; // the panic handler
 const PERIODS: u32 = 6000;
 const WARMUP: u32 = 3000;
 const STACK_PAINT: u32 = 0x5AFE_C0DE;
+/// Frames timed per message in the per-frame figures.
+const FRAME_REPS: u32 = 100;
 
 extern "C" {
     static mut __sheap: u32;
@@ -112,6 +114,67 @@ fn scenario(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mut heapless::Vec<
     }
 }
 
+/// The receiver's cost per frame of each input message: `FRAME_REPS`
+/// frames in sequence (after one that synchronises the counter), each
+/// timed alone. Prints `frame rx NAME sum=.. max=.. n=..` (ticks).
+fn receive_costs(cfg: &Config) {
+    let p_pa = cfg.unit.static_pressure_pa;
+    let t_k = cfg.unit.static_temperature_k;
+    let samples: [fn(f64, f64, f64) -> Message; 8] = [
+        |_, _, x| Message::PilTick(PilTick { index: (x * 1000.0) as u16 }),
+        |p, _, x| Message::Pressures(Pressures { p_small_pa: p * (1.0 + 0.05 * x), p_large_pa: p * (1.0 - 0.03 * x) }),
+        |_, _, x| Message::Strut(Strut { disp_m: 0.0123 * x }),
+        |_, _, x| Message::Body(Body { acc_m_s2: -0.81 * x }),
+        |_, _, x| Message::Vehicle(Vehicle { speed_m_s: 10.0 + x, brake_pressed: false, lat_acc_m_s2: 1.7 * x, long_acc_m_s2: -0.4 * x }),
+        |_, _, x| Message::Steering(Steering { angle_rad: 0.35 * x, rate_rad_s: 1.1 * x }),
+        |_, t, x| Message::Temperature(Temperature { t_gas_k: t + 3.0 * x }),
+        |_, _, x| Message::Driver(Driver { mode: DriverMode::Auto, ride_height_request_m: -0.02 * x }),
+    ];
+    for make in samples {
+        let mut rx = InputDecoder::new(LinkParams::default());
+        let mut tx = Transmitter::new();
+        let name = make(p_pa, t_k, 0.0).kind().def().name;
+        let (mut stat, mut n) = (Stat::default(), 0u32);
+        for k in 0..=FRAME_REPS {
+            let x = libm::sin(f64::from(k) * 0.37);
+            let Ok(frame) = tx.frame(&make(p_pa, t_k, x)) else { continue };
+            let t0 = now();
+            let used = black_box(rx.receive(black_box(&frame))).is_ok();
+            let t1 = now();
+            if k > 0 && used {
+                stat.add(elapsed(t0, t1));
+                n += 1;
+            }
+        }
+        hprintln!("frame rx {} sum={} max={} n={}", name, stat.sum, stat.max, n);
+    }
+}
+
+/// The transmitter's cost per frame of each output message, from the
+/// last period's outputs. Prints `frame tx NAME sum=.. max=.. n=..`.
+fn send_costs(out: &Outputs) {
+    let msgs = [
+        Message::ValveCmd(ValveCmd::from_outputs(out, false, 1234)),
+        Message::Status(Status::from_outputs(out)),
+        Message::DiagE2e(DiagE2e::default()),
+        Message::DiagLink(DiagLink::default()),
+    ];
+    for msg in &msgs {
+        let mut tx = Transmitter::new();
+        let (mut stat, mut n) = (Stat::default(), 0u32);
+        for _ in 0..FRAME_REPS {
+            let t0 = now();
+            let ok = black_box(tx.frame(black_box(msg))).is_ok();
+            let t1 = now();
+            if ok {
+                stat.add(elapsed(t0, t1));
+                n += 1;
+            }
+        }
+        hprintln!("frame tx {} sum={} max={} n={}", msg.kind().def().name, stat.sum, stat.max, n);
+    }
+}
+
 fn paint_stack() {
     let sp = cortex_m::register::msp::read() as usize;
     // SAFETY: paints the free RAM between the end of the static data and
@@ -169,6 +232,7 @@ fn main() -> ! {
     let mut frames = heapless::Vec::new();
     let (mut rx, mut step, mut send, mut period) = (Stat::default(), Stat::default(), Stat::default(), Stat::default());
     let (mut safe, mut valve5, mut valve6) = (0u32, 0u32, 0u32);
+    let mut last = Outputs::default();
     for k in 0..PERIODS {
         scenario(k, &mut sensors, &cfg, &mut frames);
         let t0 = now();
@@ -190,7 +254,11 @@ fn main() -> ! {
             valve5 += u32::from(out.valve5_open);
             valve6 += u32::from(out.valve6_open);
         }
+        last = out;
     }
+    let stack_loop = stack_high_water_bytes();
+    receive_costs(&cfg);
+    send_costs(&last);
     let n = PERIODS - WARMUP;
     hprintln!(
         "figures calib_4000_nops={} stack_init_bytes={} periods={} params_ok={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={}",
@@ -206,7 +274,7 @@ fn main() -> ! {
         send.max,
         period.sum,
         period.max,
-        stack_high_water_bytes(),
+        stack_loop,
         link.frames,
         safe,
         valve5,
