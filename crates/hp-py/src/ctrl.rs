@@ -6,7 +6,7 @@
 //! types, undefined enum values, arrays of unequal length) raise
 //! `ParameterError`.
 
-use crate::errors::{guard, parameter, to_py};
+use crate::errors::{detached_with_progress, guard, parameter, to_py};
 use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
@@ -546,32 +546,7 @@ pub fn closed_loop<'py>(
         let case =
             LoopCase::from_py(unit, rig, scenario, dt_s, ambient_k, config, max_dt_s, channels, record_every, t_gas_sensor_tau_s)?;
         let total = case.vehicles.len();
-        let mut interrupt: Option<PyErr> = None;
-        let result = py.detach(|| {
-            let mut last = std::time::Instant::now();
-            case.run(|k| {
-                if last.elapsed().as_millis() < 100 {
-                    return true;
-                }
-                last = std::time::Instant::now();
-                Python::attach(|py| {
-                    if let Err(e) = py.check_signals() {
-                        interrupt = Some(e);
-                        return false;
-                    }
-                    if let Some(cb) = &progress {
-                        if let Err(e) = cb.call1(py, (k, total)) {
-                            interrupt = Some(e);
-                            return false;
-                        }
-                    }
-                    true
-                })
-            })
-        });
-        if let Some(e) = interrupt {
-            return Err(e);
-        }
+        let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         case.to_dict(py, result.map_err(to_py)?)
     })
 }

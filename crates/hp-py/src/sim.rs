@@ -1,6 +1,6 @@
 //! Running the rigs from Python: one run, or many in parallel (rayon).
 
-use crate::errors::{guard, parameter, to_py};
+use crate::errors::{detached_with_progress, guard, parameter, to_py};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
 use hp_core::rig::{run, Rig, RigKind, RigSample};
@@ -205,32 +205,7 @@ pub fn simulate<'py>(
         let times = times_s.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| times_s.as_array().to_vec());
         let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels)?;
         let total = case.times_s.len();
-        let mut interrupt: Option<PyErr> = None;
-        let result = py.detach(|| {
-            let mut last = std::time::Instant::now();
-            case.run(|i| {
-                if last.elapsed().as_millis() < 100 {
-                    return true;
-                }
-                last = std::time::Instant::now();
-                Python::attach(|py| {
-                    if let Err(e) = py.check_signals() {
-                        interrupt = Some(e);
-                        return false;
-                    }
-                    if let Some(cb) = &progress {
-                        if let Err(e) = cb.call1(py, (i, total)) {
-                            interrupt = Some(e);
-                            return false;
-                        }
-                    }
-                    true
-                })
-            })
-        });
-        if let Some(e) = interrupt {
-            return Err(e);
-        }
+        let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         let columns = result.map_err(to_py)?;
         case.to_dict(py, columns)
     })
