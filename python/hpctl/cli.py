@@ -66,6 +66,31 @@ class Reporter:
             yield make
 
 
+class _Status:
+    """A spinner with a changing message, for work without a known total."""
+
+    def __init__(self, rep: Reporter, message: str) -> None:
+        self._status = None if rep.quiet else rep.err.status(message)
+
+    def __enter__(self) -> _Status:
+        if self._status is not None:
+            self._status.__enter__()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._status is not None:
+            self._status.__exit__(None, None, None)
+
+    def update(self, message: str) -> None:
+        if self._status is not None:
+            self._status.update(message)
+
+
+def status(rep: Reporter, message: str) -> _Status:
+    """A spinner on stderr (nothing with --quiet)."""
+    return _Status(rep, message)
+
+
 def _jsonable(x: Any) -> Any:
     if isinstance(x, float) and not math.isfinite(x):
         return None

@@ -58,7 +58,7 @@ def _print_fit(rep: Any, result: Any) -> None:
 
 
 def register(main: click.Group) -> None:
-    from hpctl.cli import Reporter, _errors, _jsonable
+    from hpctl.cli import Reporter, _errors, _jsonable, status
 
     model_help = f"Model: {', '.join(MODELS)}, or effects separated by commas (from: {', '.join(LIBRARY)})."
 
@@ -76,8 +76,8 @@ def register(main: click.Group) -> None:
         with _errors(rep):
             effects = parse_model(model)
             datasets = prepare(_records(_expand(records)))
-            rep.err.print(f"fitting {len(model_params(effects)) + 1} parameters to {len(datasets)} record(s)")
-            result = fit(datasets, effects)
+            with status(rep, f"fitting {len(model_params(effects)) + 1} parameters to {len(datasets)} record(s)"):
+                result = fit(datasets, effects)
             out_dir.mkdir(parents=True, exist_ok=True)
             report.fit_report(result, out_dir)
             summary = report.fit_summary(result)
@@ -158,6 +158,7 @@ def register(main: click.Group) -> None:
             with resources.as_file(data) as folder:
                 recs = [read_record(p) for p in sorted(Path(folder).glob("*.toml"))]
             rep.err.print(f"{len(recs)} bundled records from a rig unit with undeclared effects; declared model: classical polytropic ideal gas")
+            rep.err.print("(each step fits the model with the Rust simulator in the loop; about 15 s in all)")
             _run_diagnosis(rep, recs, (), 6, out_dir, as_json)
 
 
@@ -176,9 +177,10 @@ def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
 
 
 def _run_diagnosis(rep: Any, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool) -> None:
-    from hpctl.cli import _jsonable
+    from hpctl.cli import _jsonable, status
 
-    diag = dg.diagnose(recs, start, max_rounds=max_rounds, progress=lambda m: rep.err.print(f"  {m}"))
+    with status(rep, "diagnosing") as spinner:
+        diag = dg.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
     path = report.diagnosis_report(diag, out_dir)
     summary = dg.summary(diag)
     (out_dir / "diagnosis.json").write_text(json.dumps(_jsonable(summary), indent=2) + "\n")
