@@ -37,7 +37,7 @@ def rig_data(effects: list[str], rng: np.random.Generator) -> tuple[dict[str, fl
 
 
 def describe(d: Diagnosis, seed: int, values: dict[str, float]) -> str:
-    rounds = [[(c.effect, round(c.delta_bic)) for c in r.candidates] for r in d.rounds]
+    rounds = [[(c.effect, round(c.delta_bic), round(c.explained, 3)) for c in r.candidates] for r in d.rounds]
     return f"seed={seed} truth={values} verdict={d.verdict} found={d.found} rounds={rounds}"
 
 

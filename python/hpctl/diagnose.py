@@ -35,6 +35,11 @@ from hpctl.records import RigRecord
 # autocorrelation up to about 0.3 is what a complete model leaves, and 0.5
 # is the bar for structure.
 BIC_STRONG = 10.0
+# An accepted effect must also explain a real share of what the residual
+# holds beyond the noise (its sum of squares above the number of samples):
+# a term that shaves a sliver off a large structured residual has found a
+# way to bend, not the physics that is missing.
+EXPLAINED_SHARE = 0.05
 POOLED_RMS_RATIO = 1.1
 CHANNEL_RMS_RATIO = 1.5
 CORRELATED_RMS_RATIO = 1.2
@@ -129,6 +134,7 @@ class Candidate:
     added_params: int
     result: FitResult
     delta_bic: float
+    explained: float = 0.0
     cv_before: float | None = None
     cv_after: float | None = None
 
@@ -215,12 +221,15 @@ def diagnose(
             say(f"trying {e}")
             trial = fit(datasets, effects + (e,), initial=current.values)
             added = len(trial.model.params) - len(current.model.params)
-            tried.append(Candidate(e, added, trial, current.bic - trial.bic))
+            excess = max(current.rss - current.n, 1e-12)
+            tried.append(Candidate(e, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess))
         tried.sort(key=lambda c: c.score, reverse=True)
         accepted = None
         for c in tried[:3]:
             if c.delta_bic <= BIC_STRONG:
                 break
+            if c.explained < EXPLAINED_SHARE:
+                continue
             say(f"cross-validating {c.effect}")
             c.cv_before = cross_validation(datasets, effects, current.values)
             c.cv_after = cross_validation(datasets, effects + (c.effect,), c.result.values)

@@ -181,9 +181,11 @@ def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
     for k, rnd in enumerate(diag.rounds):
         if not rnd.candidates:
             continue
-        lines += ["", f"### Candidates tried at step {k}", "", "| effect | added parameters | BIC gain | per parameter | residual RMS / noise |", "|---|---|---|---|---|"]
+        lines += ["", f"### Candidates tried at step {k}", "",
+                  "| effect | added parameters | BIC gain | per parameter | share of the excess residual explained | residual RMS / noise |",
+                  "|---|---|---|---|---|---|"]
         for c in rnd.candidates:
-            lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {c.result.rms_ratio:.3g} |")
+            lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {100 * c.explained:.1f} % | {c.result.rms_ratio:.3g} |")
     lines += ["", "## Final parameters", "", *params_table(final), "",
               "## Error before and after", "",
               f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units).", "",
