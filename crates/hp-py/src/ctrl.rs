@@ -6,7 +6,8 @@
 //! types, undefined enum values, arrays of unequal length) raise
 //! `ParameterError`.
 
-use crate::errors::{detached_with_progress, guard, parameter, to_py};
+use crate::errors::{guard, parameter, to_py};
+use crate::exec::{detached_with_progress, run_parallel};
 use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
@@ -595,22 +596,7 @@ pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, thread
             r.finish()?;
             specs.push(case);
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads.unwrap_or(0))
-            .build()
-            .map_err(|e| parameter(format!("threads = {threads:?}: {e}")))?;
-        let results: Vec<Result<LoopRecord, hp_core::Error>> = py.detach(|| {
-            use rayon::prelude::*;
-            pool.install(|| specs.par_iter().map(|c| c.run(|_| true)).collect())
-        });
-        let out = PyList::empty(py);
-        for (case, result) in specs.iter().zip(results) {
-            match result {
-                Ok(r) => out.append(case.to_dict(py, r)?)?,
-                Err(e) => out.append(to_py(e).into_value(py))?,
-            }
-        }
-        Ok(out)
+        run_parallel(py, &specs, threads, |c| c.run(|_| true), |c, r| c.to_dict(py, r))
     })
 }
 

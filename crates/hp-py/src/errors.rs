@@ -47,47 +47,6 @@ pub fn guard<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
     }
 }
 
-/// Runs `work` with the GIL released. `work` gets a tick function to call
-/// with its progress (`done` out of `total`); about ten times a second the
-/// tick takes the GIL back to check for Ctrl-C and to call `progress(done,
-/// total)`, and returns `false` when the work should stop. An interrupt or
-/// an exception in the callback is then returned instead of the result.
-pub fn detached_with_progress<T: Send>(
-    py: Python<'_>,
-    total: usize,
-    progress: Option<Py<PyAny>>,
-    work: impl FnOnce(&mut dyn FnMut(usize) -> bool) -> T + Send,
-) -> PyResult<T> {
-    let mut interrupt: Option<PyErr> = None;
-    let result = py.detach(|| {
-        let mut last = std::time::Instant::now();
-        let mut tick = |done: usize| -> bool {
-            if last.elapsed().as_millis() < 100 {
-                return true;
-            }
-            last = std::time::Instant::now();
-            Python::attach(|py| {
-                let reported = py.check_signals().and_then(|()| match &progress {
-                    Some(cb) => cb.call1(py, (done, total)).map(|_| ()),
-                    None => Ok(()),
-                });
-                match reported {
-                    Ok(()) => true,
-                    Err(e) => {
-                        interrupt = Some(e);
-                        false
-                    }
-                }
-            })
-        };
-        work(&mut tick)
-    });
-    match interrupt {
-        Some(e) => Err(e),
-        None => Ok(result),
-    }
-}
-
 /// Registers the exception classes on the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();

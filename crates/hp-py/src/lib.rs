@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 
 mod ctrl;
 mod errors;
+mod exec;
 mod params;
 mod plant;
 mod sim;

@@ -1,6 +1,7 @@
 //! Running the rigs from Python: one run, or many in parallel (rayon).
 
-use crate::errors::{detached_with_progress, guard, parameter, to_py};
+use crate::errors::{guard, parameter, to_py};
+use crate::exec::{detached_with_progress, run_parallel};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
 use hp_core::rig::{run, Rig, RigKind, RigSample};
@@ -232,22 +233,7 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: 
             r.finish()?;
             specs.push(case);
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads.unwrap_or(0))
-            .build()
-            .map_err(|e| parameter(format!("threads = {threads:?}: {e}")))?;
-        let results: Vec<Result<Vec<Vec<f64>>, hp_core::Error>> = py.detach(|| {
-            use rayon::prelude::*;
-            pool.install(|| specs.par_iter().map(|c| c.run(|_| true)).collect())
-        });
-        let out = PyList::empty(py);
-        for (case, result) in specs.iter().zip(results) {
-            match result {
-                Ok(columns) => out.append(case.to_dict(py, columns)?)?,
-                Err(e) => out.append(to_py(e).into_value(py))?,
-            }
-        }
-        Ok(out)
+        run_parallel(py, &specs, threads, |c| c.run(|_| true), |c, r| c.to_dict(py, r))
     })
 }
 
