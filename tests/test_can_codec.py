@@ -170,12 +170,14 @@ def test_rust_table_matches_the_dbc(codec):
             rust_sigs[(f[0], f[1])] = f[2:]
     assert set(rust_msgs) == {m.name for m in MESSAGES}
     for m in MESSAGES:
-        frame_id, did, cycle, timeout, group = rust_msgs[m.name]
+        frame_id, did, cycle, delay, timeout, group = rust_msgs[m.name]
         attrs = m.dbc.attributes
         assert int(frame_id, 16) == m.frame_id and not m.is_extended_frame
         assert m.length == 8
         assert int(did, 16) == attrs["E2E_DataID"].value
         assert int(cycle) == attrs["GenMsgCycleTime"].value
+        delay_attr = attrs.get("GenMsgStartDelayTime")
+        assert int(delay) == (delay_attr.value if delay_attr else DBC.dbc.attribute_definitions["GenMsgStartDelayTime"].default_value)
         assert int(timeout) == attrs["E2E_TimeoutMs"].value
         assert int(group) == GROUP.get(m.name, 0)
         # The E2E header as profile 11 lays it out.
@@ -192,10 +194,10 @@ def test_rust_table_matches_the_dbc(codec):
             assert (unit if unit != "-" else None) == (s.unit or None)
 
 
-@settings(max_examples=300, deadline=None)
-@given(st.data())
-def test_rust_encodes_what_cantools_decodes(codec, data):
-    msg = data.draw(st.sampled_from(MESSAGES))
+@pytest.mark.parametrize("msg", MESSAGES, ids=lambda m: m.name)
+@settings(max_examples=40, deadline=None)
+@given(data=st.data())
+def test_rust_encodes_what_cantools_decodes(codec, msg, data):
     values = data.draw(signal_values(msg, on_lsb_grid=False))
     counter = data.draw(st.integers(0, 14))
     answer = codec.ask(encode_line(msg, counter, values)).split()
@@ -213,10 +215,10 @@ def test_rust_encodes_what_cantools_decodes(codec, data):
     assert cantools_frame(msg, counter, grid) == raw
 
 
-@settings(max_examples=300, deadline=None)
-@given(st.data())
-def test_rust_decodes_what_cantools_encodes(codec, data):
-    msg = data.draw(st.sampled_from(MESSAGES))
+@pytest.mark.parametrize("msg", MESSAGES, ids=lambda m: m.name)
+@settings(max_examples=40, deadline=None)
+@given(data=st.data())
+def test_rust_decodes_what_cantools_encodes(codec, msg, data):
     values = data.draw(signal_values(msg, on_lsb_grid=True))
     counter = data.draw(st.integers(0, 14))
     raw = cantools_frame(msg, counter, values)

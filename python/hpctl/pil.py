@@ -74,6 +74,24 @@ class FrameCodec:
     def cycle_ms(self, name: str) -> int:
         return int(self.db.get_message_by_name(name).dbc.attributes["GenMsgCycleTime"].value)
 
+    def start_delay_ms(self, name: str) -> int:
+        """``GenMsgStartDelayTime`` (0 unless set): the first send, after
+        which the message follows its cycle time."""
+        attr = self.db.get_message_by_name(name).dbc.attributes.get("GenMsgStartDelayTime")
+        return int(attr.value) if attr is not None else 0
+
+    def due(self, name: str, period: int) -> bool:
+        """True if cyclic message ``name`` is sent in 1 ms period ``period``
+        (period 0 = start)."""
+        cycle, delay = self.cycle_ms(name), self.start_delay_ms(name)
+        return cycle > 0 and period >= delay and (period - delay) % cycle == 0
+
+    def ecu_frames_due(self, period: int) -> list[str]:
+        """The messages the ECU sends in control period ``period``, in
+        identifier order (the order it sends them in)."""
+        ecu = sorted((m for m in self.db.messages if m.senders == ["HPECU"]), key=lambda m: m.frame_id)
+        return [m.name for m in ecu if self.due(m.name, period)]
+
     def encode(self, name: str, values: dict[str, float]) -> can.Message:
         """A protected frame of message ``name`` with the next counter."""
         msg = self.db.get_message_by_name(name)
@@ -101,7 +119,7 @@ class FrameCodec:
         at its DBC cycle time), from ``hp_ctrl::Inputs``-named values."""
         frames = []
         for name, signals in INPUT_SIGNALS.items():
-            if period % self.cycle_ms(name) == 0:
+            if self.due(name, period):
                 frames.append(self.encode(name, {sig: inputs[f] for sig, f in signals.items()}))
         return frames
 
@@ -194,9 +212,9 @@ def open_bus(channel: str) -> can.BusABC:
 class PilSession:
     """Lock-step exchange with ``hp-fw-pil``: :meth:`period` sends one
     period's sensor frames and a tick, and returns the ECU's frames of that
-    period (``HP_ValveCmd``, ``HP_Status`` and every 100th period the two
-    diagnostics frames). :attr:`sent` holds every frame sent, in order, so
-    a host reference can be fed exactly the same."""
+    period (the messages due by the DBC's cycle times and start delays,
+    :meth:`FrameCodec.ecu_frames_due`). :attr:`sent` holds every frame
+    sent, in order, so a host reference can be fed exactly the same."""
 
     def __init__(self, bus: can.BusABC, codec: FrameCodec | None = None, timeout_s: float = 5.0):
         self.bus = bus
@@ -220,7 +238,7 @@ class PilSession:
         for f in frames:
             self._send(f)
         self._send(self._tick())
-        expected = 4 if self.periods % 100 == 99 else 2
+        expected = len(self.codec.ecu_frames_due(self.periods))
         self.periods += 1
         got: list[can.Message] = []
         deadline = time.monotonic() + self.timeout_s

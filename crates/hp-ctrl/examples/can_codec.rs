@@ -62,8 +62,9 @@ fn table() -> String {
     let mut out = String::new();
     for kind in Kind::ALL {
         let d = kind.def();
-        out += &format!("msg {} {:#x} {:#x} {} {} {}\n", d.name, d.id, d.data_id, d.cycle_ms, d.timeout_ms, d.group);
-        for s in d.signals {
+        let t = d.timing;
+        out += &format!("msg {} {:#x} {:#x} {} {} {} {}\n", d.name, d.id, d.data_id, t.cycle_ms, t.start_delay_ms, d.timeout_ms, d.group);
+        for s in kind.signals() {
             let g = &s.signal;
             out += &format!(
                 "sig {} {} {} {} {} {:?} {:?} {} {} {}\n",
@@ -97,11 +98,11 @@ fn encode(args: &[&str]) -> Result<String, String> {
     for a in assignments {
         let (sig, value) = a.split_once('=').ok_or("expected SIGNAL=VALUE")?;
         let value: f64 = value.parse().map_err(|_| "bad value")?;
-        let s = def.signal(sig).ok_or_else(|| format!("unknown signal {sig}"))?;
+        let s = kind.signal(sig).ok_or_else(|| format!("unknown signal {sig}"))?;
         s.put(&mut payload, value).map_err(|_| "out_of_range")?;
         seen += 1;
     }
-    if seen != def.signals.len() {
+    if seen != kind.signals().len() {
         return Err("every signal needs a value".into());
     }
     let msg = can::read_payload(kind, &payload).map_err(|r| reason(r).to_string())?;
@@ -118,8 +119,9 @@ fn decode(frame: &CanFrame) -> String {
                 return "error re-encode".into();
             };
             let def = msg.kind().def();
-            let values: Vec<String> = def
-                .signals
+            let values: Vec<String> = msg
+                .kind()
+                .signals()
                 .iter()
                 .map(|s| format!("{}={:?}", s.name, s.signal.get(again.payload()).unwrap_or(f64::NAN)))
                 .collect();

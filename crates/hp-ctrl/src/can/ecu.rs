@@ -7,7 +7,7 @@
 
 use embedded_can::Frame;
 
-use super::messages::{Status, ValveCmd};
+use super::messages::{HeightCtrl, Kind, Motion, Status, ValveCmd};
 use super::{Accepted, CanFrame, InputDecoder, LinkParams, Message, Transmitter};
 use crate::{diag, Inputs, Outputs, Params, State};
 
@@ -15,8 +15,6 @@ use crate::{diag, Inputs, Outputs, Params, State};
 pub const PERIOD_S: f64 = 1e-3;
 /// Control period, us.
 pub const PERIOD_US: u32 = 1000;
-/// Diagnostics frames go out every this many periods (100 ms).
-pub const DIAG_EVERY: u32 = 100;
 
 /// A CAN link as the application sees it; never blocks.
 pub trait Link {
@@ -86,17 +84,33 @@ impl Ecu {
         control_step(self.params.as_ref(), &mut self.state, inputs)
     }
 
-    /// Third part: sends the valve command and status, and every
-    /// [`DIAG_EVERY`] periods the diagnostics.
+    /// Third part: sends the messages due in this period (DBC cycle time
+    /// and start delay, with period 0 at power-on), in [`Kind::ECU_TX`]
+    /// order: `HP_ValveCmd` and `HP_Status` every period, `HP_HeightCtrl`
+    /// and `HP_Motion` every 10th, the diagnostics every 100th.
     pub fn send<L: Link>(&mut self, link: &mut L, inputs: &Inputs, out: &Outputs) {
-        let index = self.step_index as u16; // StepIndex is the period modulo 65536.
-        self.emit(link, &Message::ValveCmd(ValveCmd::from_outputs(out, inputs.link_fault, index)));
-        self.emit(link, &Message::Status(Status::from_outputs(out)));
-        if self.step_index % DIAG_EVERY == DIAG_EVERY - 1 {
-            self.emit(link, &Message::DiagE2e(self.rx.diag_e2e()));
-            self.emit(link, &Message::DiagLink(self.rx.diag_link()));
+        for kind in Kind::ECU_TX {
+            if kind.def().timing.due(self.step_index) {
+                if let Some(msg) = self.message(kind, inputs, out) {
+                    self.emit(link, &msg);
+                }
+            }
         }
         self.step_index = self.step_index.wrapping_add(1);
+    }
+
+    /// The ECU's message `kind` for this period.
+    fn message(&self, kind: Kind, inputs: &Inputs, out: &Outputs) -> Option<Message> {
+        Some(match kind {
+            // StepIndex is the period modulo 65536.
+            Kind::ValveCmd => Message::ValveCmd(ValveCmd::from_outputs(out, inputs.link_fault, self.step_index as u16)),
+            Kind::Status => Message::Status(Status::from_outputs(out)),
+            Kind::HeightCtrl => Message::HeightCtrl(HeightCtrl::from_outputs(out)),
+            Kind::Motion => Message::Motion(Motion::from_outputs(out)),
+            Kind::DiagE2e => Message::DiagE2e(self.rx.diag_e2e()),
+            Kind::DiagLink => Message::DiagLink(self.rx.diag_link()),
+            _ => return None,
+        })
     }
 
     fn emit<L: Link>(&mut self, link: &mut L, msg: &Message) {

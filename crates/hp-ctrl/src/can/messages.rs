@@ -2,7 +2,7 @@
 //! and one typed struct per message.
 //!
 //! The DBC is the source of truth; this module mirrors it by hand and
-//! `tests/test_can_dbc.py` checks every number here against the DBC as
+//! `tests/test_can_codec.py` checks every number here against the DBC as
 //! `cantools` reads it.
 
 use super::signal::{EncodeError, Signal};
@@ -26,20 +26,60 @@ pub struct MessageDef {
     pub id: u16,
     /// E2E data ID (DBC attribute `E2E_DataID`).
     pub data_id: u16,
-    /// Send period, ms (DBC `GenMsgCycleTime`; 0 = event-driven).
-    pub cycle_ms: u16,
+    /// When it is sent (DBC `GenMsgCycleTime`, `GenMsgStartDelayTime`).
+    pub timing: Timing,
     /// Receive timeout, ms (DBC `E2E_TimeoutMs`; 0 = not supervised).
     pub timeout_ms: u16,
     /// Input group ([`input_group`]) the message feeds, 0 if none.
     pub group: u16,
-    /// The signals after the E2E header, in DBC order.
-    pub signals: &'static [SignalDef],
+    /// The payload bits (little-endian `u64`) of the E2E header and the
+    /// signals; every other bit must be zero.
+    pub defined_bits: u64,
 }
 
+/// When a message is sent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Timing {
+    /// Send period, ms (DBC `GenMsgCycleTime`; 0 = event-driven).
+    pub cycle_ms: u16,
+    /// First send, ms after start (DBC `GenMsgStartDelayTime`); then every
+    /// `cycle_ms`. Spreads the slower frames over the periods.
+    pub start_delay_ms: u16,
+}
+
+impl Timing {
+    const fn every(cycle_ms: u16, start_delay_ms: u16) -> Self {
+        Timing { cycle_ms, start_delay_ms }
+    }
+
+    /// True if a cyclic message is due in the 1 ms period `index` (from 0).
+    ///
+    /// ```
+    /// use hp_ctrl::can::messages::DIAG_E2E;
+    /// let due: Vec<u32> = (0..300).filter(|&k| DIAG_E2E.timing.due(k)).collect();
+    /// assert_eq!(due, [99, 199, 299]);
+    /// ```
+    pub fn due(&self, index: u32) -> bool {
+        let (cycle, delay) = (u32::from(self.cycle_ms), u32::from(self.start_delay_ms));
+        cycle != 0 && index >= delay && (index - delay).is_multiple_of(cycle)
+    }
+}
+
+/// Bits 0..=11 (CRC byte and counter nibble) of the E2E header.
+const HEADER_BITS: u64 = 0x0FFF;
+
 impl MessageDef {
-    /// The signal named `name` (DBC spelling).
-    pub fn signal(&self, name: &str) -> Option<&'static Signal> {
-        self.signals.iter().find(|s| s.name == name).map(|s| &s.signal)
+    #[allow(clippy::too_many_arguments)] // One argument per field of the DBC's BO_ line and attributes.
+    const fn new(kind: Kind, name: &'static str, id: u16, data_id: u16, timing: Timing, timeout_ms: u16, group: u16, signals: &[SignalDef]) -> Self {
+        let mut defined_bits = HEADER_BITS;
+        let mut rest = signals;
+        while let [first, tail @ ..] = rest {
+            let mask = first.signal.field_mask();
+            assert!(defined_bits & mask == 0, "signals overlap");
+            defined_bits |= mask;
+            rest = tail;
+        }
+        MessageDef { kind, name, id, data_id, timing, timeout_ms, group, defined_bits }
     }
 }
 
@@ -56,13 +96,15 @@ pub enum Kind {
     Driver,
     ValveCmd,
     Status,
+    HeightCtrl,
+    Motion,
     DiagE2e,
     DiagLink,
 }
 
 impl Kind {
     /// All kinds in identifier order.
-    pub const ALL: [Kind; 12] = [
+    pub const ALL: [Kind; 14] = [
         Kind::PilTick,
         Kind::Pressures,
         Kind::Strut,
@@ -73,6 +115,8 @@ impl Kind {
         Kind::Driver,
         Kind::ValveCmd,
         Kind::Status,
+        Kind::HeightCtrl,
+        Kind::Motion,
         Kind::DiagE2e,
         Kind::DiagLink,
     ];
@@ -89,8 +133,9 @@ impl Kind {
         Kind::Driver,
     ];
 
-    /// The messages the ECU sends, in the order of [`Kind::tx_index`].
-    pub const ECU_TX: [Kind; 4] = [Kind::ValveCmd, Kind::Status, Kind::DiagE2e, Kind::DiagLink];
+    /// The messages the ECU sends, in the order of [`Kind::tx_index`] and
+    /// of sending within a period.
+    pub const ECU_TX: [Kind; 6] = [Kind::ValveCmd, Kind::Status, Kind::HeightCtrl, Kind::Motion, Kind::DiagE2e, Kind::DiagLink];
 
     /// Position in [`Kind::ECU_RX`], if the ECU receives this message.
     pub fn rx_index(self) -> Option<usize> {
@@ -105,6 +150,33 @@ impl Kind {
     /// The message with CAN identifier `id`.
     pub fn from_id(id: u16) -> Option<Kind> {
         Kind::ALL.iter().copied().find(|k| k.def().id == id)
+    }
+
+    /// The signals after the E2E header, in DBC order, with their names
+    /// and units: for tools and tests (the codec reads and writes each
+    /// signal directly, so the firmware does not link this table).
+    pub fn signals(self) -> &'static [SignalDef] {
+        match self {
+            Kind::PilTick => PIL_TICK_SIGNALS,
+            Kind::Pressures => PRESSURES_SIGNALS,
+            Kind::Strut => STRUT_SIGNALS,
+            Kind::Body => BODY_SIGNALS,
+            Kind::Vehicle => VEHICLE_SIGNALS,
+            Kind::Steering => STEERING_SIGNALS,
+            Kind::Temperature => TEMPERATURE_SIGNALS,
+            Kind::Driver => DRIVER_SIGNALS,
+            Kind::ValveCmd => VALVE_CMD_SIGNALS,
+            Kind::Status => STATUS_SIGNALS,
+            Kind::HeightCtrl => HEIGHT_CTRL_SIGNALS,
+            Kind::Motion => MOTION_SIGNALS,
+            Kind::DiagE2e => DIAG_E2E_SIGNALS,
+            Kind::DiagLink => DIAG_LINK_SIGNALS,
+        }
+    }
+
+    /// The signal named `name` (DBC spelling).
+    pub fn signal(self, name: &str) -> Option<&'static Signal> {
+        self.signals().iter().find(|s| s.name == name).map(|s| &s.signal)
     }
 
     /// The message named `name` (DBC spelling).
@@ -125,6 +197,8 @@ impl Kind {
             Kind::Driver => &DRIVER,
             Kind::ValveCmd => &VALVE_CMD,
             Kind::Status => &STATUS,
+            Kind::HeightCtrl => &HEIGHT_CTRL,
+            Kind::Motion => &MOTION,
             Kind::DiagE2e => &DIAG_E2E,
             Kind::DiagLink => &DIAG_LINK,
         }
@@ -160,6 +234,10 @@ const LINK_FAULT_CMD: Signal = Signal::flag(24);
 const STEP_INDEX: Signal = Signal::uint(32, 16, 65535);
 const RIDE_HEIGHT: Signal = Signal::new(16, 16, true, 1e-5, 0.0, -30_000, 30_000);
 const DIAG: Signal = Signal::uint(32, 32, 4_294_967_295);
+const PRESSURE_LOAD: Signal = Signal::new(16, 24, false, 10.0, 0.0, 0, 12_000_000);
+const PRESSURE_LARGE_TARGET: Signal = Signal::new(40, 24, false, 10.0, 0.0, 0, 12_000_000);
+const STRUT_VEL: Signal = Signal::new(16, 16, true, 0.0005, 0.0, -20_000, 20_000);
+const BODY_VEL: Signal = Signal::new(32, 16, true, 0.0005, 0.0, -20_000, 20_000);
 const REJECT_CRC: Signal = Signal::uint(16, 8, 255);
 const REJECT_LENGTH: Signal = Signal::uint(24, 8, 255);
 const REJECT_UNKNOWN_ID: Signal = Signal::uint(32, 8, 255);
@@ -171,152 +249,188 @@ const STALE_GROUPS: Signal = Signal::uint(24, 7, 127);
 const LINK_FAULT_DIAG: Signal = Signal::flag(31);
 const WINDOW_REJECTS: Signal = Signal::uint(32, 8, 255);
 
-pub const PIL_TICK: MessageDef = MessageDef {
-    kind: Kind::PilTick,
-    name: "HP_PilTick",
-    id: 0x050,
-    data_id: 0x0A0F,
-    cycle_ms: 0,
-    timeout_ms: 0,
-    group: 0,
-    signals: &[sig("TickIndex", "", TICK_INDEX)],
-};
-pub const PRESSURES: MessageDef = MessageDef {
-    kind: Kind::Pressures,
-    name: "HP_Pressures",
-    id: 0x100,
-    data_id: 0x0A01,
-    cycle_ms: 1,
-    timeout_ms: 10,
-    group: input_group::PRESSURES,
-    signals: &[sig("PressureSmall", "Pa", PRESSURE_SMALL), sig("PressureLarge", "Pa", PRESSURE_LARGE)],
-};
-pub const STRUT: MessageDef = MessageDef {
-    kind: Kind::Strut,
-    name: "HP_Strut",
-    id: 0x101,
-    data_id: 0x0A02,
-    cycle_ms: 1,
-    timeout_ms: 10,
-    group: input_group::STRUT,
-    signals: &[sig("StrutDisp", "m", STRUT_DISP)],
-};
-pub const BODY: MessageDef = MessageDef {
-    kind: Kind::Body,
-    name: "HP_Body",
-    id: 0x102,
-    data_id: 0x0A03,
-    cycle_ms: 1,
-    timeout_ms: 10,
-    group: input_group::BODY,
-    signals: &[sig("BodyAcc", "m/s^2", BODY_ACC)],
-};
-pub const VEHICLE: MessageDef = MessageDef {
-    kind: Kind::Vehicle,
-    name: "HP_Vehicle",
-    id: 0x110,
-    data_id: 0x0A04,
-    cycle_ms: 10,
-    timeout_ms: 50,
-    group: input_group::VEHICLE,
-    signals: &[
-        sig("VehicleSpeed", "m/s", VEHICLE_SPEED),
-        sig("BrakePressed", "", BRAKE_PRESSED),
-        sig("LatAcc", "m/s^2", LAT_ACC),
-        sig("LongAcc", "m/s^2", LONG_ACC),
-    ],
-};
-pub const STEERING: MessageDef = MessageDef {
-    kind: Kind::Steering,
-    name: "HP_Steering",
-    id: 0x111,
-    data_id: 0x0A05,
-    cycle_ms: 10,
-    timeout_ms: 50,
-    group: input_group::STEERING,
-    signals: &[sig("SteerAngle", "rad", STEER_ANGLE), sig("SteerRate", "rad/s", STEER_RATE)],
-};
-pub const TEMPERATURE: MessageDef = MessageDef {
-    kind: Kind::Temperature,
-    name: "HP_Temperature",
-    id: 0x120,
-    data_id: 0x0A06,
-    cycle_ms: 100,
-    timeout_ms: 500,
-    group: input_group::TEMPERATURE,
-    signals: &[sig("GasTemp", "K", GAS_TEMP)],
-};
-pub const DRIVER: MessageDef = MessageDef {
-    kind: Kind::Driver,
-    name: "HP_Driver",
-    id: 0x130,
-    data_id: 0x0A07,
-    cycle_ms: 100,
-    timeout_ms: 500,
-    group: input_group::DRIVER,
-    signals: &[sig("DriverMode", "", DRIVER_MODE), sig("RideHeightRequest", "m", RIDE_HEIGHT_REQUEST)],
-};
-pub const VALVE_CMD: MessageDef = MessageDef {
-    kind: Kind::ValveCmd,
-    name: "HP_ValveCmd",
-    id: 0x200,
-    data_id: 0x0B01,
-    cycle_ms: 1,
-    timeout_ms: 10,
-    group: 0,
-    signals: &[
-        sig("Valve5Open", "", VALVE5_OPEN),
-        sig("Valve6Open", "", VALVE6_OPEN),
-        sig("DriveMode", "", DRIVE_MODE),
-        sig("SpringMode", "", SPRING_MODE),
-        sig("DamperMode", "", DAMPER_MODE),
-        sig("Sequencer", "", SEQUENCER),
-        sig("LinkFault", "", LINK_FAULT_CMD),
-        sig("StepIndex", "", STEP_INDEX),
-    ],
-};
-pub const STATUS: MessageDef = MessageDef {
-    kind: Kind::Status,
-    name: "HP_Status",
-    id: 0x210,
-    data_id: 0x0B02,
-    cycle_ms: 1,
-    timeout_ms: 10,
-    group: 0,
-    signals: &[sig("RideHeight", "m", RIDE_HEIGHT), sig("Diag", "", DIAG)],
-};
-pub const DIAG_E2E: MessageDef = MessageDef {
-    kind: Kind::DiagE2e,
-    name: "HP_DiagE2E",
-    id: 0x220,
-    data_id: 0x0B03,
-    cycle_ms: 100,
-    timeout_ms: 500,
-    group: 0,
-    signals: &[
-        sig("RejectCrc", "", REJECT_CRC),
-        sig("RejectLength", "", REJECT_LENGTH),
-        sig("RejectUnknownId", "", REJECT_UNKNOWN_ID),
-        sig("RejectRepeated", "", REJECT_REPEATED),
-        sig("RejectSkipped", "", REJECT_SKIPPED),
-        sig("RejectRange", "", REJECT_RANGE),
-    ],
-};
-pub const DIAG_LINK: MessageDef = MessageDef {
-    kind: Kind::DiagLink,
-    name: "HP_DiagLink",
-    id: 0x221,
-    data_id: 0x0B04,
-    cycle_ms: 100,
-    timeout_ms: 500,
-    group: 0,
-    signals: &[
-        sig("TimeoutCount", "", TIMEOUT_COUNT),
-        sig("StaleGroups", "", STALE_GROUPS),
-        sig("LinkFault", "", LINK_FAULT_DIAG),
-        sig("WindowRejects", "", WINDOW_REJECTS),
-    ],
-};
+// The signals of each message, in DBC order.
+const PIL_TICK_SIGNALS: &[SignalDef] = &[sig("TickIndex", "", TICK_INDEX)];
+const PRESSURES_SIGNALS: &[SignalDef] = &[sig("PressureSmall", "Pa", PRESSURE_SMALL), sig("PressureLarge", "Pa", PRESSURE_LARGE)];
+const STRUT_SIGNALS: &[SignalDef] = &[sig("StrutDisp", "m", STRUT_DISP)];
+const BODY_SIGNALS: &[SignalDef] = &[sig("BodyAcc", "m/s^2", BODY_ACC)];
+const VEHICLE_SIGNALS: &[SignalDef] = &[
+    sig("VehicleSpeed", "m/s", VEHICLE_SPEED),
+    sig("BrakePressed", "", BRAKE_PRESSED),
+    sig("LatAcc", "m/s^2", LAT_ACC),
+    sig("LongAcc", "m/s^2", LONG_ACC),
+];
+const STEERING_SIGNALS: &[SignalDef] = &[sig("SteerAngle", "rad", STEER_ANGLE), sig("SteerRate", "rad/s", STEER_RATE)];
+const TEMPERATURE_SIGNALS: &[SignalDef] = &[sig("GasTemp", "K", GAS_TEMP)];
+const DRIVER_SIGNALS: &[SignalDef] = &[sig("DriverMode", "", DRIVER_MODE), sig("RideHeightRequest", "m", RIDE_HEIGHT_REQUEST)];
+const VALVE_CMD_SIGNALS: &[SignalDef] = &[
+    sig("Valve5Open", "", VALVE5_OPEN),
+    sig("Valve6Open", "", VALVE6_OPEN),
+    sig("DriveMode", "", DRIVE_MODE),
+    sig("SpringMode", "", SPRING_MODE),
+    sig("DamperMode", "", DAMPER_MODE),
+    sig("Sequencer", "", SEQUENCER),
+    sig("LinkFault", "", LINK_FAULT_CMD),
+    sig("StepIndex", "", STEP_INDEX),
+];
+const STATUS_SIGNALS: &[SignalDef] = &[sig("RideHeight", "m", RIDE_HEIGHT), sig("Diag", "", DIAG)];
+const HEIGHT_CTRL_SIGNALS: &[SignalDef] = &[sig("PressureLoad", "Pa", PRESSURE_LOAD), sig("PressureLargeTarget", "Pa", PRESSURE_LARGE_TARGET)];
+const MOTION_SIGNALS: &[SignalDef] = &[sig("StrutVel", "m/s", STRUT_VEL), sig("BodyVel", "m/s", BODY_VEL)];
+const DIAG_E2E_SIGNALS: &[SignalDef] = &[
+    sig("RejectCrc", "", REJECT_CRC),
+    sig("RejectLength", "", REJECT_LENGTH),
+    sig("RejectUnknownId", "", REJECT_UNKNOWN_ID),
+    sig("RejectRepeated", "", REJECT_REPEATED),
+    sig("RejectSkipped", "", REJECT_SKIPPED),
+    sig("RejectRange", "", REJECT_RANGE),
+];
+const DIAG_LINK_SIGNALS: &[SignalDef] = &[
+    sig("TimeoutCount", "", TIMEOUT_COUNT),
+    sig("StaleGroups", "", STALE_GROUPS),
+    sig("LinkFault", "", LINK_FAULT_DIAG),
+    sig("WindowRejects", "", WINDOW_REJECTS),
+];
+
+pub const PIL_TICK: MessageDef = MessageDef::new(
+    Kind::PilTick,
+    "HP_PilTick",
+    0x050,
+    0x0A0F,
+    Timing::every(0, 0),
+    0,
+    0,
+    PIL_TICK_SIGNALS,
+);
+pub const PRESSURES: MessageDef = MessageDef::new(
+    Kind::Pressures,
+    "HP_Pressures",
+    0x100,
+    0x0A01,
+    Timing::every(1, 0),
+    10,
+    input_group::PRESSURES,
+    PRESSURES_SIGNALS,
+);
+pub const STRUT: MessageDef = MessageDef::new(
+    Kind::Strut,
+    "HP_Strut",
+    0x101,
+    0x0A02,
+    Timing::every(1, 0),
+    10,
+    input_group::STRUT,
+    STRUT_SIGNALS,
+);
+pub const BODY: MessageDef = MessageDef::new(
+    Kind::Body,
+    "HP_Body",
+    0x102,
+    0x0A03,
+    Timing::every(1, 0),
+    10,
+    input_group::BODY,
+    BODY_SIGNALS,
+);
+pub const VEHICLE: MessageDef = MessageDef::new(
+    Kind::Vehicle,
+    "HP_Vehicle",
+    0x110,
+    0x0A04,
+    Timing::every(10, 0),
+    50,
+    input_group::VEHICLE,
+    VEHICLE_SIGNALS,
+);
+pub const STEERING: MessageDef = MessageDef::new(
+    Kind::Steering,
+    "HP_Steering",
+    0x111,
+    0x0A05,
+    Timing::every(10, 0),
+    50,
+    input_group::STEERING,
+    STEERING_SIGNALS,
+);
+pub const TEMPERATURE: MessageDef = MessageDef::new(
+    Kind::Temperature,
+    "HP_Temperature",
+    0x120,
+    0x0A06,
+    Timing::every(100, 0),
+    500,
+    input_group::TEMPERATURE,
+    TEMPERATURE_SIGNALS,
+);
+pub const DRIVER: MessageDef = MessageDef::new(
+    Kind::Driver,
+    "HP_Driver",
+    0x130,
+    0x0A07,
+    Timing::every(100, 0),
+    500,
+    input_group::DRIVER,
+    DRIVER_SIGNALS,
+);
+pub const VALVE_CMD: MessageDef = MessageDef::new(
+    Kind::ValveCmd,
+    "HP_ValveCmd",
+    0x200,
+    0x0B01,
+    Timing::every(1, 0),
+    10,
+    0,
+    VALVE_CMD_SIGNALS,
+);
+pub const STATUS: MessageDef = MessageDef::new(
+    Kind::Status,
+    "HP_Status",
+    0x210,
+    0x0B02,
+    Timing::every(1, 0),
+    10,
+    0,
+    STATUS_SIGNALS,
+);
+pub const HEIGHT_CTRL: MessageDef = MessageDef::new(
+    Kind::HeightCtrl,
+    "HP_HeightCtrl",
+    0x211,
+    0x0B05,
+    Timing::every(10, 3),
+    50,
+    0,
+    HEIGHT_CTRL_SIGNALS,
+);
+pub const MOTION: MessageDef = MessageDef::new(
+    Kind::Motion,
+    "HP_Motion",
+    0x212,
+    0x0B06,
+    Timing::every(10, 6),
+    50,
+    0,
+    MOTION_SIGNALS,
+);
+pub const DIAG_E2E: MessageDef = MessageDef::new(
+    Kind::DiagE2e,
+    "HP_DiagE2E",
+    0x220,
+    0x0B03,
+    Timing::every(100, 99),
+    500,
+    0,
+    DIAG_E2E_SIGNALS,
+);
+pub const DIAG_LINK: MessageDef = MessageDef::new(
+    Kind::DiagLink,
+    "HP_DiagLink",
+    0x221,
+    0x0B04,
+    Timing::every(100, 99),
+    500,
+    0,
+    DIAG_LINK_SIGNALS,
+);
 
 /// `HP_PilTick`: one lock-step control period (emulator only).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -393,6 +507,25 @@ pub struct Status {
     pub diag: u32,
 }
 
+/// `HP_HeightCtrl`: the ride-height control's reference pressures.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HeightCtrl {
+    /// Estimated static load pressure (`Outputs::p_load_pa`).
+    pub p_load_pa: f64,
+    /// Pressure in L that holds the requested height
+    /// (`Outputs::p_large_target_pa`).
+    pub p_large_target_pa: f64,
+}
+
+/// `HP_Motion`: the velocity estimates of the skyhook law.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Motion {
+    /// Strut compression rate, positive = compressing.
+    pub strut_vel_m_s: f64,
+    /// Body vertical velocity, positive = up.
+    pub body_vel_m_s: f64,
+}
+
 /// `HP_DiagE2E`: rejected frames per reason since start, saturating.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DiagE2e {
@@ -429,20 +562,22 @@ pub enum Message {
     Driver(Driver),
     ValveCmd(ValveCmd),
     Status(Status),
+    HeightCtrl(HeightCtrl),
+    Motion(Motion),
     DiagE2e(DiagE2e),
     DiagLink(DiagLink),
 }
 
-fn flag(s: &Signal, p: &[u8; 8]) -> Option<bool> {
-    s.checked_raw(p).map(|raw| raw != 0)
+fn flag(s: &Signal, w: u64) -> Option<bool> {
+    s.checked_raw_in(w).map(|raw| raw != 0)
 }
 
-fn uint(s: &Signal, p: &[u8; 8]) -> Option<u32> {
-    s.checked_raw(p).and_then(|raw| u32::try_from(raw).ok())
+fn uint(s: &Signal, w: u64) -> Option<u32> {
+    s.checked_raw_in(w).and_then(|raw| u32::try_from(raw).ok())
 }
 
-fn small(s: &Signal, p: &[u8; 8]) -> Option<u8> {
-    s.checked_raw(p).and_then(|raw| u8::try_from(raw).ok())
+fn small(s: &Signal, w: u64) -> Option<u8> {
+    s.checked_raw_in(w).and_then(|raw| u8::try_from(raw).ok())
 }
 
 impl Message {
@@ -459,106 +594,108 @@ impl Message {
             Message::Driver(_) => Kind::Driver,
             Message::ValveCmd(_) => Kind::ValveCmd,
             Message::Status(_) => Kind::Status,
+            Message::HeightCtrl(_) => Kind::HeightCtrl,
+            Message::Motion(_) => Kind::Motion,
             Message::DiagE2e(_) => Kind::DiagE2e,
             Message::DiagLink(_) => Kind::DiagLink,
         }
     }
 
-    /// Writes the signals into bytes 2..=7 of `p` (the E2E header is not
-    /// touched). Fails on a NaN, infinite or out-of-range value.
+    /// Writes the signals into bytes 2..=7 of `p` (the E2E header, bytes
+    /// 0 and 1, is not touched). Fails on a NaN, infinite or out-of-range
+    /// value.
     pub fn write(&self, p: &mut [u8; 8]) -> Result<(), EncodeError> {
-        match self {
-            Message::PilTick(m) => TICK_INDEX.put_uint(p, u32::from(m.index)),
-            Message::Pressures(m) => {
-                PRESSURE_SMALL.put(p, m.p_small_pa)?;
-                PRESSURE_LARGE.put(p, m.p_large_pa)
-            }
-            Message::Strut(m) => STRUT_DISP.put(p, m.disp_m),
-            Message::Body(m) => BODY_ACC.put(p, m.acc_m_s2),
+        let header = u64::from_le_bytes(*p) & 0xFFFF;
+        *p = (header | self.signal_bits()?).to_le_bytes();
+        Ok(())
+    }
+
+    /// The signals as the payload's bits (a little-endian `u64`, header
+    /// bits zero).
+    pub fn signal_bits(&self) -> Result<u64, EncodeError> {
+        Ok(match self {
+            Message::PilTick(m) => TICK_INDEX.uint_bits(u32::from(m.index))?,
+            Message::Pressures(m) => PRESSURE_SMALL.bits_of(m.p_small_pa)? | PRESSURE_LARGE.bits_of(m.p_large_pa)?,
+            Message::Strut(m) => STRUT_DISP.bits_of(m.disp_m)?,
+            Message::Body(m) => BODY_ACC.bits_of(m.acc_m_s2)?,
             Message::Vehicle(m) => {
-                VEHICLE_SPEED.put(p, m.speed_m_s)?;
-                BRAKE_PRESSED.put_flag(p, m.brake_pressed);
-                LAT_ACC.put(p, m.lat_acc_m_s2)?;
-                LONG_ACC.put(p, m.long_acc_m_s2)
+                VEHICLE_SPEED.bits_of(m.speed_m_s)?
+                    | BRAKE_PRESSED.flag_bits(m.brake_pressed)
+                    | LAT_ACC.bits_of(m.lat_acc_m_s2)?
+                    | LONG_ACC.bits_of(m.long_acc_m_s2)?
             }
-            Message::Steering(m) => {
-                STEER_ANGLE.put(p, m.angle_rad)?;
-                STEER_RATE.put(p, m.rate_rad_s)
-            }
-            Message::Temperature(m) => GAS_TEMP.put(p, m.t_gas_k),
-            Message::Driver(m) => {
-                DRIVER_MODE.put_uint(p, m.mode as u32)?;
-                RIDE_HEIGHT_REQUEST.put(p, m.ride_height_request_m)
-            }
+            Message::Steering(m) => STEER_ANGLE.bits_of(m.angle_rad)? | STEER_RATE.bits_of(m.rate_rad_s)?,
+            Message::Temperature(m) => GAS_TEMP.bits_of(m.t_gas_k)?,
+            Message::Driver(m) => DRIVER_MODE.uint_bits(m.mode as u32)? | RIDE_HEIGHT_REQUEST.bits_of(m.ride_height_request_m)?,
             Message::ValveCmd(m) => {
-                VALVE5_OPEN.put_flag(p, m.valve5_open);
-                VALVE6_OPEN.put_flag(p, m.valve6_open);
-                DRIVE_MODE.put_uint(p, m.drive_mode as u32)?;
-                SPRING_MODE.put_uint(p, m.spring_mode as u32)?;
-                DAMPER_MODE.put_uint(p, m.damper_mode as u32)?;
-                SEQUENCER.put_uint(p, m.sequencer as u32)?;
-                LINK_FAULT_CMD.put_flag(p, m.link_fault);
-                STEP_INDEX.put_uint(p, u32::from(m.step_index))
+                VALVE5_OPEN.flag_bits(m.valve5_open)
+                    | VALVE6_OPEN.flag_bits(m.valve6_open)
+                    | DRIVE_MODE.uint_bits(m.drive_mode as u32)?
+                    | SPRING_MODE.uint_bits(m.spring_mode as u32)?
+                    | DAMPER_MODE.uint_bits(m.damper_mode as u32)?
+                    | SEQUENCER.uint_bits(m.sequencer as u32)?
+                    | LINK_FAULT_CMD.flag_bits(m.link_fault)
+                    | STEP_INDEX.uint_bits(u32::from(m.step_index))?
             }
-            Message::Status(m) => {
-                RIDE_HEIGHT.put(p, m.ride_height_m)?;
-                DIAG.put_uint(p, m.diag)
-            }
+            Message::Status(m) => RIDE_HEIGHT.bits_of(m.ride_height_m)? | DIAG.uint_bits(m.diag)?,
+            Message::HeightCtrl(m) => PRESSURE_LOAD.bits_of(m.p_load_pa)? | PRESSURE_LARGE_TARGET.bits_of(m.p_large_target_pa)?,
+            Message::Motion(m) => STRUT_VEL.bits_of(m.strut_vel_m_s)? | BODY_VEL.bits_of(m.body_vel_m_s)?,
             Message::DiagE2e(m) => {
-                REJECT_CRC.put_uint(p, u32::from(m.crc))?;
-                REJECT_LENGTH.put_uint(p, u32::from(m.length))?;
-                REJECT_UNKNOWN_ID.put_uint(p, u32::from(m.unknown_id))?;
-                REJECT_REPEATED.put_uint(p, u32::from(m.repeated))?;
-                REJECT_SKIPPED.put_uint(p, u32::from(m.skipped))?;
-                REJECT_RANGE.put_uint(p, u32::from(m.range))
+                REJECT_CRC.uint_bits(u32::from(m.crc))?
+                    | REJECT_LENGTH.uint_bits(u32::from(m.length))?
+                    | REJECT_UNKNOWN_ID.uint_bits(u32::from(m.unknown_id))?
+                    | REJECT_REPEATED.uint_bits(u32::from(m.repeated))?
+                    | REJECT_SKIPPED.uint_bits(u32::from(m.skipped))?
+                    | REJECT_RANGE.uint_bits(u32::from(m.range))?
             }
             Message::DiagLink(m) => {
-                TIMEOUT_COUNT.put_uint(p, u32::from(m.timeout_count))?;
-                STALE_GROUPS.put_uint(p, u32::from(m.stale_groups))?;
-                LINK_FAULT_DIAG.put_flag(p, m.link_fault);
-                WINDOW_REJECTS.put_uint(p, u32::from(m.window_rejects))
+                TIMEOUT_COUNT.uint_bits(u32::from(m.timeout_count))?
+                    | STALE_GROUPS.uint_bits(u32::from(m.stale_groups))?
+                    | LINK_FAULT_DIAG.flag_bits(m.link_fault)
+                    | WINDOW_REJECTS.uint_bits(u32::from(m.window_rejects))?
             }
-        }
+        })
     }
 
     /// Reads the signals of a `kind` message from `p`; `None` if any signal
     /// is outside its DBC range (the E2E header is not looked at).
     pub fn read(kind: Kind, p: &[u8; 8]) -> Option<Message> {
+        let w = u64::from_le_bytes(*p);
         Some(match kind {
-            Kind::PilTick => Message::PilTick(PilTick { index: u16::try_from(uint(&TICK_INDEX, p)?).ok()? }),
+            Kind::PilTick => Message::PilTick(PilTick { index: u16::try_from(uint(&TICK_INDEX, w)?).ok()? }),
             Kind::Pressures => Message::Pressures(Pressures {
-                p_small_pa: PRESSURE_SMALL.get(p)?,
-                p_large_pa: PRESSURE_LARGE.get(p)?,
+                p_small_pa: PRESSURE_SMALL.value_in(w)?,
+                p_large_pa: PRESSURE_LARGE.value_in(w)?,
             }),
-            Kind::Strut => Message::Strut(Strut { disp_m: STRUT_DISP.get(p)? }),
-            Kind::Body => Message::Body(Body { acc_m_s2: BODY_ACC.get(p)? }),
+            Kind::Strut => Message::Strut(Strut { disp_m: STRUT_DISP.value_in(w)? }),
+            Kind::Body => Message::Body(Body { acc_m_s2: BODY_ACC.value_in(w)? }),
             Kind::Vehicle => Message::Vehicle(Vehicle {
-                speed_m_s: VEHICLE_SPEED.get(p)?,
-                brake_pressed: flag(&BRAKE_PRESSED, p)?,
-                lat_acc_m_s2: LAT_ACC.get(p)?,
-                long_acc_m_s2: LONG_ACC.get(p)?,
+                speed_m_s: VEHICLE_SPEED.value_in(w)?,
+                brake_pressed: flag(&BRAKE_PRESSED, w)?,
+                lat_acc_m_s2: LAT_ACC.value_in(w)?,
+                long_acc_m_s2: LONG_ACC.value_in(w)?,
             }),
             Kind::Steering => Message::Steering(Steering {
-                angle_rad: STEER_ANGLE.get(p)?,
-                rate_rad_s: STEER_RATE.get(p)?,
+                angle_rad: STEER_ANGLE.value_in(w)?,
+                rate_rad_s: STEER_RATE.value_in(w)?,
             }),
-            Kind::Temperature => Message::Temperature(Temperature { t_gas_k: GAS_TEMP.get(p)? }),
+            Kind::Temperature => Message::Temperature(Temperature { t_gas_k: GAS_TEMP.value_in(w)? }),
             Kind::Driver => Message::Driver(Driver {
-                mode: match uint(&DRIVER_MODE, p)? {
+                mode: match uint(&DRIVER_MODE, w)? {
                     0 => DriverMode::Auto,
                     1 => DriverMode::Comfort,
                     2 => DriverMode::Sport,
                     _ => return None,
                 },
-                ride_height_request_m: RIDE_HEIGHT_REQUEST.get(p)?,
+                ride_height_request_m: RIDE_HEIGHT_REQUEST.value_in(w)?,
             }),
             Kind::ValveCmd => Message::ValveCmd(ValveCmd {
-                valve5_open: flag(&VALVE5_OPEN, p)?,
-                valve6_open: flag(&VALVE6_OPEN, p)?,
-                drive_mode: if flag(&DRIVE_MODE, p)? { DriveMode::Handling } else { DriveMode::Ride },
-                spring_mode: if flag(&SPRING_MODE, p)? { SpringMode::Soft } else { SpringMode::Hard },
-                damper_mode: if flag(&DAMPER_MODE, p)? { DamperMode::Low } else { DamperMode::High },
-                sequencer: match uint(&SEQUENCER, p)? {
+                valve5_open: flag(&VALVE5_OPEN, w)?,
+                valve6_open: flag(&VALVE6_OPEN, w)?,
+                drive_mode: if flag(&DRIVE_MODE, w)? { DriveMode::Handling } else { DriveMode::Ride },
+                spring_mode: if flag(&SPRING_MODE, w)? { SpringMode::Soft } else { SpringMode::Hard },
+                damper_mode: if flag(&DAMPER_MODE, w)? { DamperMode::Low } else { DamperMode::High },
+                sequencer: match uint(&SEQUENCER, w)? {
                     0 => SequencerState::Idle,
                     1 => SequencerState::Lowering,
                     2 => SequencerState::Raising,
@@ -566,23 +703,28 @@ impl Message {
                     4 => SequencerState::Blocked,
                     _ => return None,
                 },
-                link_fault: flag(&LINK_FAULT_CMD, p)?,
-                step_index: u16::try_from(uint(&STEP_INDEX, p)?).ok()?,
+                link_fault: flag(&LINK_FAULT_CMD, w)?,
+                step_index: u16::try_from(uint(&STEP_INDEX, w)?).ok()?,
             }),
-            Kind::Status => Message::Status(Status { ride_height_m: RIDE_HEIGHT.get(p)?, diag: uint(&DIAG, p)? }),
+            Kind::Status => Message::Status(Status { ride_height_m: RIDE_HEIGHT.value_in(w)?, diag: uint(&DIAG, w)? }),
+            Kind::HeightCtrl => Message::HeightCtrl(HeightCtrl {
+                p_load_pa: PRESSURE_LOAD.value_in(w)?,
+                p_large_target_pa: PRESSURE_LARGE_TARGET.value_in(w)?,
+            }),
+            Kind::Motion => Message::Motion(Motion { strut_vel_m_s: STRUT_VEL.value_in(w)?, body_vel_m_s: BODY_VEL.value_in(w)? }),
             Kind::DiagE2e => Message::DiagE2e(DiagE2e {
-                crc: small(&REJECT_CRC, p)?,
-                length: small(&REJECT_LENGTH, p)?,
-                unknown_id: small(&REJECT_UNKNOWN_ID, p)?,
-                repeated: small(&REJECT_REPEATED, p)?,
-                skipped: small(&REJECT_SKIPPED, p)?,
-                range: small(&REJECT_RANGE, p)?,
+                crc: small(&REJECT_CRC, w)?,
+                length: small(&REJECT_LENGTH, w)?,
+                unknown_id: small(&REJECT_UNKNOWN_ID, w)?,
+                repeated: small(&REJECT_REPEATED, w)?,
+                skipped: small(&REJECT_SKIPPED, w)?,
+                range: small(&REJECT_RANGE, w)?,
             }),
             Kind::DiagLink => Message::DiagLink(DiagLink {
-                timeout_count: small(&TIMEOUT_COUNT, p)?,
-                stale_groups: small(&STALE_GROUPS, p)?,
-                link_fault: flag(&LINK_FAULT_DIAG, p)?,
-                window_rejects: small(&WINDOW_REJECTS, p)?,
+                timeout_count: small(&TIMEOUT_COUNT, w)?,
+                stale_groups: small(&STALE_GROUPS, w)?,
+                link_fault: flag(&LINK_FAULT_DIAG, w)?,
+                window_rejects: small(&WINDOW_REJECTS, w)?,
             }),
         })
     }

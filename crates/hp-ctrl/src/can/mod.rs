@@ -64,23 +64,11 @@ pub enum Reject {
     Range,
 }
 
-/// Bits 0..=11 (CRC byte and counter nibble) of the E2E header.
-const HEADER_MASK: u64 = 0x0FFF;
-
-/// The bits of the payload that the DBC defines for `def` (header and
-/// signals); every other bit must be zero.
-fn defined_bits(def: &MessageDef) -> u64 {
-    def.signals
-        .iter()
-        .fold(HEADER_MASK, |m, s| m | (((1u64 << s.signal.bit_len) - 1) << s.signal.start_bit))
-}
-
 /// Encodes `msg` with alive counter `counter` (taken modulo 15) into a
 /// protected frame.
 pub fn encode(msg: &Message, counter: u8) -> Result<CanFrame, EncodeError> {
     let def = msg.kind().def();
-    let mut payload = [0u8; 8];
-    msg.write(&mut payload)?;
+    let mut payload = msg.signal_bits()?.to_le_bytes();
     e2e::protect(&mut payload, def.data_id, counter);
     let id = StandardId::new(def.id).ok_or(EncodeError::OutOfRange)?;
     Ok(CanFrame::standard(id, payload))
@@ -111,7 +99,7 @@ pub fn check_frame<F: Frame>(frame: &F) -> Result<(Kind, [u8; 8], u8), Reject> {
 /// Reads the signals of a checked payload: rejects set reserved or unused
 /// bits and out-of-range values.
 pub fn read_payload(kind: Kind, payload: &[u8; 8]) -> Result<Message, Reject> {
-    if u64::from_le_bytes(*payload) & !defined_bits(kind.def()) != 0 {
+    if u64::from_le_bytes(*payload) & !kind.def().defined_bits != 0 {
         return Err(Reject::Range);
     }
     Message::read(kind, payload).ok_or(Reject::Range)

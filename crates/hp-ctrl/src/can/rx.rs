@@ -168,9 +168,12 @@ impl InputDecoder {
                 i.ride_height_request_m = m.ride_height_request_m;
             }
             // Not in ECU_RX, so rx_index() already refused them.
-            Message::ValveCmd(_) | Message::Status(_) | Message::DiagE2e(_) | Message::DiagLink(_) => {
-                return Err(Reject::UnknownId)
-            }
+            Message::ValveCmd(_)
+            | Message::Status(_)
+            | Message::HeightCtrl(_)
+            | Message::Motion(_)
+            | Message::DiagE2e(_)
+            | Message::DiagLink(_) => return Err(Reject::UnknownId),
         }
         Ok(Accepted::Input(group))
     }

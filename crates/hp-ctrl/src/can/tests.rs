@@ -70,8 +70,7 @@ fn in_range(s: &signal::Signal, t: f64) -> f64 {
 #[test]
 fn every_signal_round_trips_at_its_range_edges() {
     for kind in Kind::ALL {
-        let def = kind.def();
-        for sd in def.signals {
+        for sd in kind.signals() {
             let s = &sd.signal;
             for t in [0.0, 1.0, 0.5] {
                 let x = in_range(s, t);
@@ -148,8 +147,10 @@ fn typed_fields_land_in_the_named_signals() {
             step_index: 54321,
         }),
         Message::Status(Status { ride_height_m: -0.1234, diag: 0xDEAD_BEEF }),
+        Message::HeightCtrl(HeightCtrl { p_load_pa: 14_810_000.0, p_large_target_pa: 16_330_010.0 }),
+        Message::Motion(Motion { strut_vel_m_s: -0.7315, body_vel_m_s: 0.0425 }),
     ];
-    let expected: [&[(&str, f64)]; 6] = [
+    let expected: [&[(&str, f64)]; 8] = [
         &[("PressureSmall", 1.234e7), ("PressureLarge", 9.87e6)],
         &[("VehicleSpeed", 12.34), ("BrakePressed", 1.0), ("LatAcc", -2.5), ("LongAcc", 3.25)],
         &[("SteerAngle", -1.5), ("SteerRate", 2.75)],
@@ -165,11 +166,13 @@ fn typed_fields_land_in_the_named_signals() {
             ("StepIndex", 54321.0),
         ],
         &[("RideHeight", -0.1234), ("Diag", 3735928559.0)],
+        &[("PressureLoad", 14_810_000.0), ("PressureLargeTarget", 16_330_010.0)],
+        &[("StrutVel", -0.7315), ("BodyVel", 0.0425)],
     ];
     for (msg, signals) in msgs.iter().zip(expected) {
         let f = encode(msg, 0).unwrap();
         for (name, value) in signals {
-            let s = msg.kind().def().signal(name).unwrap();
+            let s = msg.kind().signal(name).unwrap();
             let got = s.get(f.payload()).unwrap();
             assert!((got - value).abs() <= s.factor * 0.5 + 1e-12, "{name}: {got} vs {value}");
         }
@@ -322,11 +325,68 @@ fn status_clamps_and_zeroes_bad_ride_height() {
     }
 }
 
+#[test]
+fn height_ctrl_and_motion_limit_and_zero_bad_values() {
+    let out = |p: f64, v: f64| crate::Outputs {
+        p_load_pa: p,
+        p_large_target_pa: -p,
+        strut_vel_m_s: v,
+        body_vel_m_s: -v,
+        ..Default::default()
+    };
+    for (p, v, expect) in [
+        (f64::NAN, f64::NAN, (0.0, 0.0, 0.0, 0.0)),
+        (f64::INFINITY, f64::NEG_INFINITY, (0.0, 0.0, 0.0, 0.0)),
+        (2e8, 12.0, (1.2e8, 0.0, 10.0, -10.0)),
+        (1.5e7, -0.25, (1.5e7, 0.0, -0.25, 0.25)),
+    ] {
+        let h = HeightCtrl::from_outputs(&out(p, v));
+        let m = Motion::from_outputs(&out(p, v));
+        assert_eq!((h.p_load_pa, h.p_large_target_pa, m.strut_vel_m_s, m.body_vel_m_s), expect, "{p} {v}");
+        assert!(encode(&Message::HeightCtrl(h), 0).is_ok() && encode(&Message::Motion(m), 0).is_ok());
+    }
+}
+
 fn known_id() -> impl Strategy<Value = u16> {
     prop::sample::select(Kind::ALL.iter().map(|k| k.def().id).collect::<Vec<_>>())
 }
 
+/// Every scaled signal (factor or offset not the identity): (name, signal).
+fn scaled_signals() -> Vec<(&'static str, signal::Signal)> {
+    Kind::ALL
+        .iter()
+        .flat_map(|k| k.signals().iter())
+        .filter(|sd| sd.signal.factor != 1.0 || sd.signal.offset != 0.0)
+        .map(|sd| (sd.name, sd.signal))
+        .collect()
+}
+
 proptest! {
+    /// Decoding is the DBC's formula `raw * factor + offset` in f64, bit
+    /// for bit, for any raw value in range.
+    #[test]
+    fn decoded_value_is_the_dbc_formula(index in 0usize..64, t in 0.0f64..=1.0) {
+        let all = scaled_signals();
+        let (name, s) = all[index % all.len()];
+        let raw = s.raw_min + ((s.raw_max - s.raw_min) as f64 * t).round() as i64;
+        let mut p = [0u8; 8];
+        s.put_raw(&mut p, raw);
+        let formula = raw as f64 * s.factor + s.offset;
+        prop_assert_eq!(s.get(&p).map(f64::to_bits), Some(formula.to_bits()), "{} raw {}", name, raw);
+    }
+
+    /// Encoding gives the nearest raw value: a value `frac` LSB from raw
+    /// value `raw` (|frac| < 0.5, away from the tie by far more than the
+    /// quotient's rounding error) encodes to `raw`, at the range edges too.
+    #[test]
+    fn encoded_raw_is_the_nearest(index in 0usize..64, t in 0.0f64..=1.0, frac in -0.499_999f64..0.499_999) {
+        let all = scaled_signals();
+        let (name, s) = all[index % all.len()];
+        let raw = s.raw_min + ((s.raw_max - s.raw_min) as f64 * t).round() as i64;
+        let x = (raw as f64 + frac) * s.factor + s.offset;
+        prop_assert_eq!(s.to_raw(x), Ok(raw), "{} x {}", name, x);
+    }
+
     #[test]
     fn table_crc_matches_bitwise_reference(data_id: u16, payload: [u8; 8]) {
         prop_assert_eq!(e2e::crc(data_id, &payload), reference_p11(data_id, &payload));
@@ -381,8 +441,8 @@ proptest! {
     #[test]
     fn one_bit_flip_is_rejected(t in 0.0f64..=1.0, counter in 0u8..15, bit in 0usize..64) {
         let msg = Message::Pressures(Pressures {
-            p_small_pa: in_range(&PRESSURES.signals[0].signal, t),
-            p_large_pa: in_range(&PRESSURES.signals[1].signal, 1.0 - t),
+            p_small_pa: in_range(Kind::Pressures.signal("PressureSmall").unwrap(), t),
+            p_large_pa: in_range(Kind::Pressures.signal("PressureLarge").unwrap(), 1.0 - t),
         });
         let good = encode(&msg, counter).unwrap();
         let mut p = *good.payload();
@@ -393,17 +453,18 @@ proptest! {
     /// Fixed-point round trip within half an LSB for every signal of every
     /// message, anywhere in range.
     #[test]
-    fn physical_round_trip_within_half_lsb(kind_index in 0usize..12, ts in prop::array::uniform8(0.0f64..=1.0), counter in 0u8..15) {
-        let def = Kind::ALL[kind_index].def();
+    fn physical_round_trip_within_half_lsb(kind_index in 0usize..Kind::ALL.len(), ts in prop::array::uniform8(0.0f64..=1.0), counter in 0u8..15) {
+        let kind = Kind::ALL[kind_index];
+        let def = kind.def();
         let mut p = [0u8; 8];
-        for (sd, t) in def.signals.iter().zip(ts) {
+        for (sd, t) in kind.signals().iter().zip(ts) {
             sd.signal.put(&mut p, in_range(&sd.signal, t)).unwrap();
         }
         e2e::protect(&mut p, def.data_id, counter);
         let (msg, c) = decode(&frame(def.id, p)).unwrap();
         prop_assert_eq!(c, counter);
         let back = encode(&msg, counter).unwrap();
-        for (sd, t) in def.signals.iter().zip(ts) {
+        for (sd, t) in kind.signals().iter().zip(ts) {
             let x = in_range(&sd.signal, t);
             let y = sd.signal.get(back.payload()).unwrap();
             prop_assert!((x - y).abs() <= sd.signal.factor * 0.5 * (1.0 + 1e-9), "{} {} {}", sd.name, x, y);
@@ -442,10 +503,21 @@ fn ecu_without_inputs_sends_safe_valve_commands_and_periodic_diagnostics() {
         assert_eq!(cmd.step_index, period);
         let Message::Status(status) = msgs[1] else { panic!("{msgs:?}") };
         assert_ne!(status.diag & crate::diag::SAFE_STATE, 0);
-        // Diagnostics every 100th period (periods 99, 199).
-        assert_eq!(msgs.len(), if period % 100 == 99 { 4 } else { 2 });
-        if msgs.len() == 4 {
-            let Message::DiagLink(link) = msgs[3] else { panic!("{msgs:?}") };
+        // The DBC's schedule (cycle time, start delay): the height control
+        // in periods 3, 13, ..., the motion in 6, 16, ..., diagnostics in
+        // 99 and 199.
+        let mut expect = vec![Kind::ValveCmd, Kind::Status];
+        if period % 10 == 3 {
+            expect.push(Kind::HeightCtrl);
+        }
+        if period % 10 == 6 {
+            expect.push(Kind::Motion);
+        }
+        if period % 100 == 99 {
+            expect.extend([Kind::DiagE2e, Kind::DiagLink]);
+        }
+        assert_eq!(msgs.iter().map(Message::kind).collect::<Vec<_>>(), expect, "period {period}");
+        if let Some(Message::DiagLink(link)) = msgs.last() {
             assert!(link.link_fault);
             assert_eq!(link.stale_groups, input_group::ALL as u8);
         }

@@ -1,7 +1,7 @@
 //! The sending side: one alive counter per message, and the ECU's output
 //! frames built from the controller's [`Outputs`].
 
-use super::messages::{Kind, Status, ValveCmd};
+use super::messages::{HeightCtrl, Kind, Motion, Status, ValveCmd};
 use super::{e2e, encode, CanFrame, EncodeError, Message};
 use crate::Outputs;
 
@@ -41,6 +41,20 @@ impl Transmitter {
 
 /// The largest ride height `HP_Status` can carry, m (DBC range).
 const RIDE_HEIGHT_LIMIT_M: f64 = 0.3;
+/// The largest pressure `HP_HeightCtrl` can carry, Pa (DBC range).
+const PRESSURE_LIMIT_PA: f64 = 1.2e8;
+/// The largest velocity `HP_Motion` can carry, m/s (DBC range).
+const VELOCITY_LIMIT_M_S: f64 = 10.0;
+
+/// `x` limited to `lo..=hi`, and 0 if not finite, so an output frame is
+/// always sent; the DBC's range is the frame's, not the controller's.
+fn sendable(x: f64, lo: f64, hi: f64) -> f64 {
+    if x.is_finite() {
+        x.max(lo).min(hi)
+    } else {
+        0.0
+    }
+}
 
 impl ValveCmd {
     /// The valve command of one period.
@@ -64,8 +78,28 @@ impl Status {
     /// status frame is always sent; the controller's `diag` says whether the
     /// estimate is held.
     pub fn from_outputs(out: &Outputs) -> Self {
-        let h = out.ride_height_m;
-        let ride_height_m = if h.is_finite() { h.clamp(-RIDE_HEIGHT_LIMIT_M, RIDE_HEIGHT_LIMIT_M) } else { 0.0 };
-        Status { ride_height_m, diag: out.diag }
+        Status { ride_height_m: sendable(out.ride_height_m, -RIDE_HEIGHT_LIMIT_M, RIDE_HEIGHT_LIMIT_M), diag: out.diag }
+    }
+}
+
+impl HeightCtrl {
+    /// The ride-height control's pressures of one period, limited to the
+    /// DBC range (0 to 120 MPa), a non-finite value sent as 0.
+    pub fn from_outputs(out: &Outputs) -> Self {
+        HeightCtrl {
+            p_load_pa: sendable(out.p_load_pa, 0.0, PRESSURE_LIMIT_PA),
+            p_large_target_pa: sendable(out.p_large_target_pa, 0.0, PRESSURE_LIMIT_PA),
+        }
+    }
+}
+
+impl Motion {
+    /// The velocity estimates of one period, limited to the DBC range
+    /// (+-10 m/s), a non-finite value sent as 0.
+    pub fn from_outputs(out: &Outputs) -> Self {
+        Motion {
+            strut_vel_m_s: sendable(out.strut_vel_m_s, -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S),
+            body_vel_m_s: sendable(out.body_vel_m_s, -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S),
+        }
     }
 }
