@@ -18,6 +18,7 @@ import subprocess
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hpctl import pil
@@ -187,60 +188,118 @@ def test_lock_step_firmware_matches_the_host_build_and_fails_safe(firmware):
         host.close()
 
 
-def test_processor_in_the_loop_with_the_plant(firmware):
-    """Closed loop: the plant (hp-core through the bindings: the seed unit
-    under its sprung mass on a 1.5 Hz, 10 mm road) feeds the sensor frames,
-    the lock-step firmware's valve commands drive the plant. Every frame the
-    firmware sends equals the host build's for the same input frames (4 s,
-    with a lowering request from 3 s); the loop leaves the safe state, goes
-    from Handling to Ride, and switches both valves."""
-    from hpctl import _core, sim
+def held_offset_m(unit, sample, p_load_pa: float) -> float:
+    """The ride-height offset the oil in L holds, from the plant alone: L's
+    gas volume minus its volume at the true load pressure and L's gas
+    temperature, as strut travel (negative = lowered); see
+    hpctl.closed_loop.ClosedLoop.held_offset_m."""
+    from hpctl import _core
 
+    m_large_kg = _core.gas_masses_kg(unit)[1]
+    rest_m3 = m_large_kg / _core.gas_density_kg_m3(unit["gas"], p_load_pa, sample["t_gas2_k"])
+    return float((sample["v_gas2_m3"] - rest_m3) / unit["piston_area_m2"])
+
+
+def test_processor_in_the_loop_lowers_the_plant_and_fails_safe(firmware):
+    """Closed loop: the plant (hp-core through the bindings: the seed unit
+    under its sprung mass on an ISO 8608 class C road at 10 m/s, the road of
+    hpctl.closed_loop) feeds the sensor frames, the lock-step firmware's
+    valve commands drive the plant, with a 20 mm lowering requested from
+    power-on. The ECU sees the plant's measured pressures, strut
+    compression and body acceleration, and L's gas temperature through a
+    1 s lag (as hp_ctrl::closed_loop's sensor model). Every frame the
+    firmware sends equals the host build's for the same input frames.
+
+    The sequencer waits for the load-pressure estimate (5 s of calm driving
+    after the 0.5 s recovery), lowers with valve 6 opening only while
+    p_S - p_L exceeds the margin, and holds within the tolerance; the
+    plant's own gas state then shows the lowering. Then the sensor frames
+    stop: more than 10 ms later the outputs are the safe state."""
+    from hpctl import _core, road, sim
+    from hpctl.unit import SEED_SPRUNG_MASS_KG
+
+    dt_s, cut_at, periods = 1e-3, 6800, 6815
+    request_m, tolerance_m, margin_pa = -0.02, 0.003, 0.2e6
+    speed_m_s = 10.0
     host = HostEcu()
     codec = pil.FrameCodec()
     unit = _core.seed_unit()
-    plant = _core.Plant(unit, sim.sdof_rig(sim.Sine(amplitude_m=0.01, frequency_hz=1.5)), unit["static_temperature_k"], True, True)
+    time_s = np.arange(periods + 1) * dt_s
+    profile = road.profile("C", speed_m_s * time_s[-1] + 1.0, seed=1, dx_m=0.01)
+    base = road.base_motion(profile, speed_m_s * time_s, time_s)
+    plant = _core.Plant(unit, sim.sdof_rig(base, SEED_SPRUNG_MASS_KG), unit["static_temperature_k"], True, True)
+    p_load_true_pa = unit["ambient_pressure_pa"] + SEED_SPRUNG_MASS_KG * 9.80665 / unit["piston_area_m2"]
     static_disp_m = plant.static_disp_m
+    t_weight = 1.0 - math.exp(-dt_s / 1.0)  # the temperature sensor's 1 s lag
     sample = plant.sample()
-    seen: dict[str, set[int]] = {"Valve5Open": set(), "Valve6Open": set(), "Sequencer": set(), "DriveMode": set()}
-    valve5_switches = 0
+    t_read_k = sample["t_gas2_k"]
+    seen: dict[str, set[int]] = {"Valve6Open": set(), "Sequencer": set(), "DriveMode": set(), "LinkFault": set()}
+    lowering_openings = 0
     try:
         with pil.Emulator(firmware["hp-fw-pil"]) as emu:
             bus = pil.open_bus(emu.channel)
             try:
                 session = pil.PilSession(bus, codec)
                 host.receive(session.sent)
-                v5 = v6 = False
-                for k in range(4000):
-                    t = k * 1e-3
+                v6 = False
+                for k in range(periods):
+                    t_read_k += t_weight * (sample["t_gas2_k"] - t_read_k)
                     inputs = {
                         "p_small_pa": sample["p_gas_pa"],
                         "p_large_pa": sample["p_gas2_pa"],
                         "strut_disp_m": sample["disp_m"] - static_disp_m,
                         "body_acc_m_s2": sample["body_acc_m_s2"],
-                        "speed_m_s": 10.0,
+                        "speed_m_s": speed_m_s,
                         "brake_pressed": 0,
                         "lat_acc_m_s2": 0.0,
                         "long_acc_m_s2": 0.0,
                         "steer_angle_rad": 0.0,
                         "steer_rate_rad_s": 0.0,
-                        "t_gas_k": sample["t_gas_k"],
+                        "t_gas_k": t_read_k,
                         "driver_mode": 0,
-                        "ride_height_request_m": -0.02 if t >= 3.0 else 0.0,
+                        "ride_height_request_m": request_m,
                     }
                     before = len(session.sent)
-                    got = session.period(codec.input_frames(inputs, k))
+                    got = session.period(codec.input_frames(inputs, k) if k < cut_at else [])
                     assert [(m.arbitration_id, bytes(m.data)) for m in got] == host.period(session.sent[before:]), f"period {k}"
-                    cmd = next(codec.decode(m)[2] for m in got if m.arbitration_id == 0x200)
+                    frames = {name: v for name, _, v in map(codec.decode, got)}
+                    cmd, status = frames["HP_ValveCmd"], frames["HP_Status"]
                     for name in seen:
                         seen[name].add(int(cmd[name]))
-                    valve5_switches += bool(cmd["Valve5Open"]) != v5
-                    v5, v6 = bool(cmd["Valve5Open"]), bool(cmd["Valve6Open"])
-                    sample = plant.step(1e-3, v5, v6)
-                assert cmd["LinkFault"] == 0
+                    opening = bool(cmd["Valve6Open"]) and not v6
+                    if int(cmd["Sequencer"]) == 1 and cmd["Valve6Open"]:
+                        # Lowering: valve 6 open only with p_S - p_L over the
+                        # margin, on the pressures the ECU was sent.
+                        sent = {n: v for n, _, v in map(codec.decode, session.sent[before:]) if n == "HP_Pressures"}
+                        assert sent["HP_Pressures"]["PressureSmall"] - sent["HP_Pressures"]["PressureLarge"] > margin_pa, f"period {k}"
+                        lowering_openings += opening
+                    if "HP_HeightCtrl" in frames:
+                        height_ctrl = frames["HP_HeightCtrl"]
+                    if k == cut_at - 1:
+                        # Before the cut: running, holding the lowered height.
+                        assert cmd["LinkFault"] == 0 and int(status["Diag"]) & SAFE_STATE == 0
+                        assert int(cmd["Sequencer"]) == 3, "holding"
+                        assert abs(status["RideHeight"] - request_m) <= tolerance_m
+                        # The plant, by its own gas state: lowered as asked,
+                        # within the tolerance plus 1 mm (load estimate,
+                        # lagging temperature sensor, gas table), as in
+                        # tests/test_closed_loop.py.
+                        assert abs(held_offset_m(unit, sample, p_load_true_pa) - request_m) <= tolerance_m + 0.001
+                        # The load estimate the ECU reports is the plant's
+                        # static load pressure, within 0.1 MPa (2 mm).
+                        assert abs(height_ctrl["PressureLoad"] - p_load_true_pa) < 0.1e6
+                        # Holding a lowered height takes more pressure in L.
+                        assert height_ctrl["PressureLargeTarget"] > height_ctrl["PressureLoad"] + margin_pa
+                    v6 = bool(cmd["Valve6Open"])
+                    sample = plant.step(dt_s, bool(cmd["Valve5Open"]), v6)
             finally:
                 bus.shutdown()
     finally:
         host.close()
-    assert seen["DriveMode"] == {0, 1}
-    assert seen["Valve6Open"] == {0, 1} and valve5_switches >= 4
+    # Blocked while the load estimate settled, then Lowering and Holding.
+    assert {1, 3, 4} <= seen["Sequencer"]
+    assert lowering_openings >= 3
+    # The cut: stale more than 10 ms later, the safe state (both valves
+    # de-energised, hard spring, high damping).
+    assert cmd["LinkFault"] == 1 and cmd["Valve5Open"] == 0 and cmd["Valve6Open"] == 0
+    assert int(status["Diag"]) & (SAFE_STATE | LINK_FAULT) == SAFE_STATE | LINK_FAULT
