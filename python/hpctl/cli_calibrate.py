@@ -192,7 +192,7 @@ def _run_diagnosis(rep: Any, recs: list[RigRecord], start: tuple[str, ...], max_
         t.add_column(col, justify="right")
     for k, rnd in enumerate(diag.rounds):
         c = rnd.accepted
-        params = "" if c is None else ", ".join(f"{p.name}={c.result.values[p.name]:.4g}" for p in LIBRARY[c.effect].params)
+        params = "" if c is None else ", ".join(f"{p.name}={c.result.values[p.name]:.4g}" for e in c.effects for p in LIBRARY[e].params)
         t.add_row(str(k), ", ".join(rnd.before.model.effects) or "classical", f"{rnd.before.rms_ratio:.3g}", f"{rnd.before.bic:.0f}",
                   "-" if c is None else c.effect, "-" if c is None else f"{c.delta_bic:.0f}", params)
     t.add_row("final", ", ".join(diag.final.model.effects) or "classical", f"{diag.final.rms_ratio:.3g}", f"{diag.final.bic:.0f}", "", "", "")

@@ -130,13 +130,20 @@ def applicable(effect: str, datasets: Sequence[Dataset]) -> bool:
 
 @dataclass
 class Candidate:
-    effect: str
+    """One effect (or, when no single one is enough, a pair) added to the model."""
+
+    effects: tuple[str, ...]
     added_params: int
     result: FitResult
     delta_bic: float
     explained: float = 0.0
     cv_before: float | None = None
     cv_after: float | None = None
+
+    @property
+    def effect(self) -> str:
+        """The library name(s), joined by '+' for a pair."""
+        return "+".join(self.effects)
 
     @property
     def score(self) -> float:
@@ -192,6 +199,29 @@ def cross_validation(datasets: Sequence[Dataset], effects: Sequence[str], start:
 Progress = Callable[[str], None]
 
 
+def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], say: Progress) -> Candidate:
+    say(f"trying {'+'.join(add)}")
+    trial = fit(datasets, effects + add, initial=current.values)
+    added = len(trial.model.params) - len(current.model.params)
+    excess = max(current.rss - current.n, 1e-12)
+    return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess)
+
+
+def _accept(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], say: Progress) -> Candidate | None:
+    """The best-ranked candidate that the evidence supports, if any."""
+    for c in ranked[:3]:
+        if c.delta_bic <= BIC_STRONG:
+            break
+        if c.explained < EXPLAINED_SHARE:
+            continue
+        say(f"cross-validating {c.effect}")
+        c.cv_before = cross_validation(datasets, effects, current.values)
+        c.cv_after = cross_validation(datasets, effects + c.effects, c.result.values)
+        if c.cv_improves is not False:
+            return c
+    return None
+
+
 def diagnose(
     records: Sequence[RigRecord],
     start_effects: Sequence[str],
@@ -214,33 +244,27 @@ def diagnose(
         if not analysis.structured:
             rounds.append(Round(current, analysis, [], None))
             break
-        tried = []
-        for e in pool:
-            if e in effects or not applicable(e, datasets):
-                continue
-            say(f"trying {e}")
-            trial = fit(datasets, effects + (e,), initial=current.values)
-            added = len(trial.model.params) - len(current.model.params)
-            excess = max(current.rss - current.n, 1e-12)
-            tried.append(Candidate(e, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess))
+        pool_now = [e for e in pool if e not in effects and applicable(e, datasets)]
+        tried = [_try(datasets, current, effects, (e,), say) for e in pool_now]
         tried.sort(key=lambda c: c.score, reverse=True)
-        accepted = None
-        for c in tried[:3]:
-            if c.delta_bic <= BIC_STRONG:
-                break
-            if c.explained < EXPLAINED_SHARE:
-                continue
-            say(f"cross-validating {c.effect}")
-            c.cv_before = cross_validation(datasets, effects, current.values)
-            c.cv_after = cross_validation(datasets, effects + (c.effect,), c.result.values)
-            if c.cv_improves is not False:
-                accepted = c
-                break
+        accepted = _accept(datasets, current, effects, tried, say)
+        if accepted is None and len(tried) >= 2:
+            # Some effects only help together: the classical polytropic
+            # exponent stands in for the real gas's stiffness, so heat
+            # transfer alone (with an ideal gas) can fit worse, and real gas
+            # alone barely better, while the two together explain it all.
+            # So every pair, then (a member may look bad alone).
+            singles = [c.effects[0] for c in tried]
+            pairs = [(a, b) for i, a in enumerate(singles) for b in singles[i + 1:]]
+            tried_pairs = [_try(datasets, current, effects, pair, say) for pair in pairs]
+            tried_pairs.sort(key=lambda c: c.score, reverse=True)
+            accepted = _accept(datasets, current, effects, tried_pairs, say)
+            tried += tried_pairs
         rounds.append(Round(current, analysis, tried, accepted))
         if accepted is None:
             break
-        found.append(accepted.effect)
-        effects = tuple(e for e in LIBRARY if e in effects + (accepted.effect,))
+        found += [e for e in LIBRARY if e in accepted.effects]
+        effects = tuple(e for e in LIBRARY if e in effects + accepted.effects)
         current = accepted.result
     final_analysis = analyse(current)
     if found:
@@ -281,16 +305,19 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         if rnd.accepted is None:
             continue
         c = rnd.accepted
-        steps.append({
-            "effect": c.effect,
-            "params": {p.name: c.result.values[p.name] for p in LIBRARY[c.effect].params},
-            "stderr": {p.name: c.result.stderr.get(p.name) for p in LIBRARY[c.effect].params},
-            "delta_bic": c.delta_bic,
-            "cv_rss_before": c.cv_before,
-            "cv_rss_after": c.cv_after,
-            "rms_ratio_before": rnd.before.rms_ratio,
-            "rms_ratio_after": c.result.rms_ratio,
-        })
+        for e in c.effects:
+            steps.append({
+                "effect": e,
+                "found_with": [o for o in c.effects if o != e],
+                "params": {p.name: c.result.values[p.name] for p in LIBRARY[e].params},
+                "stderr": {p.name: c.result.stderr.get(p.name) for p in LIBRARY[e].params},
+                "delta_bic": c.delta_bic,
+                "share_of_excess_explained": c.explained,
+                "cv_rss_before": c.cv_before,
+                "cv_rss_after": c.cv_after,
+                "rms_ratio_before": rnd.before.rms_ratio,
+                "rms_ratio_after": c.result.rms_ratio,
+            })
     return {
         "verdict": diag.verdict,
         "start_model": list(diag.start_effects),
