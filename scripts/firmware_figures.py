@@ -6,6 +6,13 @@ control step, measured on the built ELF files (scripts/firmware-build.sh).
   binaries (flash = vector table + .text + .rodata + .data; static RAM =
   .data + .bss + .uninit).
 - Heap: zero if no allocator symbol is linked (``arm-none-eabi-nm``).
+- Stack of the production build: ``hp-fw-pil`` runs a short
+  processor-in-the-loop session in QEMU (every input message at its cycle
+  time, a 1.5 Hz body motion on a 10 m/s drive, the diagnostics frames);
+  cortex-m-rt painted its stack at reset, and the painted words left are
+  read back through QEMU's monitor. The emulator board links with 8 KiB of
+  RAM (crates/hp-fw/memory-mps2.x), stack below the static data, so an
+  overflow faults instead of passing unnoticed.
 - Instructions and stack: ``hp-fw-figures`` runs a scripted 6 s drive
   through the whole ECU path under ``qemu-system-arm -icount shift=0``
   (one instruction per virtual nanosecond) and times each part with
@@ -25,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import subprocess
 import sys
@@ -70,7 +78,11 @@ def measure(elf: Path) -> dict[str, float]:
         "qemu-system-arm", "-M", "mps2-an386", "-nographic", "-monitor", "none", "-serial", "null",
         "-semihosting-config", "enable=on,target=native", "-icount", "shift=0", "-kernel", str(elf),
     ]  # fmt: skip
-    run = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    # A stack overflow locks the core up (memory-mps2.x): QEMU then never exits.
+    try:
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    except subprocess.TimeoutExpired:
+        raise SystemExit("figures run did not finish (a stack overflow locks the core up)") from None
     line = next((l for l in run.stdout.splitlines() if l.startswith("figures ")), None)
     if run.returncode != 0 or line is None:
         raise SystemExit(f"figures run failed ({run.returncode}): {run.stdout}{run.stderr}")
@@ -97,6 +109,58 @@ def measure(elf: Path) -> dict[str, float]:
     return fig
 
 
+def symbol(elf: Path, name: str) -> int:
+    out = subprocess.run(["arm-none-eabi-nm", str(elf)], check=True, capture_output=True, text=True).stdout
+    for line in out.splitlines():
+        words = line.split()
+        if len(words) == 3 and words[2] == name:
+            return int(words[0], 16)
+    raise SystemExit(f"{elf.name}: no symbol {name}")
+
+
+PAINT = 0xCCCC_CCCC  # cortex_m_rt::STACK_PAINT_VALUE
+
+
+def pil_stack(elf: Path, periods: int = 800) -> dict[str, float]:
+    """Stack high-water mark of the lock-step production binary after a
+    PIL session of ``periods`` (past the power-on safe state into normal
+    operation), read through QEMU's monitor."""
+    sys.path.insert(0, str(ROOT / "python"))
+    from hpctl import _core, pil
+
+    unit = _core.seed_unit()
+    p_pa, t_k = unit["static_pressure_pa"], unit["static_temperature_k"]
+    stack_start, stack_end = symbol(elf, "_stack_start"), symbol(elf, "_stack_end")
+    codec = pil.FrameCodec()
+    with pil.Emulator(elf, monitor=True) as emu:
+        bus = pil.open_bus(emu.channel)
+        try:
+            session = pil.PilSession(bus, codec)
+            for k in range(periods):
+                w = 2 * math.pi * 1.5 * k * 1e-3
+                inputs = {
+                    "p_small_pa": p_pa * (1 + 0.05 * math.sin(w)),
+                    "p_large_pa": p_pa * (1 + 0.05 * math.sin(w)),
+                    "strut_disp_m": 0.01 * math.sin(w),
+                    "body_acc_m_s2": -0.8 * math.cos(w),
+                    "speed_m_s": 10.0, "brake_pressed": 0, "lat_acc_m_s2": 0.0, "long_acc_m_s2": 0.0,
+                    "steer_angle_rad": 0.0, "steer_rate_rad_s": 0.0, "t_gas_k": t_k, "driver_mode": 0,
+                    "ride_height_request_m": -0.02,
+                }  # fmt: skip
+                got = session.period(codec.input_frames(inputs, k))
+            status = next(codec.decode(m)[2] for m in got if m.arbitration_id == 0x210)
+        finally:
+            bus.shutdown()
+        words = emu.read_words(stack_end, (stack_start - stack_end) // 4)
+    painted = next((i for i, w in enumerate(words) if w != PAINT), len(words))
+    return {
+        "pil_stack_bytes": stack_start - stack_end - 4 * painted,
+        "pil_stack_region_bytes": stack_start - stack_end,
+        "pil_periods": periods,
+        "pil_safe_state_at_end": int(status["Diag"]) & 1,
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
@@ -108,6 +172,8 @@ def main() -> None:
     run = measure(elfs["hp-fw-figures"])
     figures["run"] = run
     stack = max(run["stack_init_bytes"], run["stack_loop_bytes"])
+    production = pil_stack(elfs["hp-fw-pil"])
+    figures["hp-fw-pil"].update(production)  # type: ignore[attr-defined]
 
     print("Firmware figures (budgets: flash <= 32 KiB, RAM <= 8 KiB, step <= 5000 instructions)")
     for name in ("hp-fw-mps2", "hp-fw-pil", "hp-fw-stm32f4"):
@@ -118,11 +184,17 @@ def main() -> None:
             f"{'ok' if f['flash_bytes'] <= FLASH_BUDGET else 'OVER'}; static RAM {f['static_ram_bytes']:5d} B; "
             f"heap {f['heap_bytes']} B"
         )
+    static = figures["hp-fw-pil"]["static_ram_bytes"]  # type: ignore[index]
+    pil_total = production["pil_stack_bytes"] + static
     print(
-        f"  stack high-water (figures build): {stack:.0f} B (start-up {run['stack_init_bytes']:.0f} B, "
-        f"control loop {run['stack_loop_bytes']:.0f} B); static RAM + stack = "
-        f"{stack + figures['hp-fw-mps2']['static_ram_bytes']:.0f} B "  # type: ignore[index]
-        f"{'ok' if stack + figures['hp-fw-mps2']['static_ram_bytes'] <= RAM_BUDGET else 'OVER'}"  # type: ignore[index]
+        f"  stack high-water, hp-fw-pil after {production['pil_periods']:.0f} PIL periods: {production['pil_stack_bytes']:.0f} B "
+        f"of the {production['pil_stack_region_bytes']:.0f} B stack region; static RAM + stack = {pil_total:.0f} B "
+        f"{'ok' if pil_total <= RAM_BUDGET else 'OVER'}"
+        f"{' (ended in the safe state!)' if production['pil_safe_state_at_end'] else ''}"
+    )
+    print(
+        f"  stack high-water, figures build: {stack:.0f} B (start-up {run['stack_init_bytes']:.0f} B, "
+        f"control loop {run['stack_loop_bytes']:.0f} B)"
     )
     print(f"  instructions per period over {run['periods_timed']:.0f} periods of a 10 m/s drive (mean / max):")
     labels = {

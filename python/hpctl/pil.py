@@ -140,13 +140,19 @@ class Emulator:
     deterministic without it (each period is closed by a tick frame), so it
     is off by default. The TCP serial port has Nagle's algorithm off
     (``nodelay=on``): the UART sends byte by byte, and with Nagle against
-    the host's delayed acknowledgements every exchange waits about 40 ms."""
+    the host's delayed acknowledgements every exchange waits about 40 ms.
+    ``monitor=True`` puts QEMU's monitor on another local port, for
+    :meth:`read_words`."""
 
-    def __init__(self, elf: Path, port: int | None = None, qemu: str = "qemu-system-arm", icount: bool = False):
+    def __init__(
+        self, elf: Path, port: int | None = None, qemu: str = "qemu-system-arm", icount: bool = False, monitor: bool = False
+    ):
         self.elf = Path(elf)
         self.port = port or free_port()
+        self.monitor_port = free_port() if monitor else None
+        monitor_arg = f"tcp:127.0.0.1:{self.monitor_port},server,nowait" if self.monitor_port else "none"
         self.cmd = [
-            qemu, "-M", "mps2-an386", "-nographic", "-monitor", "none",
+            qemu, "-M", "mps2-an386", "-nographic", "-monitor", monitor_arg,
             "-semihosting-config", "enable=on,target=native",
             *(["-icount", "shift=0"] if icount else []),
             "-serial", f"tcp:127.0.0.1:{self.port},server,nowait,nodelay=on",
@@ -186,6 +192,32 @@ class Emulator:
                 self.proc.kill()
                 self.proc.wait(timeout=5)
         self.proc = None
+
+    def read_words(self, address: int, count: int, timeout_s: float = 10.0) -> list[int]:
+        """``count`` 32-bit words of guest memory from ``address`` (the
+        monitor's ``xp``), e.g. to read the painted stack."""
+        if self.monitor_port is None:
+            raise RuntimeError("the emulator was started without monitor=True")
+        with socket.create_connection(("127.0.0.1", self.monitor_port), timeout=timeout_s) as mon:
+            def until_prompt() -> str:
+                text = b""
+                while not text.endswith(b"(qemu) "):
+                    chunk = mon.recv(65536)
+                    if not chunk:
+                        raise RuntimeError("the monitor closed the connection")
+                    text += chunk
+                return text.decode(errors="replace")
+
+            until_prompt()
+            mon.sendall(f"xp /{count}wx {address:#x}\n".encode())
+            words: list[int] = []
+            for line in until_prompt().splitlines():
+                head, sep, rest = line.partition(": ")
+                if sep and all(c in "0123456789abcdef" for c in head.strip()) and head.strip():
+                    words.extend(int(w, 16) for w in rest.split() if w.startswith("0x"))
+        if len(words) != count:
+            raise RuntimeError(f"read {len(words)} of {count} words at {address:#x}")
+        return words
 
     def __enter__(self) -> Emulator:
         self.start()

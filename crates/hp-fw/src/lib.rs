@@ -8,6 +8,7 @@
 //!   receiver, run one control period, send valve commands, status and
 //!   diagnostics.
 //! - [`run`]: the fixed-rate loop shared by the boards.
+//! - [`stack`]: the stack's high-water mark (painted at reset).
 //! - `mps2`: the emulator board (QEMU `mps2-an386`): CAN frames over the
 //!   CMSDK UART0 in the SLCAN protocol.
 //! - `stm32f4`: a real ECU board (STM32F405, bxCAN1 on PB8/PB9).
@@ -18,6 +19,7 @@
 #![no_std]
 
 pub mod run;
+pub mod stack;
 
 #[cfg(feature = "mps2")]
 pub mod mps2;

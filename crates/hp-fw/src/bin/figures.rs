@@ -19,20 +19,14 @@ use hp_ctrl::can::ecu::{Ecu, Link};
 use hp_ctrl::can::messages::{Body, DiagE2e, DiagLink, Driver, PilTick, Pressures, Status, Steering, Strut, Temperature, ValveCmd, Vehicle};
 use hp_ctrl::can::{CanFrame, InputDecoder, LinkParams, Message, Transmitter};
 use hp_ctrl::{Config, DriverMode, Outputs};
-use hp_fw as _; // the panic handler
+use hp_fw::stack;
 
 /// Periods run; the first WARMUP are not timed (power-on safe state,
 /// recovery, the handling hold).
 const PERIODS: u32 = 6000;
 const WARMUP: u32 = 3000;
-const STACK_PAINT: u32 = 0x5AFE_C0DE;
 /// Frames timed per message in the per-frame figures.
 const FRAME_REPS: u32 = 100;
-
-extern "C" {
-    static mut __sheap: u32;
-    static _stack_start: u32;
-}
 
 /// Counts what the ECU sends instead of sending it.
 struct CountingLink {
@@ -175,37 +169,8 @@ fn send_costs(out: &Outputs) {
     }
 }
 
-fn paint_stack() {
-    let sp = cortex_m::register::msp::read() as usize;
-    // SAFETY: paints the free RAM between the end of the static data and
-    // 64 bytes below the current stack pointer; nothing lives there yet
-    // and no interrupt is enabled.
-    unsafe {
-        let mut p = core::ptr::addr_of_mut!(__sheap);
-        while (p as usize) < sp - 64 {
-            p.write_volatile(STACK_PAINT);
-            p = p.add(1);
-        }
-    }
-}
-
-fn stack_high_water_bytes() -> u32 {
-    // SAFETY: reads the painted region back; the stack grows down from
-    // _stack_start, so the first overwritten word from below marks its
-    // deepest point.
-    unsafe {
-        let top = core::ptr::addr_of!(_stack_start) as usize;
-        let mut p = core::ptr::addr_of!(__sheap);
-        while (p as usize) < top && p.read_volatile() == STACK_PAINT {
-            p = p.add(1);
-        }
-        (top - p as usize) as u32
-    }
-}
-
 #[entry]
 fn main() -> ! {
-    paint_stack();
     let Some(mut core) = cortex_m::Peripherals::take() else {
         debug::exit(debug::EXIT_FAILURE);
         loop {
@@ -225,8 +190,8 @@ fn main() -> ! {
 
     let cfg = Config::seed_unit();
     let mut ecu = Ecu::new();
-    let stack_init = stack_high_water_bytes();
-    paint_stack();
+    let stack_init = stack::high_water_bytes();
+    stack::repaint();
     let mut sensors = Transmitter::new();
     let mut link = CountingLink { frames: 0 };
     let mut frames = heapless::Vec::new();
@@ -256,7 +221,7 @@ fn main() -> ! {
         }
         last = out;
     }
-    let stack_loop = stack_high_water_bytes();
+    let stack_loop = stack::high_water_bytes();
     receive_costs(&cfg);
     send_costs(&last);
     let n = PERIODS - WARMUP;
