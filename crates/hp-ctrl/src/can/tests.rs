@@ -580,6 +580,10 @@ fn documented_frame_vectors() {
     };
     let v = encode(&Message::ValveCmd(cmd), 5).unwrap();
     assert_eq!(v.payload(), &[0x03, 0x05, 0x1B, 0x00, 0xD2, 0x04, 0x00, 0x00]);
+    let h = encode(&Message::HeightCtrl(HeightCtrl { p_load_pa: 14_811_300.0, p_large_target_pa: 15_790_390.0 }), 3).unwrap();
+    assert_eq!(h.payload(), &[0xEF, 0x03, 0xAA, 0x99, 0x16, 0x1F, 0x18, 0x18]);
+    let m = encode(&Message::Motion(Motion { strut_vel_m_s: -0.7315, body_vel_m_s: 0.0425 }), 0).unwrap();
+    assert_eq!(m.payload(), &[0x2E, 0x00, 0x49, 0xFA, 0x55, 0x00, 0x00, 0x00]);
     assert_eq!(e2e::crc(PIL_TICK.data_id, &[0; 8]), 0x55);
     assert_eq!(e2e::crc(STRUT.data_id, &[0; 8]), 0xB6);
 }

@@ -16,7 +16,9 @@ use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use hp_ctrl::can::ecu::{Ecu, Link};
-use hp_ctrl::can::messages::{Body, DiagE2e, DiagLink, Driver, PilTick, Pressures, Status, Steering, Strut, Temperature, ValveCmd, Vehicle};
+use hp_ctrl::can::messages::{
+    Body, DiagE2e, DiagLink, Driver, HeightCtrl, Motion, PilTick, Pressures, Status, Steering, Strut, Temperature, ValveCmd, Vehicle,
+};
 use hp_ctrl::can::{CanFrame, InputDecoder, LinkParams, Message, Transmitter};
 use hp_ctrl::{Config, DriverMode, Outputs};
 use hp_fw::stack;
@@ -150,6 +152,8 @@ fn send_costs(out: &Outputs) {
     let msgs = [
         Message::ValveCmd(ValveCmd::from_outputs(out, false, 1234)),
         Message::Status(Status::from_outputs(out)),
+        Message::HeightCtrl(HeightCtrl::from_outputs(out)),
+        Message::Motion(Motion::from_outputs(out)),
         Message::DiagE2e(DiagE2e::default()),
         Message::DiagLink(DiagLink::default()),
     ];
