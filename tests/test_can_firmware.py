@@ -5,8 +5,8 @@ by period, exactly the frames that the host build of the same ECU code
 sends for the same input frames, and drops to the safe state when the
 sensor frames stop.
 
-The host reference is `crates/hp-ctrl/examples/can_codec.rs` (`ecu`
-commands), i.e. `hp_ctrl::can::ecu::Ecu` compiled for x86-64.
+The host reference is `hp_ctrl::can::ecu::Ecu` compiled for x86-64, through
+the bindings (`hpctl._core.Ecu`).
 
 Needs the firmware toolchain (scripts/install-firmware-toolchain.sh);
 without it these tests are skipped with that reason.
@@ -83,39 +83,24 @@ def test_free_running_firmware_is_an_slcan_adapter_in_the_safe_state(firmware):
 
 
 class HostEcu:
-    """The host build of the ECU application (can_codec example)."""
+    """The host build of the ECU application: hp_ctrl::can::ecu::Ecu through
+    the bindings (hpctl._core.Ecu), fed python-can frames."""
 
-    def __init__(self):
-        out = subprocess.run(
-            ["cargo", "build", "-q", "--release", "-p", "hp-ctrl", "--example", "can_codec", "--message-format=json"],
-            cwd=ROOT, check=True, capture_output=True, text=True,
-        ).stdout  # fmt: skip
-        import json
+    def __init__(self) -> None:
+        from hpctl import _core
 
-        exe = next(
-            m["executable"]
-            for m in map(json.loads, out.splitlines())
-            if m.get("reason") == "compiler-artifact" and m["target"]["name"] == "can_codec" and m.get("executable")
-        )
-        self.proc = subprocess.Popen([exe], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1)
-
-    def ask(self, line: str) -> str:
-        self.proc.stdin.write(line + "\n")
-        self.proc.stdin.flush()
-        return self.proc.stdout.readline().strip()
+        self.ecu = _core.Ecu()
 
     def receive(self, frames) -> None:
         for f in frames:
-            self.ask(f"ecu {f.arbitration_id:X} {bytes(f.data).hex()}")
+            self.ecu.receive(f.arbitration_id, bytes(f.data))
 
     def period(self, frames) -> list[tuple[int, bytes]]:
         self.receive(frames)
-        words = self.ask("ecu_period").split()[1:]
-        return [(int(i, 16), bytes.fromhex(d)) for i, d in (w.split("#") for w in words)]
+        return self.ecu.period()
 
-    def close(self):
-        self.proc.stdin.close()
-        self.proc.wait(timeout=10)
+    def close(self) -> None:
+        pass
 
 
 def road_inputs(k: int, p_static_pa: float, t_static_k: float) -> dict[str, float]:
@@ -142,9 +127,11 @@ def road_inputs(k: int, p_static_pa: float, t_static_k: float) -> dict[str, floa
 
 
 def test_lock_step_firmware_matches_the_host_build_and_fails_safe(firmware):
+    from hpctl import _core
+
     host = HostEcu()
-    config = dict(w.split("=") for w in host.ask("config").split()[1:])
-    p_static, t_static = float(config["static_pressure_pa"]), float(config["static_temperature_k"])
+    unit = _core.ctrl_seed_config()["unit"]  # what the ECU's parameters assume
+    p_static, t_static = unit["static_pressure_pa"], unit["static_temperature_k"]
     codec = pil.FrameCodec()
     try:
         with pil.Emulator(firmware["hp-fw-pil"]) as emu:

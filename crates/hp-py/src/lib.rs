@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod can;
 mod ctrl;
 mod errors;
 mod exec;
@@ -16,6 +17,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     sim::register(m)?;
     ctrl::register(m)?;
+    can::register(m)?;
     m.add_class::<plant::Plant>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

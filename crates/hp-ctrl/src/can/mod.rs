@@ -37,6 +37,9 @@ pub mod signal;
 pub mod slcan;
 pub mod tx;
 
+/// The frame traits and identifiers the codec works with, re-exported so a
+/// user (the Python bindings) names the very same version.
+pub use embedded_can;
 pub use frame::CanFrame;
 pub use messages::{Kind, Message, MessageDef};
 pub use rx::{Accepted, InputDecoder, LinkParams};

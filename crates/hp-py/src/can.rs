@@ -1,0 +1,173 @@
+//! The CAN codec and the ECU application (`hp_ctrl::can`) from Python:
+//! frames as `(identifier, bytes)`, signals by their DBC names. Thin: the
+//! codec's own checks decide; structurally wrong calls (unknown message,
+//! missing or unknown signal, a counter or identifier out of its range,
+//! more than 8 bytes) raise `ParameterError`, a frame the codec rejects
+//! raises `CanRejectError`.
+
+use crate::errors::{guard, parameter, HpctlError};
+use crate::params::Reader;
+use hp_ctrl::can::ecu::{self, Link};
+use hp_ctrl::can::embedded_can::{ExtendedId, Frame, Id, StandardId};
+use hp_ctrl::can::{self as codec, e2e, CanFrame, Kind, Reject};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+
+pyo3::create_exception!(
+    _core,
+    CanRejectError,
+    HpctlError,
+    "A CAN frame the codec rejects; args are (message, reason), the reason one of unknown_id, length, crc, repeated, skipped, range."
+);
+
+fn reason(r: Reject) -> &'static str {
+    match r {
+        Reject::UnknownId => "unknown_id",
+        Reject::Length => "length",
+        Reject::Crc => "crc",
+        Reject::Repeated => "repeated",
+        Reject::Skipped => "skipped",
+        Reject::Range => "range",
+    }
+}
+
+fn rejected(r: Reject) -> PyErr {
+    CanRejectError::new_err((format!("frame rejected: {}", reason(r)), reason(r)))
+}
+
+/// A frame from its identifier (standard unless `extended`) and data.
+fn frame_from(id: u32, data: &[u8], extended: bool) -> PyResult<CanFrame> {
+    let id: Id = if extended {
+        ExtendedId::new(id).ok_or_else(|| parameter(format!("extended id = {id:#x} must be below 0x20000000")))?.into()
+    } else {
+        let raw = u16::try_from(id).ok().and_then(StandardId::new);
+        raw.ok_or_else(|| parameter(format!("id = {id:#x} must be a standard identifier (below 0x800)")))?.into()
+    };
+    CanFrame::new(id, data).ok_or_else(|| parameter(format!("data has {} bytes; a classic CAN frame carries at most 8", data.len())))
+}
+
+fn frame_to_py<'py>(py: Python<'py>, f: &CanFrame) -> (u32, Bound<'py, PyBytes>) {
+    let id = match f.id() {
+        Id::Standard(id) => u32::from(id.as_raw()),
+        Id::Extended(id) => id.as_raw(),
+    };
+    (id, PyBytes::new(py, f.data()))
+}
+
+/// Encodes message `name` (DBC spelling) with alive counter `counter`
+/// (0..=14): `values` maps every signal of the message to its physical
+/// value (rounded to the nearest LSB). Returns `(identifier, 8 bytes)`.
+#[pyfunction]
+fn can_encode<'py>(py: Python<'py>, name: &str, counter: u8, values: &Bound<'py, PyAny>) -> PyResult<(u32, Bound<'py, PyBytes>)> {
+    guard(|| {
+        let kind = Kind::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = Kind::ALL.iter().map(|k| k.def().name).collect();
+            parameter(format!("unknown message {name:?} (one of: {})", names.join(", ")))
+        })?;
+        if counter > e2e::COUNTER_MAX {
+            return Err(parameter(format!("counter = {counter} must be within [0, {}]", e2e::COUNTER_MAX)));
+        }
+        let mut r = Reader::new(values, "values")?;
+        let mut payload = [0u8; 8];
+        for sd in kind.signals() {
+            let x = r.f64(sd.name)?;
+            sd.signal
+                .put(&mut payload, x)
+                .map_err(|_| parameter(format!("values.{} = {x} is not finite or outside the signal's range", sd.name)))?;
+        }
+        r.finish()?;
+        let msg = codec::read_payload(kind, &payload).map_err(rejected)?;
+        let frame = codec::encode(&msg, counter).map_err(|_| parameter(format!("{name}: a value is outside its range")))?;
+        Ok(frame_to_py(py, &frame))
+    })
+}
+
+/// Decodes one frame (stateless: identifier, length, CRC, counter value,
+/// reserved bits and signal ranges are checked; the counter sequence is
+/// the receiver's job). Returns `(message name, counter, {signal: value})`.
+#[pyfunction]
+#[pyo3(signature = (id, data, extended=false))]
+fn can_decode<'py>(py: Python<'py>, id: u32, data: &[u8], extended: bool) -> PyResult<(&'static str, u8, Bound<'py, PyDict>)> {
+    guard(|| {
+        let frame = frame_from(id, data, extended)?;
+        let (msg, counter) = codec::decode(&frame).map_err(rejected)?;
+        let kind = msg.kind();
+        let payload = codec::encode(&msg, counter).map_err(|_| parameter("decoded message does not re-encode"))?;
+        let values = PyDict::new(py);
+        for sd in kind.signals() {
+            values.set_item(sd.name, sd.signal.get(payload.payload()).unwrap_or(f64::NAN))?;
+        }
+        Ok((kind.def().name, counter, values))
+    })
+}
+
+/// Collects what the ECU sends in one period.
+#[derive(Default)]
+struct Sent(Vec<CanFrame>);
+
+impl Link for Sent {
+    fn receive(&mut self) -> Option<CanFrame> {
+        None
+    }
+    fn transmit(&mut self, frame: &CanFrame) -> bool {
+        self.0.push(*frame);
+        true
+    }
+}
+
+/// The ECU application, `hp_ctrl::can::ecu::Ecu`: the code the firmware
+/// runs, on the host (the reference of processor-in-the-loop tests).
+/// Power-on: the seed unit's parameters, the controller in its safe state,
+/// every input message stale.
+#[pyclass(module = "hpctl._core")]
+pub struct Ecu {
+    ecu: Box<ecu::Ecu>,
+}
+
+#[pymethods]
+impl Ecu {
+    #[new]
+    fn new() -> PyResult<Self> {
+        guard(|| Ok(Ecu { ecu: Box::new(ecu::Ecu::new()) }))
+    }
+
+    /// True if the parameters validated (otherwise the outputs stay safe).
+    #[getter]
+    fn has_params(&self) -> bool {
+        self.ecu.has_params()
+    }
+
+    /// Frames that could not be queued for sending.
+    #[getter]
+    fn tx_dropped(&self) -> u32 {
+        self.ecu.tx_dropped
+    }
+
+    /// Feeds one received frame to the ECU's receiver (a rejected frame is
+    /// counted in its diagnostics, not raised). Returns the tick index if
+    /// it was an accepted `HP_PilTick`, else None.
+    #[pyo3(signature = (id, data, extended=false))]
+    fn receive(&mut self, id: u32, data: &[u8], extended: bool) -> PyResult<Option<u16>> {
+        guard(|| Ok(self.ecu.receive(&frame_from(id, data, extended)?)))
+    }
+
+    /// Closes one control period: the controller step on what was
+    /// received, and the frames the ECU sends in it, as `(identifier,
+    /// bytes)` in sending order.
+    fn period<'py>(&mut self, py: Python<'py>) -> PyResult<Vec<(u32, Bound<'py, PyBytes>)>> {
+        guard(|| {
+            let mut sent = Sent::default();
+            self.ecu.period(&mut sent);
+            Ok(sent.0.iter().map(|f| frame_to_py(py, f)).collect())
+        })
+    }
+}
+
+/// Registers the functions, the class and the exception on the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("CanRejectError", m.py().get_type::<CanRejectError>())?;
+    m.add_function(wrap_pyfunction!(can_encode, m)?)?;
+    m.add_function(wrap_pyfunction!(can_decode, m)?)?;
+    m.add_class::<Ecu>()?;
+    Ok(())
+}
