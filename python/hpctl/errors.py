@@ -8,6 +8,7 @@ mapped onto them; :class:`RecordError` adds malformed rig records.
 from __future__ import annotations
 
 from hpctl._core import (
+    CanRejectError,
     ConvergenceError,
     HpctlError,
     InternalError,
@@ -16,6 +17,7 @@ from hpctl._core import (
 )
 
 __all__ = [
+    "CanRejectError",
     "ConvergenceError",
     "HpctlError",
     "InternalError",
