@@ -195,11 +195,18 @@ impl Orifice {
         Ok(())
     }
 
+    /// `Cd A sqrt(2/rho)` for oil of density `oil_density_kg_m3`: the
+    /// coefficient [`Orifice::flow_m3_s`] takes, computed once per unit
+    /// (it sits on the integrator's hot path).
+    pub fn coefficient(&self, oil_density_kg_m3: f64) -> f64 {
+        self.flow_area_m2 * libm::sqrt(2.0 / oil_density_kg_m3)
+    }
+
     /// Flow from side 1 to side 2 for a pressure difference `p1 - p2`, m^3/s:
-    /// `Cd A sqrt(2/rho) dp / (dp^2 + dp_t^2)^(1/4)`.
-    pub fn flow_m3_s(&self, dp_pa: f64, oil_density_kg_m3: f64) -> f64 {
-        let scale = self.flow_area_m2 * libm::sqrt(2.0 / oil_density_kg_m3);
+    /// `Cd A sqrt(2/rho) dp / (dp^2 + dp_t^2)^(1/4)`, with `coefficient`
+    /// from [`Orifice::coefficient`].
+    pub fn flow_m3_s(&self, dp_pa: f64, coefficient: f64) -> f64 {
         let dp_t = self.transition_pa;
-        scale * dp_pa / libm::sqrt(libm::sqrt(dp_pa * dp_pa + dp_t * dp_t))
+        coefficient * dp_pa / libm::sqrt(libm::sqrt(dp_pa * dp_pa + dp_t * dp_t))
     }
 }

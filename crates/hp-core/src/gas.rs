@@ -120,21 +120,37 @@ fn solve_density(props: impl Fn(f64) -> GasProps, p_pa: f64) -> Result<f64> {
     Err(fail)
 }
 
+/// Moles per gram of N2 (the reciprocal, so the hot path multiplies).
+const N2_MOL_PER_G: f64 = 1.0 / N2_MOLAR_MASS_G_PER_MOL;
+/// Moles per kilogram of N2.
+const N2_MOL_PER_KG: f64 = 1e3 / N2_MOLAR_MASS_G_PER_MOL;
+
 /// Ideal-gas isobaric molar heat capacity of N2, J/(mol K): NIST's Shomate
 /// equation (two temperature bands, 100-500 K and 500-2000 K).
 pub fn cp0_molar_j_per_mol_k(t_k: f64) -> f64 {
+    cp0_molar(t_k, 1.0 / (t_k * t_k))
+}
+
+/// [`cp0_molar_j_per_mol_k`] with `1/T^2` already at hand.
+#[inline(always)]
+fn cp0_molar(t_k: f64, inv_t2: f64) -> f64 {
     let (a, b, c, d, e) = if t_k <= 500.0 {
         (28.98641, 1.853978, -9.647459, 16.63537, 0.000117)
     } else {
         (19.50583, 19.88705, -8.598535, 1.369784, 0.527601)
     };
-    let t = t_k * 1e-3;
-    a + t * (b + t * (c + t * d)) + e / (t * t)
+    let t = t_k * 1e-3; // the fit's temperature unit is kK
+    a + t * (b + t * (c + t * d)) + e * 1e6 * inv_t2
 }
 
 /// Ideal-gas isochoric specific heat capacity of N2, J/(kg K).
 pub fn cv0_j_per_kg_k(t_k: f64) -> f64 {
-    (cp0_molar_j_per_mol_k(t_k) - MOLAR_GAS_CONSTANT_J_PER_MOL_K) / (N2_MOLAR_MASS_G_PER_MOL * 1e-3)
+    cv0(t_k, 1.0 / (t_k * t_k))
+}
+
+#[inline(always)]
+fn cv0(t_k: f64, inv_t2: f64) -> f64 {
+    (cp0_molar(t_k, inv_t2) - MOLAR_GAS_CONSTANT_J_PER_MOL_K) * N2_MOL_PER_KG
 }
 
 /// Nitrogen as an ideal gas with temperature-dependent `c_v0(T)`.
@@ -148,7 +164,7 @@ impl EquationOfState for IdealGas {
             p_pa: rho_kg_m3 * r * t_k,
             dp_dt_pa_per_k: rho_kg_m3 * r,
             dp_drho_pa_m3_per_kg: r * t_k,
-            cv_j_per_kg_k: cv0_j_per_kg_k(t_k),
+            cv_j_per_kg_k: cv0(t_k, 1.0 / (t_k * t_k)),
         }
     }
 }
@@ -207,13 +223,18 @@ pub struct Bwr {
 }
 
 impl EquationOfState for Bwr {
-    #[inline]
+    // Always inlined: with a constant set the compiler folds the products
+    // of constants, which is most of the arithmetic.
+    #[inline(always)]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         let k = &self.constants;
-        let d = rho_kg_m3 / N2_MOLAR_MASS_G_PER_MOL; // mol/L
+        // Divisions are slow and the compiler does not turn a division by a
+        // constant into a multiplication: one reciprocal, then products.
+        let d = rho_kg_m3 * N2_MOL_PER_G; // mol/L
         let t = t_k;
-        let inv_t2 = 1.0 / (t * t);
-        let inv_t3 = inv_t2 / t;
+        let inv_t = 1.0 / t;
+        let inv_t2 = inv_t * inv_t;
+        let inv_t3 = inv_t2 * inv_t;
         let d2 = d * d;
         let d3 = d2 * d;
         let gd2 = k.gamma * d2;
@@ -230,14 +251,14 @@ impl EquationOfState for Bwr {
             + 6.0 * k.a * k.alpha * d3 * d2
             + k.c * inv_t2 * (3.0 * d2 + 3.0 * gd2 * d2 - 2.0 * gd2 * gd2 * d2) * e;
         // Residual c_v from the Helmholtz energy: -T d2(a_res)/dT2.
-        let cv_res = 6.0 * k.c0 * d * inv_t3 - (6.0 * k.c * inv_t3 / k.gamma) * (1.0 - (1.0 + 0.5 * gd2) * e);
-        let energy_unit_j_per_mol = k.pressure_unit_pa * 1e-3; // (set pressure) x (L/mol)
-        let kg_per_mol = N2_MOLAR_MASS_G_PER_MOL * 1e-3;
+        let cv_res = 6.0 * k.c0 * d * inv_t3 - (6.0 * k.c / k.gamma) * inv_t3 * (1.0 - (1.0 + 0.5 * gd2) * e);
+        // (set pressure) x (L/mol) in J/mol, then per kg.
+        let energy_j_per_kg = k.pressure_unit_pa * 1e-3 * N2_MOL_PER_KG;
         GasProps {
             p_pa: p * k.pressure_unit_pa,
             dp_dt_pa_per_k: dp_dt * k.pressure_unit_pa,
-            dp_drho_pa_m3_per_kg: dp_dd * k.pressure_unit_pa / N2_MOLAR_MASS_G_PER_MOL,
-            cv_j_per_kg_k: cv0_j_per_kg_k(t) + cv_res * energy_unit_j_per_mol / kg_per_mol,
+            dp_drho_pa_m3_per_kg: dp_dd * (k.pressure_unit_pa * N2_MOL_PER_G),
+            cv_j_per_kg_k: cv0(t, inv_t2) + cv_res * energy_j_per_kg,
         }
     }
 }
@@ -274,7 +295,7 @@ impl Gas {
 }
 
 impl EquationOfState for Gas {
-    #[inline]
+    #[inline(always)]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         match self {
             Gas::Ideal => IdealGas.props(rho_kg_m3, t_k),

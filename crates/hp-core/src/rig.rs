@@ -161,8 +161,8 @@ impl<'a> Rig<'a> {
         }
     }
 
-    #[inline]
-    fn evaluate(&self, t_s: f64, s: &RigState) -> Result<(RigState, RigSample)> {
+    /// Checks that a state is one the model can evaluate.
+    fn check(&self, t_s: f64, s: &RigState) -> Result<()> {
         self.unit.check_state(&s.unit, t_s)?;
         if !(s.body_disp_m.is_finite() && s.body_vel_m_s.is_finite()) {
             return Err(Error::StateOutOfRange {
@@ -173,17 +173,37 @@ impl<'a> Rig<'a> {
                 time_s: t_s,
             });
         }
+        Ok(())
+    }
+
+    /// The state rate and what the unit does, for a state that passed
+    /// [`Rig::check`] (or an integrator stage between two that did: a stage
+    /// outside the valid region gives a bad step, which the check of the
+    /// step's result catches; the arithmetic cannot panic).
+    #[inline]
+    fn rate(&self, t_s: f64, s: &RigState) -> (RigState, StrutMotion, f64, f64, UnitOutputs) {
         let (motion, base) = self.strut_motion(t_s, s);
         let (unit_rate, out) = self.unit.evaluate(&s.unit, motion, self.valves, self.ambient_k);
         let body_acc = match self.kind {
             RigKind::Characterisation { .. } => 0.0,
             RigKind::Sdof { sprung_mass_kg, .. } => out.force_n / sprung_mass_kg - STANDARD_GRAVITY_M_S2,
         };
-        let rate = RigState { unit: unit_rate, body_disp_m: s.body_vel_m_s, body_vel_m_s: body_acc };
         let rate = match self.kind {
-            RigKind::Characterisation { .. } => RigState { body_disp_m: 0.0, body_vel_m_s: 0.0, ..rate },
-            RigKind::Sdof { .. } => rate,
+            RigKind::Characterisation { .. } => RigState { unit: unit_rate, body_disp_m: 0.0, body_vel_m_s: 0.0 },
+            RigKind::Sdof { .. } => RigState { unit: unit_rate, body_disp_m: s.body_vel_m_s, body_vel_m_s: body_acc },
         };
+        (rate, motion, base, body_acc, out)
+    }
+
+    fn evaluate(&self, t_s: f64, s: &RigState) -> Result<(RigState, RigSample)> {
+        self.check(t_s, s)?;
+        Ok(self.evaluate_checked(t_s, s))
+    }
+
+    /// [`Rig::evaluate`] for a state already checked (every state a step
+    /// returns was).
+    fn evaluate_checked(&self, t_s: f64, s: &RigState) -> (RigState, RigSample) {
+        let (rate, motion, base, body_acc, out) = self.rate(t_s, s);
         let sample = RigSample {
             time_s: t_s,
             disp_m: motion.disp_m,
@@ -200,7 +220,7 @@ impl<'a> Rig<'a> {
             e_valve6_j: s.unit.e_valve6_j,
             unit: out,
         };
-        Ok((rate, sample))
+        (rate, sample)
     }
 
     /// The initial state: at rest, gas at ambient temperature. On the
@@ -222,22 +242,24 @@ impl<'a> Rig<'a> {
         self.evaluate(t_s, state).map(|(_, s)| s)
     }
 
-    /// Advances `state` by one RK4 step of `dt_s` with the current valves.
+    /// Advances `state` by one RK4 step of `dt_s` with the current valves;
+    /// fails if the result is outside the model's valid region.
     pub fn step(&self, t_s: f64, state: &RigState, dt_s: f64) -> Result<RigState> {
         let y = rk4_step(self, t_s, &state.to_array(), dt_s)?;
-        Ok(self.projected(&y))
+        self.projected(t_s + dt_s, &y)
     }
 
-    /// [`Rig::step`] reusing the state rate at `t_s` from [`Rig::sample_and_rate`].
+    /// [`Rig::step`] reusing the state rate at `t_s` from [`Rig::rate_and_sample`].
     fn step_from(&self, t_s: f64, state: &RigState, dt_s: f64, rate: &RigState) -> Result<RigState> {
         let y = rk4_step_from(self, t_s, &state.to_array(), dt_s, &rate.to_array())?;
-        Ok(self.projected(&y))
+        self.projected(t_s + dt_s, &y)
     }
 
-    fn projected(&self, y: &[f64; RIG_STATES]) -> RigState {
+    fn projected(&self, t_s: f64, y: &[f64; RIG_STATES]) -> Result<RigState> {
         let mut next = RigState::from_array(y);
         self.unit.project(&mut next.unit, self.ambient_k);
-        next
+        self.check(t_s, &next)?;
+        Ok(next)
     }
 
     /// The state rate and the observed quantities at `(t_s, state)`.
@@ -266,8 +288,7 @@ impl<'a> Rig<'a> {
 
 impl OdeSystem<RIG_STATES> for Rig<'_> {
     fn derivatives(&self, t_s: f64, y: &[f64; RIG_STATES]) -> Result<[f64; RIG_STATES]> {
-        let s = RigState::from_array(y);
-        let (rate, _) = self.evaluate(t_s, &s)?;
+        let (rate, ..) = self.rate(t_s, &RigState::from_array(y));
         Ok(rate.to_array())
     }
 }
@@ -318,7 +339,9 @@ pub fn run<'a>(
     loop {
         // The valves of the interval that starts here are already set; the
         // rate evaluated for the sample is the first RK4 stage of the interval.
-        let (rate, sample) = rig.evaluate(t, &state)?;
+        // The initial state is valid by construction and every step's
+        // result has been checked.
+        let (rate, sample) = rig.evaluate_checked(t, &state);
         if !on_sample(index, &sample) {
             return Ok(());
         }

@@ -304,6 +304,7 @@ pub struct Unit {
     params: UnitParams,
     small_mass_kg: f64,
     large_mass_kg: f64,
+    valve6_coefficient: f64,
 }
 
 impl Unit {
@@ -366,6 +367,7 @@ impl Unit {
             params,
             small_mass_kg: rho * p.small_volume_m3,
             large_mass_kg: rho * p.large_volume_m3,
+            valve6_coefficient: p.valve6.coefficient(p.oil_density_kg_m3),
         })
     }
 
@@ -469,6 +471,27 @@ impl Unit {
 
     /// Checks that a state is one the model can evaluate.
     pub fn check_state(&self, s: &UnitState, time_s: f64) -> Result<()> {
+        let (t_min, t_max) = TEMPERATURE_RANGE_K;
+        let temperature_ok = |t: f64| t >= t_min && t <= t_max;
+        let volume_ok = |v: f64, m: f64| m > 0.0 && v > m / DENSITY_RANGE_KG_M3.1 && v < 10.0;
+        // One cheap test on the hot path; the error is built only on failure.
+        let ok = temperature_ok(s.t_small_k)
+            && temperature_ok(s.t_large_k)
+            && temperature_ok(s.t_wall_k)
+            && temperature_ok(s.t_oil_k)
+            && volume_ok(s.v_small_m3, s.m_small_kg)
+            && volume_ok(s.v_large_m3, s.m_large_kg)
+            && (s.p_strut_pa + s.v_void_m3 + s.force_sensor_n + s.p_small_sensor_pa + s.p_large_sensor_pa).is_finite();
+        if ok {
+            Ok(())
+        } else {
+            Err(self.state_error(s, time_s))
+        }
+    }
+
+    /// The first state variable out of range, as an error.
+    #[cold]
+    fn state_error(&self, s: &UnitState, time_s: f64) -> Error {
         let bad = |name, value, min, max| Error::StateOutOfRange { name, value, min, max, time_s };
         let (t_min, t_max) = TEMPERATURE_RANGE_K;
         for (name, t) in [
@@ -478,7 +501,7 @@ impl Unit {
             ("t_oil_k", s.t_oil_k),
         ] {
             if !(t >= t_min && t <= t_max) {
-                return Err(bad(name, t, t_min, t_max));
+                return bad(name, t, t_min, t_max);
             }
         }
         for (name, v, m) in [
@@ -487,7 +510,7 @@ impl Unit {
         ] {
             let min_v = m / DENSITY_RANGE_KG_M3.1;
             if !(v > min_v && v < 10.0 && m > 0.0) {
-                return Err(bad(name, v, min_v, 10.0));
+                return bad(name, v, min_v, 10.0);
             }
         }
         for (name, x) in [
@@ -498,10 +521,11 @@ impl Unit {
             ("p_large_sensor_pa", s.p_large_sensor_pa),
         ] {
             if !x.is_finite() {
-                return Err(bad(name, x, f64::MIN, f64::MAX));
+                return bad(name, x, f64::MIN, f64::MAX);
             }
         }
-        Ok(())
+        // The sum overflowed although every term is finite.
+        bad("p_strut_pa", s.p_strut_pa, f64::MIN, f64::MAX)
     }
 
     /// The unit's state derivative and outputs at one instant.
@@ -544,7 +568,7 @@ impl Unit {
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
         // Valve 6.
-        let q6 = if s6 > 0.0 { s6 * p.valve6.flow_m3_s(p_s - p_l, p.oil_density_kg_m3) } else { 0.0 };
+        let q6 = if s6 > 0.0 { s6 * p.valve6.flow_m3_s(p_s - p_l, self.valve6_coefficient) } else { 0.0 };
 
         // Strut pressure and damper flow, with cavitation.
         let displaced_rate = area * motion.vel_m_s; // oil pushed out of the strut volume
