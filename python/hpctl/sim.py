@@ -83,9 +83,9 @@ Motion = Union[Hold, Sine, Step, Steps, Sampled]
 
 def _motion_dict(m: Motion) -> dict[str, Any]:
     if isinstance(m, Sampled):
-        d: dict[str, Any] = {"kind": "sampled", "time_s": np.asarray(m.time_s, float).tolist(), "disp_m": np.asarray(m.disp_m, float).tolist()}
+        d: dict[str, Any] = {"kind": "sampled", "time_s": np.ascontiguousarray(m.time_s, float), "disp_m": np.ascontiguousarray(m.disp_m, float)}
         if m.vel_m_s is not None:
-            d["vel_m_s"] = np.asarray(m.vel_m_s, float).tolist()
+            d["vel_m_s"] = np.ascontiguousarray(m.vel_m_s, float)
         return d
     return dict(vars(m))
 
@@ -213,7 +213,5 @@ def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result |
     that fails yields its exception in place of a result."""
     dicts = []
     for c in cases:
-        d = _case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels)
-        d["times_s"] = d["times_s"].tolist()
-        dicts.append(d)
+        dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels))
     return [r if isinstance(r, Exception) else Result(dict(r)) for r in _core.simulate_many(dicts, threads)]

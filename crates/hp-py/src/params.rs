@@ -71,6 +71,10 @@ impl<'py> Reader<'py> {
     pub fn vec(&mut self, key: &str) -> PyResult<Vec<f64>> {
         let path = self.key_path(key);
         let v = self.get(key)?;
+        // A float64 numpy array is copied in one go; anything else element by element.
+        if let Ok(array) = v.extract::<numpy::PyReadonlyArray1<'py, f64>>() {
+            return Ok(array.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| array.as_array().to_vec()));
+        }
         v.extract::<Vec<f64>>().map_err(|_| parameter(format!("{path} must be a sequence of numbers")))
     }
 
