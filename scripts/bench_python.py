@@ -1,6 +1,9 @@
 """Python benchmark: hpctl against the same SDOF step simulation written
-plainly in Python (SciPy solve_ivp + a numpy BWR), in one run, as ratios.
-Also the parallel sweep's scaling from one thread to two.
+plainly in Python, in one run, as ratios: the same RK4 with a BWR in
+Python's math module, SciPy's adaptive solve_ivp with that BWR, and
+solve_ivp with CoolProp's reference nitrogen (through its low-level
+AbstractState, the fast way to call it). Also the parallel sweep's scaling
+from one thread to two.
 
     python scripts/bench_python.py [--repeat 3]
 
@@ -34,6 +37,31 @@ def cv0(t: float) -> float:
     return (a + x * (b + x * (c + x * d)) + e / (x * x) - R_UNIV) / (M_G_PER_MOL * 1e-3)
 
 
+_COOLPROP: list[object] = []
+
+
+def coolprop(rho: float, t: float) -> tuple[float, float, float]:
+    """p, (dp/dT)_rho, c_v of CoolProp's reference nitrogen."""
+    import CoolProp
+
+    if not _COOLPROP:
+        _COOLPROP.append(CoolProp.AbstractState("HEOS", "Nitrogen"))
+    s = _COOLPROP[0]
+    s.update(CoolProp.DmassT_INPUTS, rho, t)  # type: ignore[attr-defined]
+    return s.p(), s.first_partial_deriv(CoolProp.iP, CoolProp.iT, CoolProp.iDmass), s.cvmass()  # type: ignore[attr-defined]
+
+
+def coolprop_propssi(rho: float, t: float) -> tuple[float, float, float]:
+    """The same through CoolProp's high-level PropsSI, as it is mostly called."""
+    import CoolProp.CoolProp as CP
+
+    return (
+        CP.PropsSI("P", "Dmass", rho, "T", t, "Nitrogen"),
+        CP.PropsSI("d(P)/d(T)|Dmass", "Dmass", rho, "T", t, "Nitrogen"),
+        CP.PropsSI("Cvmass", "Dmass", rho, "T", t, "Nitrogen"),
+    )
+
+
 def bwr(rho: float, t: float) -> tuple[float, float, float]:
     k = BWR
     d = rho / M_G_PER_MOL
@@ -47,7 +75,7 @@ def bwr(rho: float, t: float) -> tuple[float, float, float]:
     return p * k["unit"], dpdt * k["unit"], cv0(t) + cv_res * k["unit"] * 1e-3 / (M_G_PER_MOL * 1e-3)
 
 
-def python_sdof(unit: hpctl.Unit, duration_s: float, method: str) -> np.ndarray:
+def python_sdof(unit: hpctl.Unit, duration_s: float, method: str, eos: object = None) -> np.ndarray:
     a = unit.piston_area_m2
     mass_gas, _ = unit.gas_masses_kg()
     c = unit.damper.off_compression
@@ -75,7 +103,7 @@ def python_sdof(unit: hpctl.Unit, duration_s: float, method: str) -> np.ndarray:
         zb, vb = base(t)
         xdot = vb - v
         q = a * xdot
-        p, dpdt, cv = bwr(mass_gas / vol, temp)
+        p, dpdt, cv = (eos or bwr)(mass_gas / vol, temp)  # type: ignore[operator]
         dp = drop(c, q) if q >= 0 else -drop(r, -q)
         force = a * (p + dp - unit.ambient_pressure_pa)
         dvol = -q
@@ -125,9 +153,15 @@ def main() -> None:
     t_rs = best_of(max(args.repeat, 10), hpctl_run)
     print(f"SDOF 43 mm step, hard spring, damper off, {dur:g} s simulated, body displacement at 1 kHz")
     print(f"  hpctl (Rust RK4, 1 ms steps):                       {t_rs * 1e3:9.2f} ms  (real-time factor {dur / t_rs:,.0f})")
-    for method, label in (("rk4", "plain Python, same RK4 at 1 ms + math BWR"), ("solve_ivp", "SciPy solve_ivp (adaptive RK45) + math BWR")):
-        z_py = python_sdof(unit, dur, method)
-        t_py = best_of(args.repeat, lambda: python_sdof(unit, dur, method))
+    variants = (
+        ("rk4", None, "plain Python, same RK4 at 1 ms + math BWR"),
+        ("solve_ivp", None, "SciPy solve_ivp (adaptive RK45) + math BWR"),
+        ("solve_ivp", coolprop, "SciPy solve_ivp + CoolProp (AbstractState)"),
+        ("solve_ivp", coolprop_propssi, "SciPy solve_ivp + CoolProp (PropsSI)"),
+    )
+    for method, eos, label in variants:
+        z_py = python_sdof(unit, dur, method, eos)
+        t_py = best_of(args.repeat, lambda: python_sdof(unit, dur, method, eos))
         agree = float(np.max(np.abs(z_py - z_rs)))
         print(f"  {label + ':':51} {t_py * 1e3:9.1f} ms  -> hpctl {t_py / t_rs:,.0f} x faster (largest difference {agree * 1e6:.2f} um)")
 

@@ -38,7 +38,8 @@ def main() -> None:
         value = estimate_ns(bench)
         if value is not None:
             results[name] = value
-    baseline = results.get("baseline/exp")
+    # criterion stores "baseline/exp" as "baseline_exp".
+    baseline = results.get("baseline_exp")
     print("| benchmark | median | per | ratio to one libm exp (same run) |")
     print("|---|---|---|---|")
     for name in sorted(results):
@@ -46,6 +47,10 @@ def main() -> None:
         shown = f"{ns / 1e6:.3f} ms" if ns > 1e5 else f"{ns:.1f} ns"
         ratio = f"{ns / baseline:,.1f}" if baseline else "-"
         print(f"| `{name}` | {shown} | call | {ratio} |")
+    copy = results.get("controller/baseline_ copy Inputs")
+    step = results.get("controller/step")
+    if copy and step:
+        print(f"Controller step: {step:.1f} ns, {step / copy:.0f} x copying its inputs (same run).")
     run = results.get("sdof_10s_at_1khz/run")
     if run:
         print()
