@@ -223,43 +223,62 @@ pub struct Bwr {
 }
 
 impl EquationOfState for Bwr {
-    // Always inlined: with a constant set the compiler folds the products
-    // of constants, which is most of the arithmetic.
-    #[inline(always)]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
-        let k = &self.constants;
-        // Divisions are slow and the compiler does not turn a division by a
-        // constant into a multiplication: one reciprocal, then products.
-        let d = rho_kg_m3 * N2_MOL_PER_G; // mol/L
-        let t = t_k;
-        let inv_t = 1.0 / t;
-        let inv_t2 = inv_t * inv_t;
-        let inv_t3 = inv_t2 * inv_t;
-        let d2 = d * d;
-        let d3 = d2 * d;
-        let gd2 = k.gamma * d2;
-        let e = libm::exp(-gd2);
-        let rt = k.r * t;
-        let second_virial = k.b0 * rt - k.a0 - k.c0 * inv_t2;
-        let third = k.b * rt - k.a;
-        let c_term = k.c * (1.0 + gd2) * e; // c (1 + gamma d^2) exp(-gamma d^2)
-        let p = rt * d + second_virial * d2 + third * d3 + k.a * k.alpha * d3 * d3 + c_term * d3 * inv_t2;
-        let dp_dt = k.r * d + (k.b0 * k.r + 2.0 * k.c0 * inv_t3) * d2 + k.b * k.r * d3 - 2.0 * c_term * d3 * inv_t3;
-        let dp_dd = rt
-            + 2.0 * second_virial * d
-            + 3.0 * third * d2
-            + 6.0 * k.a * k.alpha * d3 * d2
-            + k.c * inv_t2 * (3.0 * d2 + 3.0 * gd2 * d2 - 2.0 * gd2 * gd2 * d2) * e;
-        // Residual c_v from the Helmholtz energy: -T d2(a_res)/dT2.
-        let cv_res = 6.0 * k.c0 * d * inv_t3 - (6.0 * k.c / k.gamma) * inv_t3 * (1.0 - (1.0 + 0.5 * gd2) * e);
-        // (set pressure) x (L/mol) in J/mol, then per kg.
-        let energy_j_per_kg = k.pressure_unit_pa * 1e-3 * N2_MOL_PER_KG;
-        GasProps {
-            p_pa: p * k.pressure_unit_pa,
-            dp_dt_pa_per_k: dp_dt * k.pressure_unit_pa,
-            dp_drho_pa_m3_per_kg: dp_dd * (k.pressure_unit_pa * N2_MOL_PER_G),
-            cv_j_per_kg_k: cv0(t, inv_t2) + cv_res * energy_j_per_kg,
-        }
+        bwr_props(&self.constants, rho_kg_m3, t_k)
+    }
+}
+
+/// BWR with the textbook set: its own function, so the constants fold.
+#[inline]
+fn bwr_textbook_props(rho_kg_m3: f64, t_k: f64) -> GasProps {
+    bwr_props(&BWR_TEXTBOOK, rho_kg_m3, t_k)
+}
+
+/// BWR with the Cooper & Goldfrank set.
+#[inline]
+fn bwr_cooper_goldfrank_props(rho_kg_m3: f64, t_k: f64) -> GasProps {
+    bwr_props(&BWR_COOPER_GOLDFRANK, rho_kg_m3, t_k)
+}
+
+// On the host, always inlined into the per-set functions above: with a
+// constant set the compiler folds the products of constants, which is most
+// of the arithmetic. On a bare-metal target one shared copy keeps the flash
+// small (the ECU evaluates the gas only while building its tables), and
+// inlining it into every caller there made one Cortex-M function too large
+// for its literal pool.
+#[cfg_attr(not(target_os = "none"), inline(always))]
+fn bwr_props(k: &BwrConstants, rho_kg_m3: f64, t_k: f64) -> GasProps {
+    // Divisions are slow and the compiler does not turn a division by a
+    // constant into a multiplication: one reciprocal, then products.
+    let d = rho_kg_m3 * N2_MOL_PER_G; // mol/L
+    let t = t_k;
+    let inv_t = 1.0 / t;
+    let inv_t2 = inv_t * inv_t;
+    let inv_t3 = inv_t2 * inv_t;
+    let d2 = d * d;
+    let d3 = d2 * d;
+    let gd2 = k.gamma * d2;
+    let e = libm::exp(-gd2);
+    let rt = k.r * t;
+    let second_virial = k.b0 * rt - k.a0 - k.c0 * inv_t2;
+    let third = k.b * rt - k.a;
+    let c_term = k.c * (1.0 + gd2) * e; // c (1 + gamma d^2) exp(-gamma d^2)
+    let p = rt * d + second_virial * d2 + third * d3 + k.a * k.alpha * d3 * d3 + c_term * d3 * inv_t2;
+    let dp_dt = k.r * d + (k.b0 * k.r + 2.0 * k.c0 * inv_t3) * d2 + k.b * k.r * d3 - 2.0 * c_term * d3 * inv_t3;
+    let dp_dd = rt
+        + 2.0 * second_virial * d
+        + 3.0 * third * d2
+        + 6.0 * k.a * k.alpha * d3 * d2
+        + k.c * inv_t2 * (3.0 * d2 + 3.0 * gd2 * d2 - 2.0 * gd2 * gd2 * d2) * e;
+    // Residual c_v from the Helmholtz energy: -T d2(a_res)/dT2.
+    let cv_res = 6.0 * k.c0 * d * inv_t3 - (6.0 * k.c / k.gamma) * inv_t3 * (1.0 - (1.0 + 0.5 * gd2) * e);
+    // (set pressure) x (L/mol) in J/mol, then per kg.
+    let energy_j_per_kg = k.pressure_unit_pa * 1e-3 * N2_MOL_PER_KG;
+    GasProps {
+        p_pa: p * k.pressure_unit_pa,
+        dp_dt_pa_per_k: dp_dt * k.pressure_unit_pa,
+        dp_drho_pa_m3_per_kg: dp_dd * (k.pressure_unit_pa * N2_MOL_PER_G),
+        cv_j_per_kg_k: cv0(t, inv_t2) + cv_res * energy_j_per_kg,
     }
 }
 
@@ -295,12 +314,12 @@ impl Gas {
 }
 
 impl EquationOfState for Gas {
-    #[inline(always)]
+    #[inline]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         match self {
             Gas::Ideal => IdealGas.props(rho_kg_m3, t_k),
-            Gas::BwrCooperGoldfrank => Bwr { constants: BWR_COOPER_GOLDFRANK }.props(rho_kg_m3, t_k),
-            Gas::BwrTextbook => Bwr { constants: BWR_TEXTBOOK }.props(rho_kg_m3, t_k),
+            Gas::BwrCooperGoldfrank => bwr_cooper_goldfrank_props(rho_kg_m3, t_k),
+            Gas::BwrTextbook => bwr_textbook_props(rho_kg_m3, t_k),
         }
     }
 }
