@@ -160,18 +160,8 @@ def sdof_step(
         unit, result, kind="sdof", test=test, name=name, description=f"hpctl simulation: SDOF {height_m * 1e3:g} mm base step",
         ambient_k=unit.static_temperature_k, sprung_mass_kg=sprung_mass_kg,
     )
-    t, z = result["time_s"], result["body_disp_m"]
-    after = start_s + rise_s
-    summary = {
-        "spring": spring_name(spring_hard),
-        "damper": damper_name(damper_on),
-        "natural_frequency_hz": metrics.natural_frequency_hz(t, z, height_m, after),
-        "damping_ratio": metrics.damping_ratio(t, z, height_m, after),
-        "overshoot_m": metrics.overshoot_m(z, height_m, height_m),
-        "settling_time_s": metrics.settling_time_s(t, z, height_m, 0.05 * abs(height_m), start_s),
-        "peak_p_gas_pa": float(result["p_gas_true_pa"].max()),
-        "static_disp_m": float(result["disp_m"][0]),
-    }
+    summary: dict[str, Any] = {"spring": spring_name(spring_hard), "damper": damper_name(damper_on)}
+    summary.update(metrics.step_response(result["time_s"], result["body_disp_m"], result["disp_m"], result["p_gas_true_pa"], height_m, start_s, rise_s))
     return Experiment(name, record, result, summary)
 
 

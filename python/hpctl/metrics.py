@@ -87,3 +87,19 @@ def last_cycle(t: FloatArray, frequency_hz: float) -> NDArray[np.bool_]:
     n = math.floor((t[-1] - t[0]) / period + 1e-9)
     start = t[0] + (n - 1) * period
     return np.asarray(t >= start - 1e-9 * period)
+
+
+def step_response(t: FloatArray, body_disp_m: FloatArray, strut_disp_m: FloatArray, p_gas_pa: FloatArray,
+                  height_m: float, start_s: float, rise_s: float) -> dict[str, float | None]:
+    """What the seed's SDOF step test reports: natural frequency, damping
+    ratio, overshoot, settling time (5 % band), peak gas pressure, and the
+    static strut compression before the step."""
+    after = start_s + rise_s
+    return {
+        "natural_frequency_hz": natural_frequency_hz(t, body_disp_m, height_m, after),
+        "damping_ratio": damping_ratio(t, body_disp_m, height_m, after),
+        "overshoot_m": overshoot_m(body_disp_m, height_m, height_m),
+        "settling_time_s": settling_time_s(t, body_disp_m, height_m, 0.05 * abs(height_m), start_s),
+        "peak_p_gas_pa": float(np.max(p_gas_pa)),
+        "static_disp_m": float(strut_disp_m[0]),
+    }

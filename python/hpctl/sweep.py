@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hpctl import metrics
-from hpctl.sim import Case, Result, Step, sdof_rig, uniform_times
+from hpctl.sim import Case, Step, sdof_rig, uniform_times
 from hpctl.unit import Unit
 
 if TYPE_CHECKING:
@@ -30,19 +30,6 @@ def grid(unit: Unit, pressures_pa: list[float] | None, taus_s: list[float] | Non
     taus = taus_s or [0.5, 2.0, 8.0]
     dampers = [True, False] if damper == "both" else [damper == "on"]
     return list(itertools.product(pressures, taus, dampers))
-
-
-def summarise(result: Result, height_m: float) -> dict[str, Any]:
-    t, z = result["time_s"], result["body_disp_m"]
-    after = START_S + RISE_S
-    return {
-        "static_disp_m": float(result["disp_m"][0]),
-        "natural_frequency_hz": metrics.natural_frequency_hz(t, z, height_m, after),
-        "damping_ratio": metrics.damping_ratio(t, z, height_m, after),
-        "overshoot_m": metrics.overshoot_m(z, height_m, height_m),
-        "settling_time_s": metrics.settling_time_s(t, z, height_m, 0.05 * abs(height_m), START_S),
-        "peak_p_gas_pa": float(result["p_gas_true_pa"].max()),
-    }
 
 
 def run_sweep(
@@ -78,7 +65,7 @@ def run_sweep(
         if isinstance(r, Exception):
             row["error"] = str(r)
         else:
-            row.update(summarise(r, height_m))
+            row.update(metrics.step_response(r["time_s"], r["body_disp_m"], r["disp_m"], r["p_gas_true_pa"], height_m, START_S, RISE_S))
             row["error"] = ""
         rows.append(row)
     with (out_dir / "sweep.csv").open("w", newline="") as f:

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from hpctl.experiments import _record
 from hpctl.records import RecordTest, RigRecord
-from hpctl.sim import Hold, Motion, Sine, Step, characterisation_rig, run, sdof_rig, uniform_times
+from hpctl.sim import Motion, Sine, Step, characterisation_rig, run, sdof_rig, uniform_times
 from hpctl.unit import SEED_SPRUNG_MASS_KG, Sensor, Unit
 
 
