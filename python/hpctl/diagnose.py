@@ -69,11 +69,7 @@ REGRESSORS = ("disp_m", "vel_m_s", "sign_vel", "acc_m_s2", "time_s", "dissipated
 
 def _regressors(d: Dataset) -> dict[str, NDArray[np.float64]]:
     rec, t = d.record, d.times_s
-    x = rec["base_disp_m"] - rec["body_disp_m"] if rec.kind == "sdof" else rec["disp_m"]
-    from hpctl.fit import _smooth
-
-    xs = _smooth(t, x)
-    v = np.gradient(xs, t)
+    xs, v = d.strut_disp_m, d.strut_vel_m_s
     a = np.gradient(v, t)
     out = {"disp_m": xs, "vel_m_s": v, "sign_vel": np.sign(v), "acc_m_s2": a, "time_s": t}
     if "force_n" in rec:

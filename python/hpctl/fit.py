@@ -63,6 +63,10 @@ class Dataset:
     # channel's own noise plus the input displacement's noise carried
     # through the local sensitivity (the effective-variance method).
     weight_sigma: dict[str, FloatArray] = field(default_factory=dict)
+    # The strut's compression (base minus body on the SDOF rig), smoothed,
+    # and its rate: what the residual analysis and the reports plot against.
+    strut_disp_m: FloatArray = field(default_factory=lambda: np.zeros(0))
+    strut_vel_m_s: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def name(self) -> str:
@@ -210,19 +214,16 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         # millisecond); otherwise the gas, whose thermal time constant is
         # seconds. Steps also never span more than one sample interval.
         max_dt = 1e-3 if bool((~hard).any()) else 0.02
-        out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, max_dt, weight_sigma))
+        strut = _smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
+        out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, max_dt, weight_sigma,
+                           strut, derivative(t, strut) if rec.kind == "sdof" else vs))
     return out
 
 
 def uses_damper(datasets: Sequence[Dataset]) -> bool:
     """Whether the damper does measurable work in the records (strut speeds
     above 0.05 m/s), so that its gain can be identified."""
-    for d in datasets:
-        x = d.record["base_disp_m"] - d.record["body_disp_m"] if d.record.kind == "sdof" else d.record["disp_m"]
-        v = np.gradient(_smooth(d.times_s, x), d.times_s)
-        if np.percentile(np.abs(v), 95) > 0.05:
-            return True
-    return False
+    return any(np.percentile(np.abs(d.strut_vel_m_s), 95) > 0.05 for d in datasets)
 
 
 @dataclass

@@ -12,18 +12,10 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 from hpctl.diagnose import Diagnosis, loop_areas  # noqa: E402
 from hpctl.effects import LIBRARY  # noqa: E402
-from hpctl.fit import FitResult, derivative  # noqa: E402
-
-
-def _input(result: FitResult, i: int) -> tuple[np.ndarray, str]:
-    rec = result.datasets[i].record
-    if rec.kind == "sdof":
-        return rec["base_disp_m"] - rec["body_disp_m"], "strut compression (base - body)"
-    return rec["disp_m"], "strut compression"
+from hpctl.fit import FitResult  # noqa: E402
 
 
 def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
@@ -38,8 +30,8 @@ def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
         channel = "force_n" if "force_n" in d.targets else next(iter(d.targets))
         scale, unit = (1e-3, "kN") if channel == "force_n" else (1e3, "mm") if channel.endswith("_m") else (1e-6, "MPa")
         t = d.times_s
-        x, xlabel = _input(result, i)
-        v = derivative(t, x)
+        x, v = d.strut_disp_m, d.strut_vel_m_s
+        xlabel = "strut compression (base - body)" if d.record.kind == "sdof" else "strut compression"
         r = (sim[channel] - d.targets[channel]) * scale
         fig, ax = plt.subplots(2, 2, figsize=(11, 7))
         ax[0, 0].plot(t, d.targets[channel] * scale, ".", ms=2, label="measured")
