@@ -8,7 +8,6 @@ profile-11 CRC (see test_can_e2e.py).
 
 import json
 import math
-import os
 import subprocess
 from pathlib import Path
 

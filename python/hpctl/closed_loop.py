@@ -347,6 +347,8 @@ def plot_height_change(r: ClosedLoop, path: Path, title: str) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from hpctl.plots import save
+
     t = r.time_s
     o = r.outputs
     fig, ax = plt.subplots(4, 1, figsize=(10, 11), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1.6, 2]})
@@ -380,9 +382,7 @@ def plot_height_change(r: ClosedLoop, path: Path, title: str) -> Path:
     for a in ax:
         a.grid(True, alpha=0.3)
     ax[0].set_title(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path
 
 
@@ -392,6 +392,8 @@ def plot_modes(r: ClosedLoop, path: Path, title: str) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from hpctl.plots import save
 
     t = r.time_s
     i = r.inputs
@@ -416,9 +418,7 @@ def plot_modes(r: ClosedLoop, path: Path, title: str) -> Path:
     for a in ax:
         a.grid(True, alpha=0.3)
     ax[0].set_title(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path
 
 

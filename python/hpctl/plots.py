@@ -9,9 +9,19 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hpctl import metrics  # noqa: E402
+
+
+def save(fig: Figure, path: Path, dpi: int = 110) -> Path:
+    """Lays out, writes and closes a figure (closing frees its memory:
+    pyplot keeps every open figure alive)."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
 from hpctl.experiments import Experiment  # noqa: E402
 
 
@@ -32,9 +42,7 @@ def force_displacement(experiments: Sequence[Experiment], path: Path, title: str
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path
 
 
@@ -55,9 +63,7 @@ def step_responses(experiments: Sequence[Experiment], path: Path, title: str = "
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path
 
 
@@ -71,7 +77,5 @@ def time_series(series: Sequence[tuple[str, np.ndarray, np.ndarray, str]], path:
         ax.legend(loc="best")
     axes[-1, 0].set_xlabel("time [s]")
     axes[0, 0].set_title(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
     return path

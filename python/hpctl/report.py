@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from hpctl.diagnose import Diagnosis, loop_areas  # noqa: E402
 from hpctl.effects import LIBRARY  # noqa: E402
 from hpctl.fit import FitResult  # noqa: E402
+from hpctl.plots import save  # noqa: E402
 
 
 def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
@@ -51,11 +52,7 @@ def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
         for a in ax.ravel():
             a.grid(True, alpha=0.3)
         fig.suptitle(f"{d.name}: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}")
-        fig.tight_layout()
-        path = out_dir / f"{prefix}_{d.name}.png"
-        fig.savefig(path, dpi=90)
-        plt.close(fig)
-        paths.append(path)
+        paths.append(save(fig, out_dir / f"{prefix}_{d.name}.png", dpi=90))
     return paths
 
 
@@ -74,9 +71,7 @@ def loop_area_plot(results: Sequence[tuple[str, FitResult]], path: Path) -> Path
     ax.set_ylabel("force-displacement loop area [J]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)
     return path
 
 

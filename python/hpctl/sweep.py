@@ -83,6 +83,8 @@ def _plot(rows: list[dict[str, Any]], path: Path, spring_hard: bool) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from hpctl.plots import save
+
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.5))
     keys = sorted({(r["tau_s"], r["damper_on"]) for r in rows})
     for tau, on in keys:
@@ -102,7 +104,5 @@ def _plot(rows: list[dict[str, Any]], path: Path, spring_hard: bool) -> None:
         a.grid(True, alpha=0.3)
     a2.legend(fontsize=8)
     fig.suptitle(f"Sweep: 43 mm SDOF step, {'hard' if spring_hard else 'soft'} spring")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path, dpi=110)
 
