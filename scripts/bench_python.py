@@ -18,11 +18,10 @@ import math
 import os
 import time
 
-import numpy as np
-from scipy.integrate import solve_ivp
-
 import hpctl
-from hpctl.sim import Case, Step, sdof_rig, uniform_times
+import numpy as np
+from hpctl.sim.run import Case, Step, sdof_rig, uniform_times
+from scipy.integrate import solve_ivp
 
 # The same physics as hp-core for this case: hard spring (S only), damper
 # off, BWR "textbook" nitrogen, thermal time constant, 43 mm smooth step.

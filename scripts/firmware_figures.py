@@ -126,7 +126,8 @@ def pil_stack(elf: Path, periods: int = 800) -> dict[str, float]:
     PIL session of ``periods`` (past the power-on safe state into normal
     operation), read through QEMU's monitor."""
     sys.path.insert(0, str(ROOT / "python"))
-    from hpctl import _core, pil
+    from hpctl import _core
+    from hpctl.hil import pil
 
     unit = _core.seed_unit()
     p_pa, t_k = unit["static_pressure_pa"], unit["static_temperature_k"]

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hpctl import virtual_rig as vr
-from hpctl.records import write_record
+from hpctl.data.records import write_record
+from hpctl.identify import virtual_rig as vr
 
 OUT = Path(__file__).resolve().parents[1] / "python" / "hpctl" / "data" / "demo"
 EFFECTS = ("friction",)

@@ -6,14 +6,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import hpctl
 import numpy as np
 import pytest
+from hpctl import _core
+from hpctl.sim.run import characterisation_rig, sdof_rig
 from hypothesis import given
 from hypothesis import strategies as st
-
-import hpctl
-from hpctl import _core
-from hpctl.sim import characterisation_rig, sdof_rig
 
 NASTY = [math.nan, math.inf, -math.inf, 0.0, -0.0, -1.0, 1e300, -1e300, 5e-324]
 

@@ -9,10 +9,9 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
-
 from hpctl.cli import main
-from hpctl.effects import LIBRARY
-from hpctl.records import read_record
+from hpctl.data.records import read_record
+from hpctl.model.effects import LIBRARY
 
 
 def hpctl(*args: str) -> tuple[int, str, str]:

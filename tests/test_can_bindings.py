@@ -6,11 +6,17 @@ test_can_codec.py), and the bindings' argument checks."""
 import math
 
 import pytest
+from hpctl import _core
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_can_codec import DBC, MESSAGES, cantools_frame, payload_signals, protect, signal_values
-
-from hpctl import _core
+from test_can_codec import (
+    DBC,
+    MESSAGES,
+    cantools_frame,
+    payload_signals,
+    protect,
+    signal_values,
+)
 
 SAFE_STATE = 1 << 0
 LINK_FAULT = 1 << 3

@@ -14,11 +14,12 @@ from pathlib import Path
 import cantools
 import pytest
 from crccheck.crc import Crc8GsmA
+from hpctl.data import DBC_PATH
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 ROOT = Path(__file__).resolve().parent.parent
-DBC = cantools.database.load_file(str(ROOT / "can" / "hpctl.dbc"))
+DBC = cantools.database.load_file(str(DBC_PATH))
 HEADER = ("E2E_CRC", "E2E_Counter")
 
 # Which Inputs field each input signal feeds (the controller's contract).

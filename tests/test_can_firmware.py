@@ -20,8 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from hpctl import pil
+from hpctl.hil import pil
 
 ROOT = Path(__file__).resolve().parent.parent
 SAFE_STATE = 1 << 0
@@ -179,7 +178,7 @@ def held_offset_m(unit, sample, p_load_pa: float) -> float:
     """The ride-height offset the oil in L holds, from the plant alone: L's
     gas volume minus its volume at the true load pressure and L's gas
     temperature, as strut travel (negative = lowered); see
-    hpctl.closed_loop.ClosedLoop.held_offset_m."""
+    hpctl.control.closed_loop.ClosedLoop.held_offset_m."""
     from hpctl import _core
 
     m_large_kg = _core.gas_masses_kg(unit)[1]
@@ -190,7 +189,7 @@ def held_offset_m(unit, sample, p_load_pa: float) -> float:
 def test_processor_in_the_loop_lowers_the_plant_and_fails_safe(firmware):
     """Closed loop: the plant (hp-core through the bindings: the seed unit
     under its sprung mass on an ISO 8608 class C road at 10 m/s, the road of
-    hpctl.closed_loop) feeds the sensor frames, the lock-step firmware's
+    hpctl.control.closed_loop) feeds the sensor frames, the lock-step firmware's
     valve commands drive the plant, with a 20 mm lowering requested from
     power-on. The ECU sees the plant's measured pressures, strut
     compression and body acceleration, and L's gas temperature through a
@@ -202,8 +201,10 @@ def test_processor_in_the_loop_lowers_the_plant_and_fails_safe(firmware):
     p_S - p_L exceeds the margin, and holds within the tolerance; the
     plant's own gas state then shows the lowering. Then the sensor frames
     stop: more than 10 ms later the outputs are the safe state."""
-    from hpctl import _core, road, sim
-    from hpctl.unit import SEED_SPRUNG_MASS_KG
+    from hpctl import _core
+    from hpctl.control import road
+    from hpctl.model.unit import SEED_SPRUNG_MASS_KG
+    from hpctl.sim import run as sim
 
     dt_s, cut_at, periods = 1e-3, 6800, 6815
     request_m, tolerance_m, margin_pa = -0.02, 0.003, 0.2e6

@@ -10,13 +10,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import hpctl
 import numpy as np
 import pytest
 from click.testing import CliRunner
-
-import hpctl
 from hpctl.cli import main
-from hpctl.records import read_record
+from hpctl.data.records import read_record
 
 
 def simulate(*args: str) -> tuple[int, str, str]:
@@ -131,7 +130,7 @@ def test_bad_unit_file_exits_2(tmp_path: Path) -> None:
 
 
 def test_installed_entry_point_and_internal_error_exit_code(tmp_path: Path) -> None:
-    r = subprocess.run([sys.executable, "-m", "hpctl.cli", "simulate", "--test", "sdof-step", "--spring", "hard", "--damper", "on",
+    r = subprocess.run([sys.executable, "-m", "hpctl", "simulate", "--test", "sdof-step", "--spring", "hard", "--damper", "on",
                         "--duration-s", "1", "--out", str(tmp_path), "--json", "--quiet"], capture_output=True, text=True, check=False)
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["runs"][0]["spring"] == "hard"
@@ -139,6 +138,6 @@ def test_installed_entry_point_and_internal_error_exit_code(tmp_path: Path) -> N
     # environment failure: exit 1.
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    r = subprocess.run([sys.executable, "-m", "hpctl.cli", "simulate", "--test", "sdof-step", "--duration-s", "1", "--out", str(blocker / "sub"), "--quiet"],
+    r = subprocess.run([sys.executable, "-m", "hpctl", "simulate", "--test", "sdof-step", "--duration-s", "1", "--out", str(blocker / "sub"), "--quiet"],
                        capture_output=True, text=True, check=False)
     assert r.returncode == 1 and "internal error" in r.stderr

@@ -9,18 +9,17 @@ import json
 import math
 from pathlib import Path
 
+import hpctl
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hpctl.cli import main
+from hpctl.control import closed_loop as cl
+from hpctl.control import road
+from hpctl.control.controller import Diag, DriveMode, SequencerState, seed_config
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import welch
-
-import hpctl
-from hpctl import closed_loop as cl
-from hpctl import road
-from hpctl.cli import main
-from hpctl.control import Diag, DriveMode, SequencerState, seed_config
 
 # --- the road ------------------------------------------------------------------
 

@@ -7,12 +7,11 @@ import copy
 import math
 from typing import Any
 
+import hpctl
 import numpy as np
 import pytest
-
-import hpctl
 from hpctl import _core
-from hpctl.control import (
+from hpctl.control.controller import (
     INPUT_DTYPES,
     Controller,
     DamperMode,

@@ -18,11 +18,21 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from hpctl.control.controller import (
+    TRIGGERS,
+    Controller,
+    DamperMode,
+    Diag,
+    DriveMode,
+    DriverMode,
+    InputGroup,
+    SequencerState,
+    SpringMode,
+    seed_config,
+)
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
-
-from hpctl.control import TRIGGERS, Controller, DamperMode, Diag, DriveMode, DriverMode, InputGroup, SequencerState, SpringMode, seed_config
 
 DT_MAX_S = 0.005
 GROUPS = [InputGroup.PRESSURES, InputGroup.STRUT, InputGroup.BODY, InputGroup.VEHICLE, InputGroup.STEERING, InputGroup.TEMPERATURE, InputGroup.DRIVER]

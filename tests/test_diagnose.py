@@ -12,11 +12,10 @@ import secrets
 
 import numpy as np
 import pytest
-
-from hpctl import virtual_rig as vr
-from hpctl.diagnose import Diagnosis, diagnose, summary
-from hpctl.effects import LIBRARY
-from hpctl.unit import Unit
+from hpctl.identify import virtual_rig as vr
+from hpctl.identify.diagnose import Diagnosis, diagnose, summary
+from hpctl.model.effects import LIBRARY
+from hpctl.model.unit import Unit
 
 SEED_MODEL = ("heat_transfer", "real_gas")
 CANDIDATES = [e for e in LIBRARY if e not in SEED_MODEL]

@@ -5,13 +5,15 @@ from __future__ import annotations
 
 import math
 
+import hpctl
 import numpy as np
 import pytest
-
-import hpctl
-from hpctl import virtual_rig as vr
-from hpctl.fit import apply_sensor_lag, derivative, fit, noise_sigma, prepare
-from hpctl.unit import Friction
+from hpctl.identify import virtual_rig as vr
+from hpctl.identify.dataset import prepare
+from hpctl.identify.fit import FitResult, fit
+from hpctl.identify.signals import apply_sensor_lag, derivative, noise_sigma
+from hpctl.model.unit import Friction, Sensor
+from hpctl.sim.run import characterisation_rig, uniform_times
 
 
 def test_noise_estimate_ignores_a_smooth_signal() -> None:
@@ -44,9 +46,9 @@ def test_sensor_lag_filter_matches_the_units_lag_state() -> None:
     # The fit applies the lag to its outputs; the unit integrates it as a
     # state: both must report the same force.
     unit = hpctl.Unit.seed()
-    lagged = unit.with_effects(sensor=hpctl.unit.Sensor(0.0, 0.0, 0.02))
-    times = hpctl.sim.uniform_times(4.0, 0.004)
-    rig = hpctl.sim.characterisation_rig(hpctl.Sine(0.04, 1.0))
+    lagged = unit.with_effects(sensor=Sensor(0.0, 0.0, 0.02))
+    times = uniform_times(4.0, 0.004)
+    rig = characterisation_rig(hpctl.Sine(0.04, 1.0))
     a = hpctl.run(unit, rig, times, spring_hard=True, damper_on=True, dt_s=2e-4)
     b = hpctl.run(lagged, rig, times, spring_hard=True, damper_on=True, dt_s=2e-4)
     rest = a["force_n"][0] - a["damper_force_n"][0]
@@ -57,14 +59,14 @@ def test_sensor_lag_filter_matches_the_units_lag_state() -> None:
 
 
 @pytest.fixture(scope="module")
-def friction_fit() -> tuple[dict[str, float], hpctl.fit.FitResult]:
+def friction_fit() -> tuple[dict[str, float], FitResult]:
     truth = {"tau_s": 3.0, "friction_coulomb_n": 500.0, "friction_viscous_n_s_per_m": 400.0}
     unit = hpctl.Unit.seed().replace(tau_s=3.0).with_effects(friction=Friction(500.0, 400.0, 2e-3))
     records = vr.make_records(unit, "sweep", seed=11)
     return truth, fit(prepare(records), ("heat_transfer", "real_gas", "friction"))
 
 
-def test_fit_recovers_parameters_within_their_uncertainty(friction_fit: tuple[dict[str, float], hpctl.fit.FitResult]) -> None:
+def test_fit_recovers_parameters_within_their_uncertainty(friction_fit: tuple[dict[str, float], FitResult]) -> None:
     truth, r = friction_fit
     for name, value in truth.items():
         assert abs(r.values[name] - value) < 4 * r.stderr[name] + 1e-9, (name, r.values[name], r.stderr[name], value)
@@ -73,7 +75,7 @@ def test_fit_recovers_parameters_within_their_uncertainty(friction_fit: tuple[di
     assert 0.8 < r.rms_ratio < 1.1
 
 
-def test_fit_reports_every_record_and_channel(friction_fit: tuple[dict[str, float], hpctl.fit.FitResult]) -> None:
+def test_fit_reports_every_record_and_channel(friction_fit: tuple[dict[str, float], FitResult]) -> None:
     _, r = friction_fit
     assert {(s.record, s.channel) for s in r.stats} == {(f"sine_{f:g}hz", c) for f in vr.SWEEP_FREQUENCIES_HZ for c in ("force_n", "p_gas_pa", "p_gas2_pa")}
     for s in r.stats:

@@ -3,19 +3,18 @@
 from __future__ import annotations
 
 import CoolProp.CoolProp as CP
+import hpctl
 import numpy as np
 import pytest
-
-import hpctl
-from hpctl.experiments import SEED_HEAT_BUILDUP, heat_buildup
+from hpctl.sim.experiments import SEED_HEAT_BUILDUP, Experiment, heat_buildup
 
 
 @pytest.fixture(scope="module")
-def run() -> hpctl.experiments.Experiment:
+def run() -> Experiment:
     return heat_buildup(hpctl.Unit.seed())
 
 
-def test_oil_and_gas_reach_the_seeds_temperatures(run: hpctl.experiments.Experiment) -> None:
+def test_oil_and_gas_reach_the_seeds_temperatures(run: Experiment) -> None:
     # The oil node is calibrated to these two numbers (see hp-core presets).
     s = run.summary
     assert s["oil_temperature_end_k"] - 273.15 == pytest.approx(SEED_HEAT_BUILDUP["oil_temperature_end_c"], abs=3)
@@ -28,7 +27,7 @@ def test_oil_and_gas_reach_the_seeds_temperatures(run: hpctl.experiments.Experim
     assert np.all(np.diff(oil) > 0)
 
 
-def test_ride_height_change_is_the_gas_expansion_at_the_load_pressure(run: hpctl.experiments.Experiment) -> None:
+def test_ride_height_change_is_the_gas_expansion_at_the_load_pressure(run: Experiment) -> None:
     # At the static load the gas pressure is fixed (m g / A + p_atm): the
     # ride height rises by the gas volume growth from 23 C to its final
     # temperature, which CoolProp gives independently of the model.
@@ -47,7 +46,7 @@ def test_ride_height_change_is_the_gas_expansion_at_the_load_pressure(run: hpctl
     assert 0.015 < s["ride_height_change_m"] < 0.04  # the seed: 18 mm
 
 
-def test_spring_rate_rises_with_gas_temperature(run: hpctl.experiments.Experiment) -> None:
+def test_spring_rate_rises_with_gas_temperature(run: Experiment) -> None:
     s = run.summary
     assert s["static_spring_rate_end_n_per_m"] > s["static_spring_rate_start_n_per_m"]
     assert s["dynamic_force_range_end_n"] > s["dynamic_force_range_start_n"]

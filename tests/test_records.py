@@ -5,13 +5,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import hpctl
 import numpy as np
 import pytest
+from hpctl.data.records import (
+    RecordStatic,
+    RecordTest,
+    RecordUnit,
+    RigRecord,
+    read_record,
+    write_record,
+)
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import hpctl
-from hpctl.records import RecordStatic, RecordTest, RecordUnit, RigRecord, read_record, write_record
 
 GOOD_TOML = """\
 [record]

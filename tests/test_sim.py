@@ -6,12 +6,11 @@ from __future__ import annotations
 import threading
 import time
 
+import hpctl
 import numpy as np
 import pytest
-
-import hpctl
-from hpctl import metrics
-from hpctl.sim import Case, sdof_rig, uniform_times
+from hpctl.sim import metrics
+from hpctl.sim.run import Case, characterisation_rig, sdof_rig, uniform_times
 
 
 def test_step_frequencies_match_the_seed_within_the_volume_ratio_limit(seed_unit: hpctl.Unit) -> None:
@@ -61,7 +60,7 @@ def test_run_many_returns_errors_in_place(seed_unit: hpctl.Unit) -> None:
 def test_valve_schedule_per_sample_switches_the_spring(seed_unit: hpctl.Unit) -> None:
     times = uniform_times(4.0, 1e-3)
     hard = times >= 2.0
-    r = hpctl.run(seed_unit, hpctl.sim.characterisation_rig(hpctl.Sine(0.03, 1.0)), times, spring_hard=hard, damper_on=False)
+    r = hpctl.run(seed_unit, characterisation_rig(hpctl.Sine(0.03, 1.0)), times, spring_hard=hard, damper_on=False)
     np.testing.assert_array_equal(r["spring_hard"], hard.astype(float))
     # Valve 6 closed: no flow to L, L's volume frozen.
     later = times > 2.01

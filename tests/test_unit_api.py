@@ -5,10 +5,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import pytest
-
 import hpctl
-from hpctl.unit import Friction, OilNode
+import pytest
+from hpctl.model.unit import Friction, OilNode
 
 
 def test_seed_unit_carries_the_load_at_the_static_position(seed_unit: hpctl.Unit) -> None:

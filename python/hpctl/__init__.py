@@ -13,8 +13,19 @@ from hpctl.errors import (
     RecordError,
     SimulationError,
 )
-from hpctl.sim import Hold, Result, Sampled, Sine, Step, Steps, run, run_characterisation, run_many, run_sdof
-from hpctl.unit import SEED_SPRUNG_MASS_KG, Damper, DamperCurve, Effects, Unit
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Damper, DamperCurve, Effects, Unit
+from hpctl.sim.run import (
+    Hold,
+    Result,
+    Sampled,
+    Sine,
+    Step,
+    Steps,
+    run,
+    run_characterisation,
+    run_many,
+    run_sdof,
+)
 
 __version__ = "0.1.0"
 

@@ -1,4 +1,4 @@
-//! The frames of `can/hpctl.dbc`: identifiers, data IDs, timing, signals,
+//! The frames of `python/hpctl/data/hpctl.dbc`: identifiers, data IDs, timing, signals,
 //! and one typed struct per message.
 //!
 //! The DBC is the source of truth; this module mirrors it by hand and

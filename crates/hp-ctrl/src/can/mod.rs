@@ -1,4 +1,4 @@
-//! CAN codec: the frames of `can/hpctl.dbc`, end-to-end protected.
+//! CAN codec: the frames of `python/hpctl/data/hpctl.dbc`, end-to-end protected.
 //!
 //! - [`messages`]: identifiers, data IDs, timing and signals of every frame
 //!   (mirroring the DBC), one typed struct per message and [`Message`].

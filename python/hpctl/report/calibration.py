@@ -13,10 +13,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from hpctl.diagnose import Diagnosis, loop_areas  # noqa: E402
-from hpctl.effects import LIBRARY  # noqa: E402
-from hpctl.fit import FitResult  # noqa: E402
-from hpctl.plots import save  # noqa: E402
+from hpctl.identify.diagnose import Diagnosis, loop_areas  # noqa: E402
+from hpctl.identify.fit import FitResult  # noqa: E402
+from hpctl.model.effects import LIBRARY  # noqa: E402
+from hpctl.report.plots import save  # noqa: E402
 
 
 def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:

@@ -18,7 +18,15 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
-from hpctl.unit import Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
+from hpctl.model.unit import (
+    Friction,
+    Leakage,
+    OilCompliance,
+    OilNode,
+    Sensor,
+    Unit,
+    ValveLag,
+)
 
 
 @dataclass(frozen=True)

@@ -12,218 +12,27 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
-from scipy.signal import savgol_coeffs, savgol_filter
 
-from hpctl import metrics
-from hpctl.effects import CHARGE, DAMPER_GAIN, LIBRARY, OIL_VOLUME_M3, Param, build_unit, model_params
-from hpctl.errors import HpctlError, RecordError
-from hpctl.records import RigRecord
-from hpctl.sim import Case, Sampled, characterisation_rig, run_many, sdof_rig
-from hpctl.unit import Unit
+from hpctl.identify.dataset import Dataset, fold_mask, uses_damper
+from hpctl.identify.signals import apply_sensor_lag
+from hpctl.model.effects import (
+    CHARGE,
+    DAMPER_GAIN,
+    LIBRARY,
+    OIL_VOLUME_M3,
+    Param,
+    build_unit,
+    model_params,
+)
+from hpctl.model.unit import Unit
+from hpctl.sim import metrics
+from hpctl.sim.run import Case, run_many
 
 FloatArray = NDArray[np.float64]
-
-# Measured channels compared with the model, per record kind.
-OUTPUTS = {"characterisation": ("force_n", "p_gas_pa", "p_gas2_pa"), "sdof": ("body_disp_m", "p_gas_pa", "p_gas2_pa")}
-
-
-def noise_sigma(y: FloatArray) -> float:
-    """Noise level of a sampled signal from its fourth differences: white
-    noise of variance s^2 gives differences of variance 70 s^2, while a
-    signal smooth on the sampling scale contributes almost nothing (its
-    fourth difference scales with the fourth power of the sampling step).
-    The median absolute deviation keeps steps and spikes out."""
-    d4 = np.diff(np.asarray(y, float), 4)
-    if d4.size == 0:
-        return 0.0
-    mad = float(np.median(np.abs(d4 - np.median(d4))))
-    return mad / 0.6745 / math.sqrt(70.0)
-
-
-@dataclass
-class Dataset:
-    """One record prepared for fitting."""
-
-    record: RigRecord
-    base: Unit
-    rig: dict[str, Any]
-    times_s: FloatArray
-    spring_hard: NDArray[np.bool_]
-    damper_on: NDArray[np.bool_]
-    targets: dict[str, FloatArray]
-    sigma: dict[str, float]
-    ambient_k: float
-    max_dt_s: float
-    # Per-sample standard deviation of each channel's residual: the
-    # channel's own noise plus the input displacement's noise carried
-    # through the local sensitivity (the effective-variance method).
-    weight_sigma: dict[str, FloatArray] = field(default_factory=dict)
-    # The strut's compression (base minus body on the SDOF rig), smoothed,
-    # and its rate: what the residual analysis and the reports plot against.
-    strut_disp_m: FloatArray = field(default_factory=lambda: np.zeros(0))
-    strut_vel_m_s: FloatArray = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def name(self) -> str:
-        return self.record.name
-
-
-def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
-    """The unit a record describes: its piston area, gas volumes and static
-    state; what the record does not say (damper curves, valve 6, stroke)
-    from ``template`` (the built-in unit by default)."""
-    t = template or Unit.seed()
-    return t.replace(
-        piston_area_m2=record.unit.piston_area_m2,
-        small_volume_m3=record.unit.small_acc_volume_m3,
-        large_volume_m3=record.unit.large_acc_volume_m3,
-        static_pressure_pa=record.static.pressure_pa,
-        static_temperature_k=record.static.temperature_k,
-    )
-
-
-SMOOTH_WINDOW, SMOOTH_ORDER = 11, 3
-# How much of the input's white noise survives the smoothing (standard deviation).
-SMOOTH_NOISE_GAIN = float(np.sqrt(np.sum(savgol_coeffs(SMOOTH_WINDOW, SMOOTH_ORDER) ** 2)))
-
-
-def _smooth(t: FloatArray, x: FloatArray) -> FloatArray:
-    """The measured displacement with its noise filtered (Savitzky-Golay,
-    cubic, 11 samples): the model is driven by it, and a noisy input would
-    become a noisy velocity for the damper and friction. Where the signal
-    has features sharper than the window (a step, or a sine sampled a few
-    times per cycle), the filter would move it by more than its noise: there
-    the raw samples are kept, so smoothing never distorts the excitation."""
-    x = np.asarray(x, float)
-    if len(x) < 2 * SMOOTH_WINDOW:
-        return x
-    smooth = np.asarray(savgol_filter(x, SMOOTH_WINDOW, SMOOTH_ORDER))
-    distorted = np.abs(smooth - x) > 4.0 * max(noise_sigma(x), 1e-12)
-    # Keep the raw samples around distortions too (the filter's reach).
-    distorted = np.convolve(distorted.astype(float), np.ones(SMOOTH_WINDOW), "same") > 0
-    return np.where(distorted, x, smooth)
-
-
-def local_sensitivities(x: FloatArray, v: FloatArray, y: FloatArray, window: int = 21) -> tuple[FloatArray, FloatArray]:
-    """dy/dx and dy/dv along a trajectory: the least-squares coefficients
-    of ``y ~ a + b x + c v`` in a sliding window (well defined through
-    turning points, where x alone would barely change)."""
-    n = len(x)
-    w = min(window, n)
-    k = np.ones(w) / w
-
-    def mean(a: FloatArray) -> FloatArray:
-        return np.asarray(np.convolve(a, k, "same"))
-
-    mx, mv, my = mean(x), mean(v), mean(y)
-    sxx, svv, sxv = mean(x * x) - mx * mx, mean(v * v) - mv * mv, mean(x * v) - mx * mv
-    sxy, svy = mean(x * y) - mx * my, mean(v * y) - mv * my
-    det = sxx * svv - sxv * sxv
-    ok = det > 1e-12 * np.maximum(sxx * svv, 1e-300)
-    safe = np.where(ok, det, 1.0)
-    b = np.where(ok, (sxy * svv - svy * sxv) / safe, np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), 0.0))
-    c = np.where(ok, (svy * sxx - sxy * sxv) / safe, 0.0)
-    half = w // 2
-    if n > 2 * half + 1:
-        for arr in (b, c):
-            arr[:half], arr[n - half:] = arr[half], arr[n - half - 1]
-    return np.asarray(b), np.asarray(c)
-
-
-FIVE_POINT = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
-
-
-def derivative(t: FloatArray, x: FloatArray) -> FloatArray:
-    """dx/dt at the samples, fourth-order accurate: the derivative of the
-    quartic through each sample and its two neighbours on either side
-    (irregular spacing allowed); second order at the two ends."""
-    n = len(x)
-    out = np.gradient(x, t, edge_order=2) if n >= 3 else np.gradient(x, t) if n == 2 else np.zeros(n)
-    if n < 5:
-        return np.asarray(out)
-    i = np.arange(2, n - 2)
-    nodes = np.stack([t[i + k] for k in (-2, -1, 0, 1, 2)])  # 5 x m
-    tc = t[i]
-    weights = np.zeros_like(nodes)
-    for j in range(5):
-        if j == 2:
-            weights[j] = sum(1.0 / (tc - nodes[m]) for m in range(5) if m != 2)
-            continue
-        num = np.ones_like(tc)
-        den = np.ones_like(tc)
-        for m in range(5):
-            if m != j:
-                den *= nodes[j] - nodes[m]
-            if m not in (j, 2):
-                num *= tc - nodes[m]
-        weights[j] = num / den
-    out[2:n - 2] = np.sum(weights * np.stack([x[i + k] for k in (-2, -1, 0, 1, 2)]), axis=0)
-    return np.asarray(out)
-
-
-def _velocity_noise_gain(dt_s: float) -> float:
-    """Standard deviation of the velocity the model sees (the five-point
-    derivative of the smoothed input, the interpolation's tangents) per
-    unit of white input noise."""
-    coeffs = savgol_coeffs(SMOOTH_WINDOW, SMOOTH_ORDER)
-    return float(np.sqrt(np.sum((np.convolve(coeffs, FIVE_POINT) / dt_s) ** 2)))
-
-
-def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[Dataset]:
-    """Checks that the records can be fitted and prepares them."""
-    if not records:
-        raise HpctlError("no records to fit")
-    out = []
-    for rec in records:
-        t = np.asarray(rec["time_s"], float)
-        x_in = rec["base_disp_m"] if rec.kind == "sdof" else rec["disp_m"]
-        xs = _smooth(t, x_in)
-        vs = derivative(t, xs)
-        motion = Sampled(t, xs, vs)
-        if rec.kind == "sdof":
-            if rec.sprung_mass_kg is None:
-                raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
-            rig = sdof_rig(motion, rec.sprung_mass_kg)
-        else:
-            rig = characterisation_rig(motion)
-        targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
-        sigma: dict[str, float] = {}
-        weight_sigma: dict[str, FloatArray] = {}
-        x_raw_noise = noise_sigma(x_in)
-        x_noise = x_raw_noise * SMOOTH_NOISE_GAIN
-        v_noise = x_raw_noise * _velocity_noise_gain(float(np.median(np.diff(t))))
-        for c, y in targets.items():
-            floor = 1e-4 * max(float(np.ptp(y)), 1e-12)
-            sigma[c] = max(noise_sigma(y), floor)
-            # An SDOF body filters the base's noise through its dynamics;
-            # on the characterisation rig the outputs follow the input's
-            # position (gas) and velocity (damper, friction) at once.
-            if rec.kind == "sdof":
-                carried2: Any = 0.0
-            else:
-                b, cv = local_sensitivities(xs, vs, _smooth(t, y))
-                carried2 = (b * x_noise) ** 2 + (cv * v_noise) ** 2
-            weight_sigma[c] = np.sqrt(sigma[c] ** 2 + carried2) * np.ones(len(t))
-        hard, on = rec.spring_hard(), rec.damper_on()
-        # With valve 6 open its orifice is the fastest dynamics (about a
-        # millisecond); otherwise the gas, whose thermal time constant is
-        # seconds. Steps also never span more than one sample interval.
-        max_dt = 1e-3 if bool((~hard).any()) else 0.02
-        strut = _smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
-        out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, max_dt, weight_sigma,
-                           strut, derivative(t, strut) if rec.kind == "sdof" else vs))
-    return out
-
-
-def uses_damper(datasets: Sequence[Dataset]) -> bool:
-    """Whether the damper does measurable work in the records (strut speeds
-    above 0.05 m/s), so that its gain can be identified."""
-    return any(np.percentile(np.abs(d.strut_vel_m_s), 95) > 0.05 for d in datasets)
 
 
 @dataclass
@@ -271,24 +80,6 @@ def values_from_x(params: Sequence[Param], x: Sequence[float] | FloatArray) -> d
     return {p.name: p.from_x(float(xi)) for p, xi in zip(params, x)}
 
 
-def apply_sensor_lag(t: FloatArray, y: FloatArray, tau_s: float, y_rest: float | None = None) -> FloatArray:
-    """A first-order lag of time constant ``tau_s`` applied to samples ``y``
-    at times ``t``, exact for a signal linear between samples (first-order
-    hold): what the transducer reports. It starts settled at ``y_rest``
-    (the value at rest before the motion; ``y[0]`` by default), as the
-    unit's sensor state does."""
-    out = np.empty_like(y)
-    h = np.diff(t)
-    a = np.exp(-h / tau_s)
-    ramp = (tau_s / h) * (1.0 - a)
-    acc = float(y[0] if y_rest is None else y_rest)
-    out[0] = acc
-    for k in range(1, len(y)):
-        acc = a[k - 1] * acc + y[k] - a[k - 1] * y[k - 1] - (y[k] - y[k - 1]) * ramp[k - 1]
-        out[k] = acc
-    return out
-
-
 LAGGED = ("force_n", "p_gas_pa", "p_gas2_pa")
 
 
@@ -316,14 +107,6 @@ def simulate_all(model: Model, datasets: Sequence[Dataset], value_sets: Sequence
 
 
 FAILED_RESIDUAL = 1e3  # per sample, in noise units: a simulation that failed is a very bad fit
-
-
-def fold_mask(d: Dataset, fold: int, blocks: int = 10) -> NDArray[np.bool_]:
-    """Samples of cross-validation fold ``fold`` (0 or 1): alternate
-    contiguous blocks of the record, so both folds span the whole test."""
-    n = len(d.times_s)
-    block = np.minimum(np.arange(n) * blocks // max(n, 1), blocks - 1)
-    return np.asarray(block % 2 == fold)
 
 
 def residual_vector(

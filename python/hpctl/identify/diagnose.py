@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hpctl import metrics
-from hpctl.effects import LIBRARY
-from hpctl.fit import Dataset, FitResult, fit, predict, prepare, uses_damper
-from hpctl.records import RigRecord
+from hpctl.data.records import RigRecord
+from hpctl.identify.dataset import Dataset, prepare, uses_damper
+from hpctl.identify.fit import FitResult, fit, predict
+from hpctl.model.effects import LIBRARY
+from hpctl.sim import metrics
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
 # difference above 10 is "very strong" evidence on Kass & Raftery's scale.

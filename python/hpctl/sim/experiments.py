@@ -16,10 +16,20 @@ from typing import Any, Literal
 
 import numpy as np
 
-from hpctl import _core, metrics
-from hpctl.records import RecordStatic, RecordTest, RecordUnit, RigRecord
-from hpctl.sim import Motion, Progress, Result, Sine, Step, Steps, run_characterisation, run_sdof
-from hpctl.unit import SEED_SPRUNG_MASS_KG, OilNode, Unit
+from hpctl import _core
+from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, OilNode, Unit
+from hpctl.sim import metrics
+from hpctl.sim.run import (
+    Motion,
+    Progress,
+    Result,
+    Sine,
+    Step,
+    Steps,
+    run_characterisation,
+    run_sdof,
+)
 
 SEED_STEP_M = 0.043
 SEED_SPEED_M_S = 0.01

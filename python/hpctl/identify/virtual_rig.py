@@ -14,10 +14,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hpctl.experiments import _record
-from hpctl.records import RecordTest, RigRecord
-from hpctl.sim import Motion, Sine, Step, characterisation_rig, run, sdof_rig, uniform_times
-from hpctl.unit import SEED_SPRUNG_MASS_KG, Sensor, Unit
+from hpctl.data.records import RecordTest, RigRecord
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Sensor, Unit
+from hpctl.sim.experiments import _record
+from hpctl.sim.run import (
+    Motion,
+    Sine,
+    Step,
+    characterisation_rig,
+    run,
+    sdof_rig,
+    uniform_times,
+)
 
 
 @dataclass(frozen=True)
@@ -161,7 +169,7 @@ EFFECT_TESTS: dict[str, tuple[str, ...]] = {
 def effect_values(effects: Sequence[str], rng: np.random.Generator | None = None, overrides: dict[str, float] | None = None) -> dict[str, float]:
     """Parameter values for ``effects``: typical ones, random ones if ``rng``
     is given, and ``overrides`` on top."""
-    from hpctl.effects import LIBRARY
+    from hpctl.model.effects import LIBRARY
 
     out: dict[str, float] = {}
     for e in effects:
@@ -184,7 +192,7 @@ def effect_values(effects: Sequence[str], rng: np.random.Generator | None = None
 def truth_unit(effects: Sequence[str], values: dict[str, float], template: Unit | None = None) -> Unit:
     """The rig's unit: real gas and heat transfer (as real units are) plus
     ``effects`` at ``values``."""
-    from hpctl.effects import LIBRARY, build_unit
+    from hpctl.model.effects import LIBRARY, build_unit
 
     base = template or Unit.seed()
     names = tuple(dict.fromkeys(("heat_transfer", "real_gas", *effects)))

@@ -4,15 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
-from hpctl import metrics  # noqa: E402
+from hpctl.sim import metrics  # noqa: E402
 
 
 def save(fig: Figure, path: Path, dpi: int = 110) -> Path:
@@ -22,7 +23,7 @@ def save(fig: Figure, path: Path, dpi: int = 110) -> Path:
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
-from hpctl.experiments import Experiment  # noqa: E402
+from hpctl.sim.experiments import Experiment  # noqa: E402
 
 
 def force_displacement(experiments: Sequence[Experiment], path: Path, title: str = "Spring characteristics") -> Path:
@@ -79,3 +80,26 @@ def time_series(series: Sequence[tuple[str, np.ndarray, np.ndarray, str]], path:
     axes[0, 0].set_title(title)
     save(fig, path, dpi=110)
     return path
+
+
+def sweep_plot(rows: list[dict[str, Any]], path: Path, spring_hard: bool) -> Path:
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    keys = sorted({(r["tau_s"], r["damper_on"]) for r in rows})
+    for tau, on in keys:
+        sel = [r for r in rows if r["tau_s"] == tau and r["damper_on"] == on and not r["error"]]
+        p = np.array([r["static_pressure_pa"] for r in sel]) / 1e6
+        f = np.array([np.nan if r["natural_frequency_hz"] is None else r["natural_frequency_hz"] for r in sel])
+        o = np.array([r["overshoot_m"] for r in sel]) * 1e3
+        label = f"tau {tau:g} s, damper {'on' if on else 'off'}"
+        style = "-o" if on else "--s"
+        a1.plot(p, f, style, label=label)
+        a2.plot(p, o, style, label=label)
+    a1.set_xlabel("static charge pressure [MPa]")
+    a1.set_ylabel("natural frequency [Hz]")
+    a2.set_xlabel("static charge pressure [MPa]")
+    a2.set_ylabel("overshoot [mm]")
+    for a in (a1, a2):
+        a.grid(True, alpha=0.3)
+    a2.legend(fontsize=8)
+    fig.suptitle(f"Sweep: 43 mm SDOF step, {'hard' if spring_hard else 'soft'} spring")
+    return save(fig, path, dpi=110)

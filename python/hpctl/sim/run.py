@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
-from hpctl.unit import SEED_SPRUNG_MASS_KG, Unit
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
 CHANNELS: tuple[str, ...] = tuple(_core.CHANNELS)

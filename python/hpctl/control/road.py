@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl.errors import ParameterError
-from hpctl.sim import Sampled
+from hpctl.sim.run import Sampled
 
 FloatArray = NDArray[np.float64]
 

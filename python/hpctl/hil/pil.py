@@ -1,7 +1,7 @@
 """Talking to the ECU firmware over CAN: frames from the DBC, E2E
 protection, the emulator, and a processor-in-the-loop session.
 
-- :class:`FrameCodec` encodes and decodes the frames of ``can/hpctl.dbc``
+- :class:`FrameCodec` encodes and decodes the frames of the package's DBC (``hpctl/data/hpctl.dbc``)
   with cantools, adding and checking the AUTOSAR-profile-11-style CRC and
   alive counter (CRC-8/GSM-A over data ID and payload, see docs/can.md).
 - :class:`Emulator` runs a firmware ELF in ``qemu-system-arm -M mps2-an386``
@@ -27,8 +27,8 @@ import can
 import cantools
 from crccheck.crc import Crc8GsmA
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-DBC_PATH = REPO_ROOT / "can" / "hpctl.dbc"
+from hpctl.data import DBC_PATH
+
 HEADER = ("E2E_CRC", "E2E_Counter")
 COUNTER_MODULO = 15  # profile 11: counter 0..14, 15 is invalid
 PIL_TICK_ID = 0x050

@@ -1,0 +1,157 @@
+"""What every command shares: output (tables, progress, errors), JSON
+conversion, and the options that load a unit."""
+
+from __future__ import annotations
+
+import math
+import sys
+import traceback
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import click
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+from hpctl.errors import HpctlError
+from hpctl.model.unit import Unit
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class Reporter:
+    """Progress bars and human output on stderr/stdout, silenced by
+    ``--quiet``; ``--json`` keeps stdout for the JSON document alone."""
+
+    def __init__(self, quiet: bool, as_json: bool) -> None:
+        self.quiet = quiet
+        self.as_json = as_json
+        # Tables keep their columns when written to a file or a pipe.
+        wide = None if sys.stdout.isatty() else 160
+        self.out = Console(quiet=quiet or as_json, width=wide)
+        self.err = Console(stderr=True, quiet=quiet)
+        # Errors are printed even with --quiet.
+        self.errors = Console(stderr=True)
+
+    @contextmanager
+    def bars(self) -> Iterator[Callable[[str], Callable[[int, int], None] | None]]:
+        """A factory of progress callbacks, one bar per simulation. Bars
+        appear only for runs that report progress (longer than ~0.1 s)."""
+        if self.quiet:
+            yield lambda _name: None
+            return
+        with Progress(
+            TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"), TimeRemainingColumn(),
+            console=self.err, transient=True,
+        ) as progress:
+
+            def make(name: str) -> Callable[[int, int], None]:
+                task = progress.add_task(name, total=None)
+
+                def update(done: int, total: int) -> None:
+                    progress.update(task, completed=done, total=total)
+
+                return update
+
+            yield make
+
+
+class _Status:
+    """A spinner with a changing message, for work without a known total."""
+
+    def __init__(self, rep: Reporter, message: str) -> None:
+        self._status = None if rep.quiet else rep.err.status(message)
+
+    def __enter__(self) -> _Status:
+        if self._status is not None:
+            self._status.__enter__()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._status is not None:
+            self._status.__exit__(None, None, None)
+
+    def update(self, message: str) -> None:
+        if self._status is not None:
+            self._status.update(message)
+
+
+def status(rep: Reporter, message: str) -> _Status:
+    """A spinner on stderr (nothing with --quiet)."""
+    return _Status(rep, message)
+
+
+
+def jsonable(x: Any) -> Any:
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    return x
+
+
+def fmt(v: Any, scale: float = 1.0, digits: int = 2) -> str:
+    return "-" if v is None else f"{v * scale:.{digits}f}"
+
+
+
+def load_unit(unit_file: Path | None, tau_s: float | None, gas: str | None) -> Unit:
+    unit = Unit.seed() if unit_file is None else Unit.from_toml(unit_file)
+    if tau_s is not None:
+        unit = unit.replace(tau_s=tau_s)
+    if gas is not None:
+        unit = unit.replace(gas=gas)
+    unit.check()
+    return unit
+
+
+
+def modes(option: str, names: tuple[str, str]) -> list[bool]:
+    """'both' -> [True, False]; otherwise the one state (True = first name)."""
+    return [True, False] if option == "both" else [option == names[0]]
+
+
+
+def parse_tau(value: str | None) -> float | None:
+    if value is None:
+        return None
+    try:
+        return float(value)
+    except ValueError:
+        raise click.BadParameter(f"{value!r} is not a number (seconds; 0 = isothermal, inf = adiabatic)") from None
+
+
+
+def parse_floats(text: str | None, option: str) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: expected comma-separated numbers", param_hint=option) from None
+
+
+
+@contextmanager
+def errors(rep: Reporter) -> Iterator[None]:
+    """Bad input -> message and exit 2; anything else -> exit 1."""
+    try:
+        yield
+    except (click.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+        raise
+    except HpctlError as e:
+        rep.errors.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
+        sys.exit(EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        rep.errors.print("interrupted")
+        sys.exit(130)
+    except Exception as e:  # noqa: BLE001 - the last line of defence
+        rep.errors.print(f"[red]internal error:[/red] {type(e).__name__}: {e}", markup=True, highlight=False)
+        if rep.errors.is_terminal:
+            traceback.print_exc()
+        sys.exit(EXIT_INTERNAL)
+

@@ -1,0 +1,63 @@
+"""``hpctl closed-loop``: the controller on the plant over a random road."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+from rich.table import Table
+
+from hpctl.cli._ui import Reporter, errors, fmt, jsonable, load_unit
+
+
+@click.command("closed-loop")
+@click.option("--unit", "unit_file", type=click.Path(exists=True, dir_okay=False, path_type=Path), help="Unit description (TOML, [unit] table); default: the built-in seed unit.")
+@click.option("--road-class", type=click.Choice(list("ABCDEFGH"), case_sensitive=False), default="C", show_default=True, help="ISO 8608 road class.")
+@click.option("--speed-m-s", type=float, default=10.0, show_default=True, help="Vehicle speed, m/s.")
+@click.option("--lower-m", type=float, default=0.03, show_default=True, help="How far to lower the ride height (then raise it back), m.")
+@click.option("--seed", type=int, default=1, show_default=True, help="Road seed (same seed, same road).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/closed-loop"), show_default=True, help="Output folder.")
+@click.option("--quiet", "-q", is_flag=True, help="No tables.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
+def closed_loop(unit_file: Path | None, road_class: str, speed_m_s: float, lower_m: float, seed: int, out_dir: Path, quiet: bool, as_json: bool) -> None:
+    """Run the controller in closed loop with the unit (3000 kg SDOF) over a
+    random road: lower the ride height without a pump and raise it back,
+    then switch modes on a lane change and a braking burst. Writes PNG plots
+    and summary.json into the output folder."""
+    rep = Reporter(quiet, as_json)
+    with errors(rep):
+        from hpctl.control import closed_loop as cl
+        from hpctl.report.closed_loop import plot_height_change, plot_modes
+
+        unit = load_unit(unit_file, None, None)
+        height, modes, summary = cl.demo(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        where = f"ISO 8608 class {road_class.upper()} road at {speed_m_s:g} m/s, seed {seed}"
+        plot_height_change(height, out_dir / "ride_height.png", f"Pump-free lowering by {1e3 * lower_m:g} mm and back ({where})")
+        plot_modes(modes, out_dir / "modes.png", f"Mode switching: lane change at 8 s, braking at 18 s ({where})")
+        summary["plots"] = ["ride_height.png", "modes.png"]
+        (out_dir / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+        if as_json:
+            click.echo(json.dumps(jsonable(summary), indent=2))
+        else:
+            t = Table(title=f"Pump-free ride height (class {summary['road_class']}, {speed_m_s:g} m/s), mm")
+            for col in ("change", "target", "held at rest", "estimate", "on the road", "time [s]", "valve-6 openings"):
+                t.add_column(col, justify="right")
+            for name in ("lowering", "raising"):
+                s = summary[name]
+                t.add_row(name, fmt(s["target_m"], 1e3, 1), fmt(s["held_offset_m"], 1e3, 1), fmt(s["estimate_m"], 1e3, 1),
+                          fmt(s["road_mean_change_m"], 1e3, 1), fmt(s["time_to_reach_s"]), str(s["valve6_openings"]))
+            rep.out.print(t)
+            t = Table(title="Pressures when done, MPa")
+            for col in ("change", "p_S", "p_L", "target p_L", "load (estimate)", "load (true)"):
+                t.add_column(col, justify="right")
+            for name in ("lowering", "raising"):
+                s = summary[name]
+                t.add_row(name, *(fmt(s[k], 1e-6, 2) for k in ("p_small_pa", "p_large_pa", "p_large_target_pa", "p_load_estimate_pa", "p_load_true_pa")))
+            rep.out.print(t)
+            m = summary["modes"]
+            rep.out.print(f"Handling entered at {', '.join(f'{x:.2f}' for x in m['handling_entered_s']) or '-'} s, Ride again at "
+                          f"{', '.join(f'{x:.2f}' for x in m['ride_returned_s']) or '-'} s; triggers: {', '.join(m['triggers']) or '-'}")
+            rep.out.print(f"[bold]Wrote[/bold] plots and summary.json to {out_dir}/")
+

@@ -1,0 +1,198 @@
+"""``hpctl simulate``: the seed's experiments, one test, or a sweep."""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+from rich.table import Table
+
+from hpctl.cli._ui import (
+    Reporter,
+    errors,
+    fmt,
+    jsonable,
+    load_unit,
+    modes,
+    parse_floats,
+    parse_tau,
+)
+from hpctl.data.records import write_record
+from hpctl.model.unit import GAS_MODELS, SEED_SPRUNG_MASS_KG, Unit
+from hpctl.sim import experiments as ex
+from hpctl.sim.run import Sine, Step, Steps
+
+
+@click.command()
+@click.option("--unit", "unit_file", type=click.Path(exists=True, dir_okay=False, path_type=Path), help="Unit description (TOML, [unit] table); default: the built-in seed unit.")
+@click.option("--test", "test", type=click.Choice(["seed", "sine", "steps", "step", "sdof-step", "heat"]), default="seed", show_default=True,
+              help="seed: the seed's experiments; sine/steps/step: characterisation rig; sdof-step: sprung mass over a base step; heat: damper heat build-up run.")
+@click.option("--amplitude-m", type=float, help="Sine amplitude or step height, m.")
+@click.option("--frequency-hz", type=float, help="Sine frequency, Hz.")
+@click.option("--spring", type=click.Choice(["hard", "soft", "both"]), default="both", show_default=True)
+@click.option("--damper", type=click.Choice(["on", "off", "both"]), default="both", show_default=True)
+@click.option("--tau-s", "tau_s", type=str, help="Gas thermal time constant, s (0 = isothermal, inf = adiabatic).")
+@click.option("--gas", type=click.Choice(GAS_MODELS), help="Equation of state.")
+@click.option("--duration-s", type=float, help="Simulated duration, s.")
+@click.option("--dt-s", type=float, default=None, help="Integration step, s (default 1e-3; 2e-3 for the heat run; keep <= 1e-3 with valve 6 open).")
+@click.option("--mass-kg", type=float, default=SEED_SPRUNG_MASS_KG, show_default=True, help="Sprung mass for SDOF tests, kg.")
+@click.option("--sweep", is_flag=True, help="Sweep a grid (charge pressure x tau x damper) of SDOF step tests in parallel.")
+@click.option("--sweep-pressure-pa", type=str, help="Comma-separated static charge pressures, Pa (default: the unit's x 0.8..1.2).")
+@click.option("--sweep-tau-s", type=str, help="Comma-separated tau values, s (default: 0.5,2,8).")
+@click.option("--threads", type=int, default=None, help="Threads for --sweep (default: all cores).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out"), show_default=True, help="Output folder.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bars or tables.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
+def simulate(
+    unit_file: Path | None, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
+    tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, mass_kg: float, sweep: bool,
+    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, quiet: bool, as_json: bool,
+) -> None:
+    """Run the seed's experiments (default) or one test on a unit, and write
+    rig records, PNG plots and a summary into the output folder."""
+    rep = Reporter(quiet, as_json)
+    with errors(rep):
+        unit = load_unit(unit_file, parse_tau(tau_s), gas)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        if sweep:
+            summary = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out_dir)
+        else:
+            summary = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, mass_kg, out_dir)
+        (out_dir / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+        if as_json:
+            click.echo(json.dumps(jsonable(summary), indent=2))
+        else:
+            rep.out.print(f"[bold]Wrote[/bold] records, plots and summary.json to {out_dir}/")
+
+
+def _sweep(
+    rep: Reporter, unit: Unit, spring: str, damper: str, amplitude_m: float | None, mass_kg: float,
+    pressures: str | None, taus: str | None, threads: int | None, out_dir: Path,
+) -> dict[str, Any]:
+    from hpctl.report.plots import sweep_plot
+    from hpctl.sim import sweep as sw
+
+    summary = sw.run_sweep(
+        unit, spring_hard=spring != "soft", mass_kg=mass_kg,
+        pressures_pa=parse_floats(pressures, "--sweep-pressure-pa"), taus_s=parse_floats(taus, "--sweep-tau-s"),
+        damper=damper, height_m=amplitude_m if amplitude_m is not None else ex.SEED_STEP_M, threads=threads, say=rep.err.print,
+    )
+    with (out_dir / "sweep.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=sw.COLUMNS, lineterminator="\n")
+        w.writeheader()
+        for row in summary["rows"]:
+            w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sw.COLUMNS})
+    sweep_plot(summary["rows"], out_dir / "sweep.png", spring != "soft")
+    return summary
+
+
+def _simulate(
+    rep: Reporter, unit: Unit, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
+    duration_s: float | None, dt_s: float | None, mass_kg: float, out_dir: Path,
+) -> dict[str, Any]:
+    def given(value: float | None, default: float) -> float:
+        return default if value is None else value
+
+    springs = modes(spring, ("hard", "soft"))
+    dampers = modes(damper, ("on", "off"))
+    runs: list[ex.Experiment] = []
+    from hpctl.report import plots
+
+    with rep.bars() as bar:
+        if test == "seed":
+            runs = ex.seed_experiments(unit, progress=bar)
+        elif test == "sdof-step":
+            for hard in springs:
+                for on in dampers:
+                    runs.append(ex.sdof_step(
+                        unit, spring_hard=hard, damper_on=on, height_m=given(amplitude_m, ex.SEED_STEP_M),
+                        duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=given(dt_s, 1e-3),
+                        progress=bar(f"SDOF step ({ex.spring_name(hard)}, damper {ex.damper_name(on)})"),
+                    ))
+        elif test == "heat":
+            for hard in springs:
+                runs.append(ex.heat_buildup(
+                    unit, duration_s=given(duration_s, 75 * 60.0), frequency_hz=given(frequency_hz, 0.5), amplitude_m=given(amplitude_m, 0.06),
+                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=given(dt_s, 2e-3), progress=bar(f"heat build-up ({ex.spring_name(hard)})"),
+                ))
+        else:
+            for hard in springs:
+                for on in dampers:
+                    name = f"{test} ({ex.spring_name(hard)}, damper {ex.damper_name(on)})"
+                    if test == "sine":
+                        f = given(frequency_hz, 0.1)
+                        motion: Sine | Steps | Step = Sine(given(amplitude_m, 0.05), f)
+                        dur = given(duration_s, 3.0 / f)
+                    elif test == "steps":
+                        motion = Steps(given(amplitude_m, 0.02), 4, ramp_s=2.0, dwell_s=30.0)
+                        dur = given(duration_s, motion.duration_s)
+                    else:
+                        motion = Step(given(amplitude_m, 0.05), start_s=1.0, rise_s=0.05)
+                        dur = given(duration_s, 30.0)
+                    sample = min(0.01, dur / 2000) if dur > 0 else 0.01
+                    runs.append(ex.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
+
+    records = out_dir / "records"
+    for e in runs:
+        write_record(e.record, records / e.name)
+    chars = [e for e in runs if e.record.kind == "characterisation"]
+    steps = [e for e in runs if e.record.kind == "sdof"]
+    if test == "heat":
+        for e in runs:
+            r = e.result
+            plots.time_series(
+                [("gas", r["time_s"], r["t_gas_k"] - 273.15, "gas [C]"), ("oil", r["time_s"], r["t_oil_k"] - 273.15, "oil [C]"),
+                 ("force", r["time_s"], 1e-3 * r["force_n"], "force [kN]")],
+                out_dir / f"{e.name}.png", "Damper heat build-up",
+            )
+    elif chars:
+        plots.force_displacement(chars, out_dir / "force_displacement.png")
+    if steps:
+        plots.step_responses(steps, out_dir / "step_responses.png", title=f"SDOF step response ({mass_kg:g} kg)")
+    summary: dict[str, Any] = {"test": test, "unit": {"piston_area_m2": unit.piston_area_m2, "static_pressure_pa": unit.static_pressure_pa, "tau_s": unit.tau_s, "gas": unit.gas}}
+    summary.update(ex.headline(runs))
+    summary["runs"] = [dict(e.summary, name=e.name) for e in runs]
+    if test == "heat":
+        summary["seed"] = ex.SEED_HEAT_BUILDUP
+    _print_summary(rep, runs, test)
+    return summary
+
+
+def _print_summary(rep: Reporter, runs: Sequence[ex.Experiment], test: str) -> None:
+    steps = [e.summary for e in runs if e.record.kind == "sdof"]
+    chars = [e.summary for e in runs if e.record.kind == "characterisation"]
+    if steps:
+        t = Table(title="SDOF step response")
+        for col in ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"):
+            t.add_column(col, justify="right")
+        for s in steps:
+            t.add_row(s["spring"], s["damper"], fmt(s["natural_frequency_hz"]), fmt(s["damping_ratio"]), fmt(s["overshoot_m"], 1e3, 1),
+                      fmt(s["settling_time_s"]), fmt(s["peak_p_gas_pa"], 1e-6, 1))
+        rep.out.print(t)
+    if chars and test != "heat":
+        t = Table(title="Characterisation")
+        for col in ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"):
+            t.add_column(col, justify="right")
+        for s in chars:
+            t.add_row(s["spring"], s["damper"], s["excitation"], f"{s['force_min_n'] / 1e3:.1f} .. {s['force_max_n'] / 1e3:.1f}",
+                      fmt(s.get("loop_area_j"), 1, 0), fmt(s.get("gas_loop_area_j"), 1, 0), fmt(s["peak_p_gas_pa"], 1e-6, 1))
+        rep.out.print(t)
+    if test == "heat":
+        seed = ex.SEED_HEAT_BUILDUP
+        t = Table(title="Damper heat build-up: this model vs the seed")
+        for col in ("quantity", "hpctl", "seed"):
+            t.add_column(col, justify="right")
+        for s in (e.summary for e in runs):
+            t.add_row("gas temperature [C]", f"{s['gas_temperature_start_k'] - 273.15:.0f} -> {s['gas_temperature_end_k'] - 273.15:.0f}",
+                      f"{seed['gas_temperature_start_c']:.0f} -> {seed['gas_temperature_end_c']:.0f}")
+            t.add_row("oil temperature at end [C]", f"{s['oil_temperature_end_k'] - 273.15:.0f}", f"{seed['oil_temperature_end_c']:.0f}")
+            t.add_row("static spring rate change", f"{100 * s['static_spring_rate_change']:+.0f} %", f"{100 * seed['spring_rate_change']:+.0f} %")
+            t.add_row("ride height change", f"{1e3 * s['ride_height_change_m']:+.1f} mm ({100 * s['ride_height_change_of_gas_volume']:+.0f} % of gas volume)",
+                      f"+{1e3 * seed['ride_height_change_m']:.0f} mm (+{100 * seed['ride_height_change']:.0f} %)")
+            t.add_row("mean damper power [W]", f"{s['mean_damper_power_w']:.0f}", "-")
+        rep.out.print(t)
+

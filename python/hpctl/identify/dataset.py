@@ -1,0 +1,131 @@
+"""Rig records prepared for fitting: the excitation that drives the model,
+the measured channels it is compared with, their noise levels and weights."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hpctl.data.records import RigRecord
+from hpctl.errors import HpctlError, RecordError
+from hpctl.identify.signals import (
+    SMOOTH_NOISE_GAIN,
+    derivative,
+    local_sensitivities,
+    noise_sigma,
+    smooth,
+    velocity_noise_gain,
+)
+from hpctl.model.unit import Unit
+from hpctl.sim.run import Sampled, characterisation_rig, sdof_rig
+
+FloatArray = NDArray[np.float64]
+
+# Measured channels compared with the model, per record kind.
+OUTPUTS = {"characterisation": ("force_n", "p_gas_pa", "p_gas2_pa"), "sdof": ("body_disp_m", "p_gas_pa", "p_gas2_pa")}
+
+
+@dataclass
+class Dataset:
+    """One record prepared for fitting."""
+
+    record: RigRecord
+    base: Unit
+    rig: dict[str, Any]
+    times_s: FloatArray
+    spring_hard: NDArray[np.bool_]
+    damper_on: NDArray[np.bool_]
+    targets: dict[str, FloatArray]
+    sigma: dict[str, float]
+    ambient_k: float
+    max_dt_s: float
+    # Per-sample standard deviation of each channel's residual: the
+    # channel's own noise plus the input displacement's noise carried
+    # through the local sensitivity (the effective-variance method).
+    weight_sigma: dict[str, FloatArray] = field(default_factory=dict)
+    # The strut's compression (base minus body on the SDOF rig), smoothed,
+    # and its rate: what the residual analysis and the reports plot against.
+    strut_disp_m: FloatArray = field(default_factory=lambda: np.zeros(0))
+    strut_vel_m_s: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def name(self) -> str:
+        return self.record.name
+
+
+def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
+    """The unit a record describes: its piston area, gas volumes and static
+    state; what the record does not say (damper curves, valve 6, stroke)
+    from ``template`` (the built-in unit by default)."""
+    t = template or Unit.seed()
+    return t.replace(
+        piston_area_m2=record.unit.piston_area_m2,
+        small_volume_m3=record.unit.small_acc_volume_m3,
+        large_volume_m3=record.unit.large_acc_volume_m3,
+        static_pressure_pa=record.static.pressure_pa,
+        static_temperature_k=record.static.temperature_k,
+    )
+
+
+def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[Dataset]:
+    """Checks that the records can be fitted and prepares them."""
+    if not records:
+        raise HpctlError("no records to fit")
+    out = []
+    for rec in records:
+        t = np.asarray(rec["time_s"], float)
+        x_in = rec["base_disp_m"] if rec.kind == "sdof" else rec["disp_m"]
+        xs = smooth(t, x_in)
+        vs = derivative(t, xs)
+        motion = Sampled(t, xs, vs)
+        if rec.kind == "sdof":
+            if rec.sprung_mass_kg is None:
+                raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
+            rig = sdof_rig(motion, rec.sprung_mass_kg)
+        else:
+            rig = characterisation_rig(motion)
+        targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
+        sigma: dict[str, float] = {}
+        weight_sigma: dict[str, FloatArray] = {}
+        x_raw_noise = noise_sigma(x_in)
+        x_noise = x_raw_noise * SMOOTH_NOISE_GAIN
+        v_noise = x_raw_noise * velocity_noise_gain(float(np.median(np.diff(t))))
+        for c, y in targets.items():
+            floor = 1e-4 * max(float(np.ptp(y)), 1e-12)
+            sigma[c] = max(noise_sigma(y), floor)
+            # An SDOF body filters the base's noise through its dynamics;
+            # on the characterisation rig the outputs follow the input's
+            # position (gas) and velocity (damper, friction) at once.
+            if rec.kind == "sdof":
+                carried2: Any = 0.0
+            else:
+                b, cv = local_sensitivities(xs, vs, smooth(t, y))
+                carried2 = (b * x_noise) ** 2 + (cv * v_noise) ** 2
+            weight_sigma[c] = np.sqrt(sigma[c] ** 2 + carried2) * np.ones(len(t))
+        hard, on = rec.spring_hard(), rec.damper_on()
+        # With valve 6 open its orifice is the fastest dynamics (about a
+        # millisecond); otherwise the gas, whose thermal time constant is
+        # seconds. Steps also never span more than one sample interval.
+        max_dt = 1e-3 if bool((~hard).any()) else 0.02
+        strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
+        out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, max_dt, weight_sigma,
+                           strut, derivative(t, strut) if rec.kind == "sdof" else vs))
+    return out
+
+
+def uses_damper(datasets: Sequence[Dataset]) -> bool:
+    """Whether the damper does measurable work in the records (strut speeds
+    above 0.05 m/s), so that its gain can be identified."""
+    return any(np.percentile(np.abs(d.strut_vel_m_s), 95) > 0.05 for d in datasets)
+
+
+def fold_mask(d: Dataset, fold: int, blocks: int = 10) -> NDArray[np.bool_]:
+    """Samples of cross-validation fold ``fold`` (0 or 1): alternate
+    contiguous blocks of the record, so both folds span the whole test."""
+    n = len(d.times_s)
+    block = np.minimum(np.arange(n) * blocks // max(n, 1), blocks - 1)
+    return np.asarray(block % 2 == fold)

@@ -1,0 +1,131 @@
+"""Signal processing for measured records: noise levels, smoothing that
+never distorts the excitation, fourth-order derivatives on irregular
+samples, local sensitivities, and the first-order sensor lag."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.signal import savgol_coeffs, savgol_filter
+
+FloatArray = NDArray[np.float64]
+
+
+def noise_sigma(y: FloatArray) -> float:
+    """Noise level of a sampled signal from its fourth differences: white
+    noise of variance s^2 gives differences of variance 70 s^2, while a
+    signal smooth on the sampling scale contributes almost nothing (its
+    fourth difference scales with the fourth power of the sampling step).
+    The median absolute deviation keeps steps and spikes out."""
+    d4 = np.diff(np.asarray(y, float), 4)
+    if d4.size == 0:
+        return 0.0
+    mad = float(np.median(np.abs(d4 - np.median(d4))))
+    return mad / 0.6745 / math.sqrt(70.0)
+
+
+SMOOTH_WINDOW, SMOOTH_ORDER = 11, 3
+# How much of the input's white noise survives the smoothing (standard deviation).
+SMOOTH_NOISE_GAIN = float(np.sqrt(np.sum(savgol_coeffs(SMOOTH_WINDOW, SMOOTH_ORDER) ** 2)))
+
+
+def smooth(t: FloatArray, x: FloatArray) -> FloatArray:
+    """The measured displacement with its noise filtered (Savitzky-Golay,
+    cubic, 11 samples): the model is driven by it, and a noisy input would
+    become a noisy velocity for the damper and friction. Where the signal
+    has features sharper than the window (a step, or a sine sampled a few
+    times per cycle), the filter would move it by more than its noise: there
+    the raw samples are kept, so smoothing never distorts the excitation."""
+    x = np.asarray(x, float)
+    if len(x) < 2 * SMOOTH_WINDOW:
+        return x
+    smooth = np.asarray(savgol_filter(x, SMOOTH_WINDOW, SMOOTH_ORDER))
+    distorted = np.abs(smooth - x) > 4.0 * max(noise_sigma(x), 1e-12)
+    # Keep the raw samples around distortions too (the filter's reach).
+    distorted = np.convolve(distorted.astype(float), np.ones(SMOOTH_WINDOW), "same") > 0
+    return np.where(distorted, x, smooth)
+
+
+def local_sensitivities(x: FloatArray, v: FloatArray, y: FloatArray, window: int = 21) -> tuple[FloatArray, FloatArray]:
+    """dy/dx and dy/dv along a trajectory: the least-squares coefficients
+    of ``y ~ a + b x + c v`` in a sliding window (well defined through
+    turning points, where x alone would barely change)."""
+    n = len(x)
+    w = min(window, n)
+    k = np.ones(w) / w
+
+    def mean(a: FloatArray) -> FloatArray:
+        return np.asarray(np.convolve(a, k, "same"))
+
+    mx, mv, my = mean(x), mean(v), mean(y)
+    sxx, svv, sxv = mean(x * x) - mx * mx, mean(v * v) - mv * mv, mean(x * v) - mx * mv
+    sxy, svy = mean(x * y) - mx * my, mean(v * y) - mv * my
+    det = sxx * svv - sxv * sxv
+    ok = det > 1e-12 * np.maximum(sxx * svv, 1e-300)
+    safe = np.where(ok, det, 1.0)
+    b = np.where(ok, (sxy * svv - svy * sxv) / safe, np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), 0.0))
+    c = np.where(ok, (svy * sxx - sxy * sxv) / safe, 0.0)
+    half = w // 2
+    if n > 2 * half + 1:
+        for arr in (b, c):
+            arr[:half], arr[n - half:] = arr[half], arr[n - half - 1]
+    return np.asarray(b), np.asarray(c)
+
+
+FIVE_POINT = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
+
+
+def derivative(t: FloatArray, x: FloatArray) -> FloatArray:
+    """dx/dt at the samples, fourth-order accurate: the derivative of the
+    quartic through each sample and its two neighbours on either side
+    (irregular spacing allowed); second order at the two ends."""
+    n = len(x)
+    out = np.gradient(x, t, edge_order=2) if n >= 3 else np.gradient(x, t) if n == 2 else np.zeros(n)
+    if n < 5:
+        return np.asarray(out)
+    i = np.arange(2, n - 2)
+    nodes = np.stack([t[i + k] for k in (-2, -1, 0, 1, 2)])  # 5 x m
+    tc = t[i]
+    weights = np.zeros_like(nodes)
+    for j in range(5):
+        if j == 2:
+            weights[j] = sum(1.0 / (tc - nodes[m]) for m in range(5) if m != 2)
+            continue
+        num = np.ones_like(tc)
+        den = np.ones_like(tc)
+        for m in range(5):
+            if m != j:
+                den *= nodes[j] - nodes[m]
+            if m not in (j, 2):
+                num *= tc - nodes[m]
+        weights[j] = num / den
+    out[2:n - 2] = np.sum(weights * np.stack([x[i + k] for k in (-2, -1, 0, 1, 2)]), axis=0)
+    return np.asarray(out)
+
+
+def velocity_noise_gain(dt_s: float) -> float:
+    """Standard deviation of the velocity the model sees (the five-point
+    derivative of the smoothed input, the interpolation's tangents) per
+    unit of white input noise."""
+    coeffs = savgol_coeffs(SMOOTH_WINDOW, SMOOTH_ORDER)
+    return float(np.sqrt(np.sum((np.convolve(coeffs, FIVE_POINT) / dt_s) ** 2)))
+
+
+def apply_sensor_lag(t: FloatArray, y: FloatArray, tau_s: float, y_rest: float | None = None) -> FloatArray:
+    """A first-order lag of time constant ``tau_s`` applied to samples ``y``
+    at times ``t``, exact for a signal linear between samples (first-order
+    hold): what the transducer reports. It starts settled at ``y_rest``
+    (the value at rest before the motion; ``y[0]`` by default), as the
+    unit's sensor state does."""
+    out = np.empty_like(y)
+    h = np.diff(t)
+    a = np.exp(-h / tau_s)
+    ramp = (tau_s / h) * (1.0 - a)
+    acc = float(y[0] if y_rest is None else y_rest)
+    out[0] = acc
+    for k in range(1, len(y)):
+        acc = a[k - 1] * acc + y[k] - a[k - 1] * y[k - 1] - (y[k] - y[k - 1]) * ramp[k - 1]
+        out[k] = acc
+    return out
