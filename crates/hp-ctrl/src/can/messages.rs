@@ -61,7 +61,9 @@ impl Timing {
     /// ```
     pub fn due(&self, index: u32) -> bool {
         let (cycle, delay) = (u32::from(self.cycle_ms), u32::from(self.start_delay_ms));
-        cycle != 0 && index >= delay && (index - delay).is_multiple_of(cycle)
+        // `%` rather than `is_multiple_of` (Rust 1.87): the firmware builds with
+        // 1.85 (docs/firmware.md). `cycle != 0` is checked first.
+        cycle != 0 && index >= delay && (index - delay) % cycle == 0
     }
 }
 
