@@ -39,7 +39,8 @@ rustup_missing() {
     compgen -G "$libdir/libcore-*.rlib" >/dev/null || echo "$(rustc -V) has no prebuilt $TARGET (rustup target add $TARGET)"
 }
 debian_missing() {
-    [ -x "$DEBIAN_RUSTC" ] && [ -x "$DEBIAN_CARGO" ] || { echo "no $DEBIAN_RUSTC / $DEBIAN_CARGO (apt-get install rustc-web cargo-web)"; return; }
+    [ -x "$DEBIAN_RUSTC" ] || { echo "no $DEBIAN_RUSTC (apt-get install rustc-web)"; return; }
+    [ -x "$DEBIAN_CARGO" ] || { echo "no $DEBIAN_CARGO (apt-get install cargo-web)"; return; }
     local src
     src="$("$DEBIAN_RUSTC" --print sysroot)/lib/rustlib/src/rust/library/core"
     [ -d "$src" ] || echo "no library sources at $src (apt-get install rust-web-src)"
