@@ -145,8 +145,8 @@ def pil_stack(elf: Path, periods: int = 800) -> dict[str, float]:
             for k in range(periods):
                 w = 2 * math.pi * 1.5 * k * 1e-3
                 inputs = {
-                    "p_small_pa": p_pa * (1 + 0.05 * math.sin(w)),
-                    "p_large_pa": p_pa * (1 + 0.05 * math.sin(w)),
+                    "p_gas_pa": p_pa * (1 + 0.05 * math.sin(w)),
+                    "p_gas2_pa": p_pa * (1 + 0.05 * math.sin(w)),
                     "strut_disp_m": 0.01 * math.sin(w),
                     "body_acc_m_s2": -0.8 * math.cos(w),
                     "speed_m_s": 10.0, "brake_pressed": 0, "lat_acc_m_s2": 0.0, "long_acc_m_s2": 0.0,

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import os
 
-import hpctl
 import pytest
 from hypothesis import HealthCheck, settings
+
+import hpctl
 
 # Hooks: under CI a skip is reported as a failure (ci_rules.py).
 from ci_rules import pytest_make_collect_report, pytest_runtest_makereport  # noqa: F401

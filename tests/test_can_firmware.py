@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from hpctl.hil import pil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -114,8 +115,8 @@ def road_inputs(k: int, p_static_pa: float, t_static_k: float) -> dict[str, floa
     w = 2 * math.pi * 1.5
     steer = 0.8 * math.sin(2 * math.pi * (t - 2.8)) if 2.8 <= t < 3.8 else 0.0
     return {
-        "p_small_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
-        "p_large_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
+        "p_gas_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
+        "p_gas2_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
         "strut_disp_m": 0.01 * math.sin(w * t),
         "body_acc_m_s2": -0.8 * math.cos(w * t),
         "speed_m_s": 10.0,
@@ -238,8 +239,8 @@ def test_processor_in_the_loop_lowers_the_plant_and_fails_safe(firmware):
                 for k in range(periods):
                     t_read_k += t_weight * (sample["t_gas2_k"] - t_read_k)
                     inputs = {
-                        "p_small_pa": sample["p_gas_pa"],
-                        "p_large_pa": sample["p_gas2_pa"],
+                        "p_gas_pa": sample["p_gas_pa"],
+                        "p_gas2_pa": sample["p_gas2_pa"],
                         "strut_disp_m": sample["disp_m"] - static_disp_m,
                         "body_acc_m_s2": sample["body_acc_m_s2"],
                         "speed_m_s": speed_m_s,

@@ -132,11 +132,11 @@ fn decode(frame: &CanFrame) -> String {
 
 fn inputs_line(i: &hp_ctrl::Inputs) -> String {
     format!(
-        "inputs p_small_pa={:?} p_large_pa={:?} strut_disp_m={:?} body_acc_m_s2={:?} speed_m_s={:?} \
+        "inputs p_gas_pa={:?} p_gas2_pa={:?} strut_disp_m={:?} body_acc_m_s2={:?} speed_m_s={:?} \
          lat_acc_m_s2={:?} long_acc_m_s2={:?} steer_angle_rad={:?} steer_rate_rad_s={:?} brake_pressed={} \
          t_gas_k={:?} driver_mode={} ride_height_request_m={:?} fresh={} link_fault={}",
-        i.p_small_pa,
-        i.p_large_pa,
+        i.p_gas_pa,
+        i.p_gas2_pa,
         i.strut_disp_m,
         i.body_acc_m_s2,
         i.speed_m_s,
