@@ -19,6 +19,7 @@ import secrets
 import CoolProp.CoolProp as CP
 import numpy as np
 import pytest
+
 from foreign_rig import EFFECTS, LIBRARY_EFFECTS, draw_case, extra_tests, generate, run_test, sweep_tests
 from foreign_rig.damper import Damper, default_pack, scalar_valve_flow
 from foreign_rig.gas import Nitrogen
@@ -403,8 +404,8 @@ def test_records_are_readable_by_hpctl(tmp_path: os.PathLike[str]) -> None:
     g = generate("friction", 3, out=os.path.join(tmp_path, "case"), tests=tests)
     truth = json.loads((g.folder / "truth.json").read_text())
     assert truth["seed"] == 3 and truth["records"] == [t.name for t in tests]
-    for path, test in zip(g.records, tests):
-        rec = records.read_record(path)
+    for path, test, rec in zip(g.records, tests, g.read()):
+        assert rec == records.read_record(path)
         assert rec.kind == ("sdof" if test.sdof else "characterisation")
         assert rec.test.spring == "hard" and rec.static.pressure_pa == truth["unit"]["declared_static_pressure_pa"]
         assert len(rec["time_s"]) == len(test.times_s())

@@ -20,6 +20,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--program", default="effect", help=f"effect (the sweep plus what the effect needs) or one of: {', '.join(PROGRAMS)}")
     ap.add_argument("--extra", default="", help=f"comma-separated extra tests: {', '.join(extra_tests())}")
     ap.add_argument("--quiet-sensors", action="store_true", help="no noise, quantisation or jitter")
+    ap.add_argument("--exact-gauge", action="store_true", help="declare the true static pressure (no gauge error)")
     a = ap.parse_args(argv)
     seed = a.seed if a.seed is not None else secrets.randbelow(2**31)
     effect = None if a.effect in ("none", "") else a.effect
@@ -28,7 +29,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"foreign rig: effect={a.effect} seed={seed}", flush=True)
     try:
-        g = generate(effect, seed, out=a.out, program=a.program, extra=tuple(x for x in a.extra.split(",") if x), noise=not a.quiet_sensors)
+        g = generate(effect, seed, out=a.out, program=a.program, extra=tuple(x for x in a.extra.split(",") if x), noise=not a.quiet_sensors,
+                     gauge_error=not a.exact_gauge)
     except (ValueError, FileExistsError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

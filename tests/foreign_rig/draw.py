@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .damper import BlowOff, DamperPack, Orifice, Passages
+from .damper import BlowOff, DamperPack, Passages
 from .gas import Nitrogen
 from .sensors import ChannelNoise, DataSystem
 from .unit import (
@@ -129,8 +129,10 @@ def draw_data_system(rng: np.random.Generator) -> DataSystem:
     )
 
 
-def draw_case(effect: str | None, seed: int, noise: bool = True) -> Case:
-    """The unit, sprung mass and data system of one randomised case."""
+def draw_case(effect: str | None, seed: int, noise: bool = True, gauge_error: bool = True) -> Case:
+    """The unit, sprung mass and data system of one randomised case.
+    ``noise=False``: a perfect data system; ``gauge_error=False``: the
+    records declare the true static pressure (for ablations)."""
     if effect is not None and effect not in EFFECTS:
         raise ValueError(f"effect {effect!r}: expected one of {', '.join(EFFECTS)} (or none)")
     rng = np.random.default_rng(seed)
@@ -146,7 +148,7 @@ def draw_case(effect: str | None, seed: int, noise: bool = True) -> Case:
         thermocouple_tau_s=rng.uniform(0.8, 3.0),
     )
     # The bench's gauge: class 1 (the declared charge is off by up to 1 %).
-    declared = base.static_pressure_pa * (1.0 + rng.uniform(-0.01, 0.01))
+    declared = base.static_pressure_pa * (1.0 + rng.uniform(-0.01, 0.01) * gauge_error)
     ds = draw_data_system(rng) if noise else DataSystem().quiet()
     # Effect parameters are drawn from their own stream, so that a case with
     # and without an effect share the same unit and noise.

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import CoolProp.CoolProp as CP
-from CoolProp import AbstractState
+from CoolProp.CoolProp import AbstractState
 
 FLUID = "Nitrogen"
 

@@ -54,7 +54,7 @@ class Test:
     def spring_hard_at(self, times_s: FloatArray) -> FloatArray:
         if self.switch_period_s is None:
             return np.full(len(times_s), float(self.spring_hard))
-        return ((np.floor(times_s / self.switch_period_s) % 2) == 0).astype(float)
+        return np.asarray((np.floor(times_s / self.switch_period_s) % 2) == 0, dtype=float)
 
     @property
     def amplitude_m(self) -> float | None:
