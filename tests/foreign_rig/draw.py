@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .damper import BlowOff, DamperPack, Passages
+from .damper import BlowOff, Damper, DamperPack, Passages
 from .gas import Nitrogen
 from .sensors import ChannelNoise, DataSystem
 from .unit import (
@@ -52,6 +52,19 @@ class Case:
     hpctl_params: dict[str, float] = field(default_factory=dict)
     foreign_params: dict[str, Any] = field(default_factory=dict)
 
+    def damper_curve(self) -> dict[str, list[float]]:
+        """The true damper force (N, strut minus gas pressure times area,
+        rigid oil, no cavitation) against strut speed, per valve state and
+        direction: what an identified damper characteristic should match."""
+        d = Damper(self.unit.damper)
+        a = self.unit.piston_area_m2
+        v = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0]
+        out: dict[str, list[float]] = {"speed_m_s": v}
+        for state, bypass in (("on", 0.0), ("off", 1.0)):
+            out[f"{state}_compression_n"] = [d.drop(a * x, bypass) * a for x in v]
+            out[f"{state}_rebound_n"] = [-d.drop(-a * x, bypass) * a for x in v]
+        return out
+
     def truth(self) -> dict[str, Any]:
         ds = self.data_system
         u = self.unit
@@ -73,6 +86,7 @@ class Case:
                 "tau_s": u.tau_s,
                 "gas": "CoolProp HEOS Nitrogen (Span et al. 2000)",
                 "damper": asdict(u.damper),
+                "damper_curve": self.damper_curve(),
                 "valve6": asdict(u.valve6),
                 "oil_heat_capacity_j_per_k": u.oil_heat_capacity_j_per_k,
                 "thermocouple_tau_s": u.thermocouple_tau_s,
