@@ -136,7 +136,7 @@ def markdown(results: list[dict[str, Any]]) -> str:
     for r in results:
         steps = ", ".join(f"{e} ({b} -> {a_})" for e, b, a_ in r.get("steps", [])) or "-"
         tn = r.get("true_noise_after", {})
-        fitp = "; ".join(f"{k} {v['rel_error']:+.0%} (+-{v['stderr'] / v['true']:.0%})" for k, v in r.get("fit_params", {}).items() if k != "tau_s")
+        fitp = "; ".join(f"{k} {v['rel_error']:+.0%} (+-{abs(v['stderr'] / v['true']):.0%})" for k, v in r.get("fit_params", {}).items() if k != "tau_s")
         fit = f"{r['fit_rms_ratio']:.2f}; {fitp}" if "fit_rms_ratio" in r else r.get("fit_error", "-")
         verdict = r.get("verdict", r.get("diagnose_error", ""))
         before = f"{r['rms_ratio_before']:.1f} -> " if "rms_ratio_before" in r else ""
