@@ -429,3 +429,17 @@ def test_generate_caches_by_effect_and_seed(tmp_path: os.PathLike[str], monkeypa
     assert g1.folder == g2.folder and g2.truth == g1.truth
     assert generate("sensor_offset", 5, tests=tests).folder != g1.folder
     assert not [p for p in g1.folder.parent.iterdir() if p.name.startswith(".partial")]
+
+
+def test_cli_prints_the_seed_and_refuses_bad_input(tmp_path: os.PathLike[str], capsys: pytest.CaptureFixture[str]) -> None:
+    from foreign_rig.__main__ import main
+
+    out = os.path.join(tmp_path, "case")
+    assert main(["--effect", "sensor_lag", "--seed", "3", "--out", out, "--program", "sweep"]) == 0
+    text = capsys.readouterr().out
+    assert "seed=3" in text and "sensor_time_constant_s" in text
+    truth = json.loads(open(os.path.join(out, "truth.json")).read())
+    assert truth["seed"] == 3 and len(truth["records"]) == 5
+    assert main(["--effect", "gremlins", "--seed", "1", "--out", os.path.join(tmp_path, "x")]) == 2
+    assert main(["--effect", "none", "--seed", "1", "--out", out]) == 2  # not empty: never overwritten
+    assert "gremlins" in capsys.readouterr().err

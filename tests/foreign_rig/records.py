@@ -162,6 +162,8 @@ def generate(
             return Generated(folder, [folder / r for r in truth["records"]], truth)
     else:
         folder = Path(out)
+        if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+            raise FileExistsError(f"{folder} exists and is not an empty folder: the foreign rig never overwrites records")
     case = draw_case(effect, seed, noise=noise, gauge_error=gauge_error)
     start = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix=".partial-", dir=_ensure(folder.parent)))
@@ -181,7 +183,7 @@ def generate(
                 truth = json.loads((folder / "truth.json").read_text())
                 return Generated(folder, [folder / r for r in truth["records"]], truth)
             if any(folder.iterdir()):
-                raise FileExistsError(f"{folder} exists and is not empty")
+                raise FileExistsError(f"{folder} was filled while the case was generated")
             folder.rmdir()
         os.replace(tmp, folder)
     except BaseException:
