@@ -130,6 +130,11 @@ pub struct UnitParams {
     pub end_stop_stiffness_n_per_m: f64,
     /// Damping of the end stops, N s/m.
     pub end_stop_damping_n_s_per_m: f64,
+    /// Highest strut speed the unit is rated for (its damper
+    /// characterised up to), m/s. The model does not use it: a run beyond
+    /// it is outside what the unit's data describe, which the front ends
+    /// report as a warning.
+    pub rated_speed_m_s: f64,
     /// Optional model terms.
     pub effects: Effects,
 }
@@ -324,6 +329,7 @@ impl Unit {
         check_range("stroke_extension_m", p.stroke_extension_m, 1e-3, 2.0)?;
         check_range("end_stop_stiffness_n_per_m", p.end_stop_stiffness_n_per_m, 0.0, 1e9)?;
         check_range("end_stop_damping_n_s_per_m", p.end_stop_damping_n_s_per_m, 0.0, 1e7)?;
+        check_range("rated_speed_m_s", p.rated_speed_m_s, 1e-3, 100.0)?;
         match p.heat {
             HeatTransfer::TimeConstant(tau) => {
                 check_range("tau_s", tau, 1e-6, crate::thermal::MAX_FINITE_TAU_S)?;

@@ -163,6 +163,7 @@ class Unit:
     stroke_extension_m: float
     end_stop_stiffness_n_per_m: float
     end_stop_damping_n_s_per_m: float
+    rated_speed_m_s: float
     effects: Effects = field(default_factory=Effects)
     polytropic_exponent: float | None = None
 
@@ -172,7 +173,13 @@ class Unit:
         return cls.from_dict(_core.seed_unit())
 
     def replace(self, **changes: Any) -> Unit:
-        """A copy with some fields changed."""
+        """A copy with some fields changed (unknown fields raise
+        :class:`~hpctl.errors.ParameterError`; values are checked when the
+        unit is used, by the core)."""
+        known = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(changes) - known)
+        if unknown:
+            raise ParameterError(f"Unit has no field {', '.join(unknown)} (fields: {', '.join(sorted(known))})")
         return dataclasses.replace(self, **changes)
 
     def with_effects(self, **effects: Any) -> Unit:
