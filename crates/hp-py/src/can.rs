@@ -43,7 +43,7 @@ const EXTENDED_ID_MAX: i64 = 0x1FFF_FFFF;
 /// (bytes, bytearray or memoryview) and whether the identifier is extended.
 fn frame_arg(id: &Bound<'_, PyAny>, data: &Bound<'_, PyAny>, extended: bool) -> PyResult<CanFrame> {
     let max = if extended { EXTENDED_ID_MAX } else { 0x7FF };
-    let what = if extended { "an extended CAN identifier" } else { "a standard CAN identifier (extended=True for 29 bits)" };
+    let what = if extended { "an extended identifier (29 bits)" } else { "a standard identifier (11 bits; extended=True for 29)" };
     let raw = int_arg(id, "id", 0, max, what)?;
     let bytes = bytes_arg(data, "data")?;
     frame_from(u32::try_from(raw).unwrap_or(u32::MAX), &bytes, extended)

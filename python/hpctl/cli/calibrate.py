@@ -36,6 +36,9 @@ def _records(paths: tuple[Path, ...]) -> list[RigRecord]:
     with contextlib.ExitStack() as stack:
         for folder in folders:
             stack.enter_context(reading(folder))
+        for folder in (p for p in paths if p.is_dir()):
+            if not any(folder.glob("*.toml")):
+                raise click.UsageError(f"no rig records (NAME.csv with NAME.toml) in {folder}")
         recs = [read_record(p) for p in _expand(paths)]
     names = [r.name for r in recs]
     if len(set(names)) != len(names):
