@@ -12,7 +12,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -314,14 +313,27 @@ def test_write_record_leaves_no_temporary_files(tmp_path: Path) -> None:
 
 
 def test_two_cli_runs_into_one_folder_do_not_interleave(tmp_path: Path) -> None:
-    """Two real processes: the second stops at once, the first finishes."""
-    args = [sys.executable, "-m", "hpctl", "simulate", "--test", "heat", "--duration-s", "30", "--spring", "hard", "--out", str(tmp_path), "--quiet"]
-    first = subprocess.Popen(args, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
-    while not (tmp_path / LOCK).exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    second = subprocess.run(args, capture_output=True, text=True, check=False)
-    _, first_err = first.communicate(timeout=300)
+    """Two real processes: the second stops at once, naming the first,
+    which then finishes undisturbed."""
+    # The first run waits, in the middle of writing its records, until told.
+    script = textwrap.dedent("""
+        import sys
+        import hpctl.cli.simulate as simulate
+        from hpctl.cli import main
+        real = simulate.write_record
+        def paused(record, path):
+            print("writing", flush=True)
+            sys.stdin.readline()
+            return real(record, path)
+        simulate.write_record = paused
+        main(["simulate", "--test", "sdof-step", "--duration-s", "1", "--spring", "hard", "--damper", "on", "--out", sys.argv[1], "--quiet"])
+    """)
+    first = subprocess.Popen([sys.executable, "-c", script, str(tmp_path)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert first.stdout is not None and first.stdout.readline().strip() == "writing"
+    second = subprocess.run([sys.executable, "-m", "hpctl", "simulate", "--test", "sdof-step", "--duration-s", "1", "--out", str(tmp_path), "--quiet"],
+                            capture_output=True, text=True, check=False)
+    _, first_err = first.communicate("\n", timeout=120)
+    assert second.returncode == 2 and f"is in use by another hpctl run (pid {first.pid}, hpctl simulate" in second.stderr
     assert first.returncode == 0, first_err
-    assert second.returncode == 2 and f"pid {first.pid}" in second.stderr
-    assert read_record(tmp_path / "records" / "heat_buildup_hard").kind == "characterisation"
+    assert read_record(tmp_path / "records" / "sdof_step_hard_on").kind == "sdof"
+    assert json.loads((tmp_path / "summary.json").read_text())["runs"][0]["damper"] == "on"

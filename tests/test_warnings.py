@@ -251,3 +251,14 @@ def test_record_gas_states_outside_the_range_are_warned(tmp_path: Path) -> None:
     data = {"time_s": t, "p_gas_pa": np.full(11, 120e6)}
     (c,) = checks.eos_range("bwr-textbook", data, "record r")
     assert c.details["channel"] == "p_gas_pa" and "record r" in c.message
+
+
+def test_messages_are_printed_as_text_never_markup(capsys: pytest.CaptureFixture[str]) -> None:
+    from hpctl.cli._ui import Reporter
+
+    rep = Reporter(quiet=False, as_json=False)
+    rep.warn([Caveat(Code.EOS_RANGE, "record [/x]: [static] [bold]p[/bold] out of range")])
+    rep.say("Wrote to out[/x]/")
+    captured = capsys.readouterr()
+    assert "record [/x]: [static] [bold]p[/bold] out of range" in captured.err
+    assert "Wrote to out[/x]/" in captured.out

@@ -64,7 +64,7 @@ class OutputError(HpctlError):
 def bad_argument(name: str, value: Any, expected: str) -> ParameterError:
     """``ParameterError("name = value: expected ...")`` with the attributes
     ``parameter``, ``value`` and ``expected``."""
-    shown = repr(value)
+    shown = " ".join(repr(value).split())  # one line, whatever the repr
     if len(shown) > 80:
         shown = shown[:77] + "..."
     e = ParameterError(f"{name} = {shown}: expected {expected}")
@@ -78,6 +78,8 @@ def check_number(value: Any, name: str, *, finite: bool = True) -> float:
     """A real number (not a bool, not a string) as a float; NaN and
     infinities refused unless ``finite`` is false."""
     expected = "a finite real number" if finite else "a real number"
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise bad_argument(name, value, expected)
     v = float(value)

@@ -53,7 +53,12 @@ pub fn parameter(message: impl Into<String>) -> PyErr {
 /// A bad argument: `name = value: expected ...`, with the attributes
 /// `parameter`, `value` and `expected` (the message says the same).
 pub fn bad_argument(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyErr {
-    let shown = value.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".to_owned());
+    let repr = value.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".to_owned());
+    // One line, at most about 80 characters, whatever the repr.
+    let mut shown = repr.split_whitespace().collect::<Vec<_>>().join(" ");
+    if shown.chars().count() > 80 {
+        shown = shown.chars().take(77).collect::<String>() + "...";
+    }
     let err = ParameterError::new_err(format!("{name} = {shown}: expected {expected}"));
     with_fields(err, name, |_| value.clone().unbind(), expected)
 }

@@ -31,7 +31,7 @@ from hpctl import _core
 from hpctl.caveats import Caveat, Code
 from hpctl.control import road
 from hpctl.control.controller import Diag, DriveMode, DriverMode, SequencerState
-from hpctl.errors import ParameterError
+from hpctl.errors import ParameterError, bad_argument, check_int, check_number
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim import checks
 from hpctl.sim.run import sdof_rig
@@ -95,6 +95,8 @@ class Scenario:
     def signals(self, dt_s: float) -> dict[str, FloatArray]:
         """Per control period: ``time_s``, ``distance_m`` and the scenario
         fields of the closed loop (``_core.CTRL_SCENARIO_FIELDS``)."""
+        for name in ("duration_s", "speed_m_s", "steering_ratio", "wheelbase_m", "tyre_lag_s"):
+            check_number(getattr(self, name), f"scenario.{name}")
         if not (np.isfinite(self.duration_s) and self.duration_s > 0 and np.isfinite(self.speed_m_s) and self.speed_m_s >= 0):
             raise ParameterError(f"scenario duration_s = {self.duration_s} must be positive and speed_m_s = {self.speed_m_s} not negative")
         n = int(round(self.duration_s / dt_s))
@@ -163,6 +165,19 @@ class Case:
 
     def core_args(self) -> dict[str, Any]:
         """The arguments of ``_core.closed_loop``."""
+        if not isinstance(self.scenario, Scenario):
+            raise bad_argument("scenario", self.scenario, "an hpctl.control.closed_loop.Scenario")
+        if not isinstance(self.unit, Unit):
+            raise bad_argument("unit", self.unit, "an hpctl.Unit")
+        check_number(self.dt_s, "dt_s")
+        check_number(self.sprung_mass_kg, "sprung_mass_kg")
+        check_number(self.t_gas_sensor_tau_s, "t_gas_sensor_tau_s")
+        if self.ambient_k is not None:
+            check_number(self.ambient_k, "ambient_k")
+        check_int(self.seed, "seed", 0, 2**63 - 1)
+        check_int(self.record_every, "record_every", 1, 2**31)
+        if self.config is not None and not isinstance(self.config, Mapping):
+            raise bad_argument("config", self.config, "a controller configuration mapping (or None: derived from the unit)")
         if not (np.isfinite(self.dt_s) and 1e-5 <= self.dt_s <= 0.01):
             raise ParameterError(f"dt_s = {self.dt_s} must be within [1e-5, 0.01] s")
         sig = self.scenario.signals(self.dt_s)

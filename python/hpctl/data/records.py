@@ -30,7 +30,7 @@ import tomli_w
 from numpy.typing import NDArray
 
 from hpctl.data.output import replace_in_order, temp_name
-from hpctl.errors import RecordError
+from hpctl.errors import RecordError, bad_argument
 
 Kind = Literal["characterisation", "sdof"]
 KINDS = ("characterisation", "sdof")
@@ -267,6 +267,8 @@ def _read_csv(path: Path, kind: str, sha256: str | None = None) -> dict[str, NDA
 
 def record_paths(path: str | Path) -> tuple[Path, Path]:
     """``NAME.csv`` and ``NAME.toml`` for ``NAME``, ``NAME.csv`` or ``NAME.toml``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise bad_argument("path", path, "a path (str or os.PathLike) to NAME, NAME.csv or NAME.toml")
     p = Path(path)
     stem = p.with_suffix("") if p.suffix in (".csv", ".toml") else p
     return stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".toml")
@@ -295,6 +297,8 @@ def write_record(record: RigRecord, path: str | Path) -> tuple[Path, Path]:
     shortest representation that reads back to the same value. Both go to
     temporary names first, then the CSV is renamed into place, then the
     TOML (with the CSV's SHA-256): see the module docs."""
+    if not isinstance(record, RigRecord):
+        raise bad_argument("record", record, "an hpctl.data.records.RigRecord")
     csv_path, toml_path = record_paths(path)
     csv_path.parent.mkdir(parents=True, exist_ok=True)
     columns = list(record.data)

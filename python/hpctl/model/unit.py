@@ -15,10 +15,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import tomli_w
 
 from hpctl import _core
-from hpctl.errors import ParameterError
+from hpctl.errors import ParameterError, bad_argument, check_number
 
 GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
 
@@ -254,11 +255,17 @@ class Unit:
 
     def static_force_n(self, disp_m: float, t_k: float, spring_hard: bool) -> float:
         """Force at rest at compression ``disp_m`` with the gas at ``t_k``."""
-        return _core.static_force_n(self.to_dict(), disp_m, t_k, spring_hard)
+        return _core.static_force_n(self.to_dict(), check_number(disp_m, "disp_m"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
 
     def static_disp_for_load_m(self, load_n: float, t_k: float, spring_hard: bool) -> float:
         """Compression at which the unit carries ``load_n`` at rest, gas at ``t_k``."""
-        return _core.static_disp_for_load_m(self.to_dict(), load_n, t_k, spring_hard)
+        return _core.static_disp_for_load_m(self.to_dict(), check_number(load_n, "load_n"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
+
+
+def _flag(value: Any, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise bad_argument(name, value, "a bool")
+    return bool(value)
 
 
 def _expect_mapping(value: Any, where: str) -> dict[str, Any]:
