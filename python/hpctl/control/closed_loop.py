@@ -31,11 +31,10 @@ from hpctl import _core
 from hpctl.control import road
 from hpctl.control.controller import Diag, DriveMode, DriverMode, SequencerState
 from hpctl.errors import ParameterError
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, Unit
 from hpctl.sim.run import sdof_rig
 
 FloatArray = NDArray[np.float64]
-STANDARD_GRAVITY_M_S2 = 9.80665
 
 
 @dataclass(frozen=True)
@@ -195,8 +194,7 @@ class ClosedLoop:
     @property
     def static_load_pressure_pa(self) -> float:
         """The gas pressure that carries the sprung mass at rest (absolute), Pa."""
-        u = self.case.unit
-        return u.ambient_pressure_pa + self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2 / u.piston_area_m2
+        return self.case.unit.load_pressure_pa(self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2)
 
     def held_offset_m(self) -> FloatArray:
         """The ride-height offset the oil in L gives at rest, from the

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
-from hpctl.identify.dataset import Dataset, prepare, uses_damper
+from hpctl.identify.dataset import Dataset, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, predict
 from hpctl.model.effects import LIBRARY
 from hpctl.sim import metrics
@@ -105,24 +105,6 @@ def analyse(result: FitResult) -> ResidualReport:
                 if np.ptp(g) > 0:
                     corr.append({"record": d.name, "channel": c, "regressor": name, "r": float(np.corrcoef(r, g)[0, 1])})
     return ResidualReport(result.rms_ratio, structured or result.rms_ratio > POOLED_RMS_RATIO, rows, corr)
-
-
-def applicable(effect: str, datasets: Sequence[Dataset]) -> bool:
-    """Whether the records could reveal ``effect`` at all (saves fitting
-    effects the data cannot identify)."""
-    def any_rec(pred: Callable[[Dataset], bool]) -> bool:
-        return any(pred(d) for d in datasets)
-
-    if effect == "valve_lag":
-        return any_rec(lambda d: bool(np.any(np.diff(d.spring_hard.astype(int)))) or bool(np.any(np.diff(d.damper_on.astype(int)))))
-    if effect == "heat_buildup":
-        return any_rec(lambda d: bool(d.damper_on.any()) and d.times_s[-1] - d.times_s[0] > 300)
-    if effect == "leakage":
-        return any_rec(lambda d: d.times_s[-1] - d.times_s[0] > 600)
-    if effect == "oil_compliance":
-        # Compliance shows where the damper pack builds pressure.
-        return any_rec(lambda d: bool(d.damper_on.any())) and uses_damper(datasets)
-    return True
 
 
 @dataclass
@@ -241,7 +223,8 @@ def diagnose(
         if not analysis.structured:
             rounds.append(Round(current, analysis, [], None))
             break
-        pool_now = [e for e in pool if e not in effects and applicable(e, datasets)]
+        shows = traits(datasets)
+        pool_now = [e for e in pool if e not in effects and LIBRARY[e].applies(shows)]
         tried = [_try(datasets, current, effects, (e,), say) for e in pool_now]
         tried.sort(key=lambda c: c.score, reverse=True)
         accepted = _accept(datasets, current, effects, tried, say)

@@ -33,30 +33,6 @@ class DamperCurve:
     blowoff_pa: float
     blowoff_slope_pa_s_per_m3: float
 
-    @classmethod
-    def from_strut(
-        cls,
-        piston_area_m2: float,
-        c1_n_s_per_m: float,
-        c2_n_s2_per_m2: float,
-        blowoff_n: float,
-        slope_n_s_per_m: float,
-    ) -> DamperCurve:
-        """The curve giving strut force ``c1 v + c2 v^2`` up to ``blowoff_n``,
-        then ``slope`` above it, at strut velocity ``v``."""
-        a = piston_area_m2
-        return cls(c1_n_s_per_m / a**2, c2_n_s2_per_m2 / a**3, blowoff_n / a, slope_n_s_per_m / a**2)
-
-    def strut_force_n(self, piston_area_m2: float, vel_m_s: float) -> float:
-        """Strut force magnitude at strut speed ``vel_m_s`` (>= 0)."""
-        q = piston_area_m2 * vel_m_s
-        orifice = q * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q)
-        if orifice <= self.blowoff_pa:
-            return piston_area_m2 * orifice
-        r, k = self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6
-        q_b = 2 * self.blowoff_pa / (r + math.sqrt(r * r + 4 * k * self.blowoff_pa))
-        return piston_area_m2 * (self.blowoff_pa + self.blowoff_slope_pa_s_per_m3 * (q - q_b))
-
 
 @dataclass(frozen=True)
 class Damper:
@@ -249,6 +225,10 @@ class Unit:
         """Force at rest at compression ``disp_m`` with the gas at ``t_k``."""
         return _core.static_force_n(self.to_dict(), disp_m, t_k, spring_hard)
 
+    def load_pressure_pa(self, load_n: float) -> float:
+        """The gas pressure that carries ``load_n`` at rest, Pa."""
+        return _core.load_pressure_pa(self.to_dict(), load_n)
+
     def static_disp_for_load_m(self, load_n: float, t_k: float, spring_hard: bool) -> float:
         """Compression at which the unit carries ``load_n`` at rest, gas at ``t_k``."""
         return _core.static_disp_for_load_m(self.to_dict(), load_n, t_k, spring_hard)
@@ -261,3 +241,4 @@ def _expect_mapping(value: Any, where: str) -> dict[str, Any]:
 
 
 SEED_SPRUNG_MASS_KG: float = _core.seed_sprung_mass_kg()
+STANDARD_GRAVITY_M_S2: float = _core.STANDARD_GRAVITY_M_S2
