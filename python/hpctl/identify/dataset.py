@@ -22,7 +22,7 @@ from hpctl.identify.signals import (
 )
 from hpctl.model.effects import RecordTraits
 from hpctl.model.unit import Unit
-from hpctl.sim.run import Sampled, characterisation_rig, sdof_rig
+from hpctl.sim.run import Rig, Sampled, characterisation_rig, sdof_rig
 
 FloatArray = NDArray[np.float64]
 
@@ -36,7 +36,7 @@ class Dataset:
 
     record: RigRecord
     base: Unit
-    rig: dict[str, Any]
+    rig: Rig
     times_s: FloatArray
     spring_hard: NDArray[np.bool_]
     damper_on: NDArray[np.bool_]
@@ -83,6 +83,7 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         xs = smooth(t, x_in)
         vs = derivative(t, xs)
         motion = Sampled(t, xs, vs)
+        rig: Rig
         if rec.kind == "sdof":
             if rec.sprung_mass_kg is None:
                 raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")

@@ -13,11 +13,12 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import tomli_w
 
 from hpctl import _core
+from hpctl._coretypes import UnitDict
 from hpctl.errors import ParameterError
 
 GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
@@ -155,11 +156,11 @@ class Unit:
         """A copy with some effects set (or removed with ``None``)."""
         return self.replace(effects=dataclasses.replace(self.effects, **effects))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> UnitDict:
         """The plain-dict form the Rust core reads (absent effects omitted)."""
         d = dataclasses.asdict(self)
         d["effects"] = {k: v for k, v in d["effects"].items() if v is not None}
-        return d
+        return cast(UnitDict, d)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], source: str = "unit") -> Unit:
@@ -202,8 +203,8 @@ class Unit:
     # TOML has no infinity literal shared by all writers, so an adiabatic
     # tau is written as the string "inf".
     def to_toml(self, path: str | Path) -> None:
-        d = {k: v for k, v in self.to_dict().items() if v is not None}
-        if math.isinf(d["tau_s"]):
+        d: dict[str, Any] = {k: v for k, v in self.to_dict().items() if v is not None}
+        if math.isinf(self.tau_s):
             d["tau_s"] = "inf"
         Path(path).write_text(tomli_w.dumps({"unit": d}))
 
