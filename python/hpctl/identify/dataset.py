@@ -22,6 +22,7 @@ from hpctl.identify.signals import (
 )
 from hpctl.model.effects import RecordTraits
 from hpctl.model.unit import Unit
+from hpctl.sim import metrics
 from hpctl.sim.run import Rig, Sampled, characterisation_rig, sdof_rig
 
 FloatArray = NDArray[np.float64]
@@ -117,6 +118,18 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, max_dt, weight_sigma,
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs))
     return out
+
+
+def loop_area_j(d: Dataset, force_n: FloatArray) -> float | None:
+    """The force-displacement loop area over the last whole cycle of a sine
+    record (measured or simulated force at the record's samples), J; None
+    for a record that is not a characterisation sine of at least a cycle."""
+    rec = d.record
+    f = rec.test.frequency_hz
+    if rec.kind != "characterisation" or rec.test.excitation != "sine" or not f or f * (d.times_s[-1] - d.times_s[0]) < 1.0:
+        return None
+    m = metrics.last_cycle(d.times_s, f)
+    return metrics.loop_area_j(rec["disp_m"][m], np.asarray(force_n)[m])
 
 
 #: Strut speed (95th percentile) above which the damper does measurable

@@ -21,10 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
-from hpctl.identify.dataset import Dataset, prepare, traits, uses_damper
+from hpctl.identify.dataset import Dataset, loop_area_j, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, predict
 from hpctl.model.effects import LIBRARY
-from hpctl.sim import metrics
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
 # difference above 10 is "very strong" evidence on Kass & Raftery's scale.
@@ -256,23 +255,29 @@ def diagnose(
     return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found)
 
 
-def loop_areas(result: FitResult) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class LoopArea:
+    """Measured and modelled loop area of one sine record."""
+
+    record: str
+    frequency_hz: float
+    amplitude_m: float | None
+    measured_j: float
+    model_j: float
+
+
+def loop_areas(result: FitResult) -> list[LoopArea]:
     """Measured and modelled loop areas of the sine records by frequency:
     a thermal loop vanishes at very low and very high frequency, a Coulomb
     friction loop does not."""
     out = []
-    for i, d in enumerate(result.datasets):
-        f = d.record.test.frequency_hz
-        sim = result.sims[i]
-        if d.record.kind != "characterisation" or d.record.test.excitation != "sine" or not f or isinstance(sim, Exception):
+    for d, sim in zip(result.datasets, result.sims):
+        if isinstance(sim, Exception) or "force_n" not in d.targets:
             continue
-        if f * (d.times_s[-1] - d.times_s[0]) < 1.0:
-            continue
-        m = metrics.last_cycle(d.times_s, f)
-        x = d.record["disp_m"][m]
-        out.append({"record": d.name, "frequency_hz": f, "amplitude_m": d.record.test.amplitude_m,
-                    "measured_j": metrics.loop_area_j(x, d.targets["force_n"][m]), "model_j": metrics.loop_area_j(x, sim["force_n"][m])})
-    return sorted(out, key=lambda r: r["frequency_hz"])
+        measured, model = loop_area_j(d, d.targets["force_n"]), loop_area_j(d, sim["force_n"])
+        if measured is not None and model is not None and d.record.test.frequency_hz:
+            out.append(LoopArea(d.name, d.record.test.frequency_hz, d.record.test.amplitude_m, measured, model))
+    return sorted(out, key=lambda r: r.frequency_hz)
 
 
 def summary(diag: Diagnosis) -> dict[str, Any]:
@@ -307,7 +312,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "final_stderr": diag.final.stderr,
         "error_before": err(diag.initial),
         "error_after": err(diag.final),
-        "loop_area_by_frequency": loop_areas(diag.final),
+        "loop_area_by_frequency": [vars(a) for a in loop_areas(diag.final)],
         "candidates_last_round": [
             {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score}
             for c in (diag.rounds[-1].candidates if diag.rounds else [])

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from hpctl.identify.dataset import Dataset, fold_mask, uses_damper
+from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper
 from hpctl.identify.signals import apply_sensor_lag
 from hpctl.model.effects import (
     CHARGE,
@@ -29,7 +29,6 @@ from hpctl.model.effects import (
     model_params,
 )
 from hpctl.model.unit import Unit
-from hpctl.sim import metrics
 from hpctl.sim.run import Case, run_many
 
 FloatArray = NDArray[np.float64]
@@ -179,12 +178,10 @@ def _stats(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | E
             r = sim[c] - y
             rng = float(np.ptp(y)) or 1.0
             st = ChannelStats(d.name, c, float(np.sqrt(np.mean(r**2))), float(np.sqrt(np.mean(r**2)) / rng), float(np.max(np.abs(r))), d.sigma[c])
-            f = d.record.test.frequency_hz
-            if c == "force_n" and d.record.test.excitation == "sine" and f and f * (d.times_s[-1] - d.times_s[0]) >= 1.0:
-                m = metrics.last_cycle(d.times_s, f)
-                x = d.record["disp_m"][m]
-                st.loop_area_measured_j = metrics.loop_area_j(x, y[m])
-                st.loop_area_error_j = metrics.loop_area_j(x, sim[c][m]) - st.loop_area_measured_j
+            measured, model = (loop_area_j(d, y), loop_area_j(d, sim[c])) if c == "force_n" else (None, None)
+            if measured is not None and model is not None:
+                st.loop_area_measured_j = measured
+                st.loop_area_error_j = model - measured
             out.append(st)
     return out
 
