@@ -417,7 +417,7 @@ def run_caveats(r: ClosedLoop, name: str) -> list[Caveat]:
     if safe.any() or not ride.size:
         idx = first_ride + np.flatnonzero(safe) if safe.any() else np.arange(diag.size)
         flags = int(np.bitwise_or.reduce(diag[idx])) if idx.size else 0
-        names = sorted(f.name for f in Diag if f.name and flags & f and not f.name.startswith("TRIGGER_"))
+        names = sorted(f.name for f in Diag if f.name and flags & f and f != Diag.SAFE_STATE and not f.name.startswith("TRIGGER_"))
         t = r.time_s
         share = idx.size / max(diag.size - first_ride, 1)
         when = "never left it after power-on" if not ride.size else f"entered it at t = {float(t[idx[0]]):.2f} s"
