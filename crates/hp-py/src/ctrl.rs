@@ -12,7 +12,7 @@ use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
-use hp_ctrl::closed_loop::{Sensors, Vehicle};
+use hp_vehicle::closed_loop::{Sensors, VehicleSignals};
 use hp_ctrl::{diag, input_group, Config, DriverMode, Inputs, Outputs, ParamError, Params, State};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -158,7 +158,7 @@ const INPUT_FLOATS: [FloatField<Inputs>; 11] = [
 const INPUT_BOOLS: [BoolField<Inputs>; 2] = [("brake_pressed", |i| &mut i.brake_pressed), ("link_fault", |i| &mut i.link_fault)];
 
 /// The scenario's per-period fields of the closed loop.
-const VEHICLE_FLOATS: [FloatField<Vehicle>; 6] = [
+const VEHICLE_FLOATS: [FloatField<VehicleSignals>; 6] = [
     ("speed_m_s", |v| &mut v.speed_m_s),
     ("lat_acc_m_s2", |v| &mut v.lat_acc_m_s2),
     ("long_acc_m_s2", |v| &mut v.long_acc_m_s2),
@@ -254,7 +254,7 @@ fn inputs_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Inputs>> {
 }
 
 /// The scenario of a closed loop: `periods` values of each vehicle field.
-fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vehicle>> {
+fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<VehicleSignals>> {
     let mut r = Reader::new(obj, "scenario")?;
     let mut n = None;
     let floats: Vec<Vec<f64>> = VEHICLE_FLOATS
@@ -264,7 +264,7 @@ fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vehicle>> {
     let brake: Vec<bool> = array(&mut r, "brake_pressed", "scenario", "bool", &mut n)?;
     let modes: Vec<i64> = array(&mut r, "driver_mode", "scenario", "int64", &mut n)?;
     r.finish()?;
-    let mut out = vec![Vehicle::default(); n.unwrap_or(0)];
+    let mut out = vec![VehicleSignals::default(); n.unwrap_or(0)];
     for (k, v) in out.iter_mut().enumerate() {
         for ((_, field), column) in VEHICLE_FLOATS.iter().zip(&floats) {
             *field(v) = column.get(k).copied().unwrap_or(f64::NAN);
@@ -401,7 +401,7 @@ struct LoopCase {
     base: MotionSpec,
     sprung_mass_kg: f64,
     params: Params,
-    vehicles: Vec<Vehicle>,
+    vehicles: Vec<VehicleSignals>,
     dt_s: f64,
     ambient_k: f64,
     max_dt_s: f64,
@@ -481,7 +481,7 @@ impl LoopCase {
         };
         let mut state = State::new();
         let vehicles = &self.vehicles;
-        hp_ctrl::closed_loop::run(
+        hp_vehicle::closed_loop::run(
             &rig,
             &self.params,
             &self.sensors,
