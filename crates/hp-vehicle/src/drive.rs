@@ -73,7 +73,8 @@ impl Suspension<'_> {
 /// let valves = [Valves::default(); MAX_CORNERS];
 /// let x = v.initial_state(&valves).unwrap();
 /// let driver = Driver { speed_m_s: 10.0, ..Driver::default() };
-/// let (_, sample) = v.dynamics(&Road::FLAT, driver.drive_inputs(), valves).rate_and_sample(0.0, &x).unwrap();
+/// let mut sample = Default::default();
+/// v.dynamics(&Road::FLAT, driver.drive_inputs(), valves).rate_and_sample(0.0, &x, &mut sample).unwrap();
 /// let inputs = sensed(&sample, 1, 293.15, &driver);
 /// assert_eq!(inputs.p_small_pa, sample.corners[1].forces.unit.p_small_measured_pa);
 /// assert_eq!(inputs.speed_m_s, 10.0);
@@ -144,12 +145,13 @@ pub fn run(
     let mut t_gas_k: Option<[f64; MAX_CORNERS]> = None;
     let mut inputs = [Inputs::default(); MAX_CORNERS];
     let mut outputs = [Outputs::default(); MAX_CORNERS];
+    let mut sample = VehicleSample::default();
     let corners = vehicle.corner_count();
     for index in 0..periods {
         let t_s = index as f64 * dt_s;
         let driver = driver_at(index, t_s);
         let dynamics = vehicle.dynamics(road, driver.drive_inputs(), valves);
-        let (rate, sample) = dynamics.rate_and_sample(t_s, &x)?;
+        let rate = dynamics.rate_and_sample(t_s, &x, &mut sample)?;
         let mut read = [0.0; MAX_CORNERS];
         for (k, (r, c)) in read.iter_mut().zip(sample.corners.iter()).enumerate().take(corners) {
             let t_true = c.forces.unit.t_large_k;
@@ -183,7 +185,7 @@ pub fn run(
         } else {
             // The new commands change the flows: the first stage must see them.
             valves = next_valves;
-            vehicle.dynamics(road, driver.drive_inputs(), valves).rate_and_sample(t_s, &x)?.0
+            vehicle.dynamics(road, driver.drive_inputs(), valves).rate(t_s, &x)?
         };
         let dynamics = vehicle.dynamics(road, driver.drive_inputs(), valves);
         x = dynamics.advance(t_s, (index + 1) as f64 * dt_s, &x, &rate, max_dt_s)?;

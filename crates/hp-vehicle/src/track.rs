@@ -53,30 +53,50 @@ impl Track<'_> {
     #[inline]
     pub fn at(&self, x_m: f64) -> (f64, f64) {
         let h = self.height_m;
+        let u_all = (x_m - self.start_m) / self.dx_m;
+        let n = h.len();
+        if u_all >= 1.0 && u_all < (n as f64) - 2.0 {
+            // Inside: the four points around the interval (the fast path).
+            let i = u_all as usize;
+            if let Some(&[a, x0, x1, d]) = h.get(i - 1..i + 3).and_then(|w| w.first_chunk::<4>()) {
+                return hermite(x0, x1, 0.5 * (x1 - a), 0.5 * (d - x0), u_all - i as f64, self.dx_m);
+            }
+        }
+        self.at_edge(u_all)
+    }
+
+    /// [`Track::at`] near and beyond the ends.
+    #[cold]
+    fn at_edge(&self, u_all: f64) -> (f64, f64) {
+        let h = self.height_m;
         let n = h.len();
         let (Some(&first), Some(&last)) = (h.first(), h.last()) else {
             return (0.0, 0.0);
         };
-        let u_all = (x_m - self.start_m) / self.dx_m;
         if !(u_all > 0.0) || n < 2 {
             return (first, 0.0);
         }
         if u_all >= (n - 1) as f64 {
             return (last, 0.0);
         }
-        // 0 <= i <= n - 2 by the checks above (u_all is finite and in range).
         let i = (u_all as usize).min(n - 2);
-        let u = u_all - i as f64;
         let at = |j: usize| h.get(j).copied().unwrap_or(0.0);
         let (x0, x1) = (at(i), at(i + 1));
         // Catmull-Rom tangents per grid step; one-sided at the ends.
         let m0 = if i == 0 { x1 - x0 } else { 0.5 * (x1 - at(i - 1)) };
         let m1 = if i + 2 >= n { x1 - x0 } else { 0.5 * (at(i + 2) - x0) };
-        let (u2, u3) = (u * u, u * u * u);
-        let z = (2.0 * u3 - 3.0 * u2 + 1.0) * x0 + (u3 - 2.0 * u2 + u) * m0 + (-2.0 * u3 + 3.0 * u2) * x1 + (u3 - u2) * m1;
-        let dz_du = (6.0 * u2 - 6.0 * u) * x0 + (3.0 * u2 - 4.0 * u + 1.0) * m0 + (-6.0 * u2 + 6.0 * u) * x1 + (3.0 * u2 - 2.0 * u) * m1;
-        (z, dz_du / self.dx_m)
+        hermite(x0, x1, m0, m1, u_all - i as f64, self.dx_m)
     }
+}
+
+/// The cubic Hermite curve from `x0` to `x1` with tangents `m0`, `m1` (per
+/// grid step) at `u` in [0, 1]: height and slope per metre.
+#[inline]
+fn hermite(x0: f64, x1: f64, m0: f64, m1: f64, u: f64, dx_m: f64) -> (f64, f64) {
+    let (u2, u3) = (u * u, u * u * u);
+    let z = (2.0 * u3 - 3.0 * u2 + 1.0) * x0 + (u3 - 2.0 * u2 + u) * m0 + (-2.0 * u3 + 3.0 * u2) * x1 + (u3 - u2) * m1;
+    let dz_du = (6.0 * u2 - 6.0 * u) * x0 + (3.0 * u2 - 4.0 * u + 1.0) * m0 + (-6.0 * u2 + 6.0 * u) * x1 + (3.0 * u2 - 2.0 * u) * m1;
+    (z, dz_du / dx_m)
 }
 
 /// The two wheel tracks of a road, left and right (as seen driving along it).

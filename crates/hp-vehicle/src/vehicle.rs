@@ -120,7 +120,7 @@ pub struct VehicleParams {
 }
 
 /// A wheel station's geometry and static state.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CornerGeometry {
     /// Index of its axle.
     pub axle: usize,
@@ -137,6 +137,9 @@ pub struct CornerGeometry {
     /// Geometric load transfer: extra downward force on the wheel per unit
     /// of lateral acceleration, N / (m/s^2).
     pub lateral_transfer_kg: f64,
+    /// Unsprung mass, kg.
+    pub unsprung_mass_kg: f64,
+    pub tyre: Tyre,
 }
 
 /// The inputs of one control period, held over it: what the driver does.
@@ -154,7 +157,8 @@ pub struct DriveInputs {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vehicle {
     params: VehicleParams,
-    units: [Unit; MAX_AXLES],
+    /// The unit of each corner (a copy per wheel keeps the hot loop flat).
+    units: [Unit; MAX_CORNERS],
     corners: [CornerGeometry; MAX_CORNERS],
     handling: [HandlingAxle; MAX_AXLES],
     ambient_k: f64,
@@ -173,9 +177,7 @@ pub struct VehicleState {
 impl VehicleState {
     /// Corner `i`'s unit state (None beyond the array).
     pub fn unit(&self, i: usize) -> Option<UnitState> {
-        let off = BODY_STATES + i * CORNER_STATES;
-        let s: &[f64; UNIT_STATES] = self.y.get(off..off + UNIT_STATES)?.try_into().ok()?;
-        Some(UnitState::from_array(s))
+        corner_chunks(&self.y).nth(i).map(|c| split_corner(c).0)
     }
 
     /// Distance travelled, m.
@@ -283,8 +285,20 @@ impl Vehicle {
         let det = n * sxx - sx * sx;
         let (ca, cb) = (weight * sxx / det, -weight * sx / det);
         let [first, ..] = params.axles;
-        let mut units = [Unit::new(first.unit)?; MAX_AXLES];
-        let mut corners = [CornerGeometry::default(); MAX_CORNERS];
+        let mut units = [Unit::new(first.unit)?; MAX_CORNERS];
+        let unused = CornerGeometry {
+            axle: 0,
+            left: true,
+            x_m: 0.0,
+            y_m: 0.0,
+            static_load_n: 0.0,
+            static_disp_m: 0.0,
+            tyre_static_deflection_m: 0.0,
+            lateral_transfer_kg: 0.0,
+            unsprung_mass_kg: first.unsprung_mass_kg,
+            tyre: first.tyre,
+        };
+        let mut corners = [unused; MAX_CORNERS];
         let mut handling = [HandlingAxle::default(); MAX_AXLES];
         let mut unsprung_total = 0.0;
         for (k, a) in axles.iter().enumerate() {
@@ -309,11 +323,13 @@ impl Vehicle {
                         tyre_static_deflection_m: (load + a.unsprung_mass_kg * G) / a.tyre.stiffness_n_per_m,
                         // A left turn (a_y > 0) loads the right wheels.
                         lateral_transfer_kg: if left { -transfer } else { transfer },
+                        unsprung_mass_kg: a.unsprung_mass_kg,
+                        tyre: a.tyre,
                     };
                 }
-            }
-            if let Some(u) = units.get_mut(k) {
-                *u = unit;
+                if let Some(u) = units.get_mut(2 * k + side) {
+                    *u = unit;
+                }
             }
             if let Some(h) = handling.get_mut(k) {
                 *h = HandlingAxle { x_m: a.x_m, cornering_stiffness_n_per_rad: a.cornering_stiffness_n_per_rad, steer_ratio: a.steer_ratio };
@@ -351,7 +367,7 @@ impl Vehicle {
 
     /// The unit of corner `i`.
     pub fn unit(&self, i: usize) -> Option<&Unit> {
-        self.corners.get(i).and_then(|c| self.units.get(c.axle))
+        self.units.get(..self.corner_count()).and_then(|u| u.get(i))
     }
 
     /// Ambient temperature, K.
@@ -368,12 +384,11 @@ impl Vehicle {
     /// unit's valves at `valves`.
     pub fn initial_state(&self, valves: &[Valves; MAX_CORNERS]) -> Result<VehicleState> {
         let mut y = [0.0; VEHICLE_STATES];
-        for (i, (c, v)) in self.corners().iter().zip(valves).enumerate() {
-            let unit = self.units.get(c.axle).ok_or(Error::OutOfRange { name: "corner", value: i as f64, min: 0.0, max: 0.0 })?;
+        let (_, corner_y) = y.split_at_mut(BODY_STATES);
+        for (((c, unit), v), cy) in self.corners().iter().zip(&self.units).zip(valves).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
             let s = unit.state_at_rest(c.static_disp_m, self.ambient_k, *v)?.to_array();
-            let off = BODY_STATES + i * CORNER_STATES;
-            for (o, x) in y.iter_mut().skip(off).zip(s.iter()) {
-                *o = *x;
+            if let Some(o) = cy.first_chunk_mut::<UNIT_STATES>() {
+                *o = s;
             }
         }
         Ok(VehicleState { y })
@@ -395,11 +410,17 @@ pub struct Dynamics<'a> {
     pub valves: [Valves; MAX_CORNERS],
 }
 
-fn corner_unit(y: &[f64; VEHICLE_STATES], off: usize) -> UnitState {
-    y.get(off..off + UNIT_STATES)
-        .and_then(|s| <&[f64; UNIT_STATES]>::try_from(s).ok())
-        .map(UnitState::from_array)
-        .unwrap_or_default()
+/// The corners' parts of a state (or rate) array.
+fn corner_chunks(y: &[f64; VEHICLE_STATES]) -> core::slice::ChunksExact<'_, f64> {
+    y.get(BODY_STATES..).unwrap_or(&[]).chunks_exact(CORNER_STATES)
+}
+
+/// A corner's unit state and wheel displacement and velocity.
+#[inline]
+fn split_corner(cy: &[f64]) -> (UnitState, f64, f64) {
+    let unit = cy.first_chunk::<UNIT_STATES>().map(UnitState::from_array).unwrap_or_default();
+    let [wheel_disp, wheel_vel] = cy.last_chunk::<2>().copied().unwrap_or_default();
+    (unit, wheel_disp, wheel_vel)
 }
 
 impl Dynamics<'_> {
@@ -422,11 +443,10 @@ impl Dynamics<'_> {
         );
         let a_y = lateral.lat_acc_m_s2;
         let (mut force, mut moment_pitch, mut moment_roll) = (0.0, 0.0, 0.0);
-        for (i, c) in v.corners().iter().enumerate() {
-            let off = BODY_STATES + i * CORNER_STATES;
-            let unit_state = corner_unit(y, off);
-            let wheel_disp = y.get(off + UNIT_STATES).copied().unwrap_or(0.0);
-            let wheel_vel = y.get(off + UNIT_STATES + 1).copied().unwrap_or(0.0);
+        let (_, corner_rate) = rate.split_at_mut(BODY_STATES);
+        let corners = v.corners().iter().zip(&v.units).zip(&self.valves).zip(corner_chunks(y).zip(corner_rate.chunks_exact_mut(CORNER_STATES)));
+        for (i, (((c, unit), valves), (cy, cr))) in corners.enumerate() {
+            let (unit_state, wheel_disp, wheel_vel) = split_corner(cy);
             let track = if c.left { &self.road.left } else { &self.road.right };
             let (road_m, slope) = track.at(distance + c.x_m);
             let motion = CornerMotion {
@@ -437,33 +457,28 @@ impl Dynamics<'_> {
                 road_m,
                 road_vel_m_s: slope * u,
             };
-            let (Some(unit), Some(axle)) = (v.units.get(c.axle), v.params.axles.get(c.axle)) else { continue };
-            let valves = self.valves.get(i).copied().unwrap_or_default();
             let (unit_rate, f) =
-                corner::evaluate(unit, &axle.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, valves, v.ambient_k);
+                corner::evaluate(unit, &c.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, *valves, v.ambient_k);
             let strut = f.unit.force_n;
-            let wheel_acc = (f.tyre_force_n - strut - c.lateral_transfer_kg * a_y) / axle.unsprung_mass_kg - G;
+            let wheel_acc = (f.tyre_force_n - strut - c.lateral_transfer_kg * a_y) / c.unsprung_mass_kg - G;
             force += strut;
             moment_pitch -= c.x_m * strut;
             moment_roll += c.y_m * strut;
-            let r = unit_rate.to_array();
-            for (o, x) in rate.iter_mut().skip(off).zip(r.iter().chain([wheel_vel, wheel_acc].iter())) {
-                *o = *x;
+            if let Some(o) = cr.first_chunk_mut::<UNIT_STATES>() {
+                *o = unit_rate.to_array();
             }
-            if let Some(sample) = sample.as_deref_mut() {
-                if let Some(s) = sample.corners.get_mut(i) {
-                    *s = CornerSample {
-                        forces: f,
-                        wheel_disp_m: wheel_disp,
-                        wheel_vel_m_s: wheel_vel,
-                        wheel_acc_m_s2: wheel_acc,
-                        road_m,
-                        body_acc_m_s2: 0.0, // below, once the body's accelerations are known
-                        v_small_m3: unit_state.v_small_m3,
-                        v_large_m3: unit_state.v_large_m3,
-                        valves,
-                    };
-                }
+            if let Some(o) = cr.last_chunk_mut::<2>() {
+                *o = [wheel_vel, wheel_acc];
+            }
+            if let Some(s) = sample.as_deref_mut().and_then(|s| s.corners.get_mut(i)) {
+                s.forces = f;
+                s.wheel_disp_m = wheel_disp;
+                s.wheel_vel_m_s = wheel_vel;
+                s.wheel_acc_m_s2 = wheel_acc;
+                s.road_m = road_m;
+                s.v_small_m3 = unit_state.v_small_m3;
+                s.v_large_m3 = unit_state.v_large_m3;
+                s.valves = *valves;
             }
         }
         let m = b.mass_kg;
@@ -471,109 +486,106 @@ impl Dynamics<'_> {
         let pitch_acc = (moment_pitch - m * self.drive.long_acc_m_s2 * b.cg_height_m) / b.pitch_inertia_kg_m2;
         let roll_acc = (moment_roll + m * (a_y + G * roll) * v.roll_arm_m) / v.roll_axis_inertia_kg_m2;
         let (sin_h, cos_h) = (libm::sin(heading), libm::cos(heading));
-        let body_rates = [
-            heave_vel,
-            heave_acc,
-            pitch_rate,
-            pitch_acc,
-            roll_rate,
-            roll_acc,
-            lateral.lat_vel_m_s2,
-            lateral.yaw_acc_rad_s2,
-            yaw_rate,
-            u * sin_h + lat_vel * cos_h,
-            u,
-        ];
-        for (o, x) in rate.iter_mut().zip(body_rates.iter()) {
-            *o = *x;
+        if let Some(o) = rate.first_chunk_mut::<BODY_STATES>() {
+            *o = [
+                heave_vel,
+                heave_acc,
+                pitch_rate,
+                pitch_acc,
+                roll_rate,
+                roll_acc,
+                lateral.lat_vel_m_s2,
+                lateral.yaw_acc_rad_s2,
+                yaw_rate,
+                u * sin_h + lat_vel * cos_h,
+                u,
+            ];
         }
-        if let Some(sample) = sample {
+        if let Some(s) = sample {
             let seat = &v.params.seat;
             let a_x = self.drive.long_acc_m_s2;
-            *sample = VehicleSample {
-                time_s: t_s,
-                distance_m: distance,
-                speed_m_s: u,
-                long_acc_m_s2: a_x,
-                steer_angle_rad: self.drive.steer_angle_rad,
-                lat_acc_m_s2: a_y,
-                lat_vel_m_s: lat_vel,
-                yaw_rate_rad_s: yaw_rate,
-                heading_rad: heading,
-                lateral_pos_m: lateral_pos,
-                body: BodySample {
-                    heave_m: heave,
-                    heave_vel_m_s: heave_vel,
-                    heave_acc_m_s2: heave_acc,
-                    pitch_rad: pitch,
-                    pitch_rate_rad_s: pitch_rate,
-                    pitch_acc_rad_s2: pitch_acc,
-                    roll_rad: roll,
-                    roll_rate_rad_s: roll_rate,
-                    roll_acc_rad_s2: roll_acc,
-                },
-                // Specific force in body axes: the body's acceleration at the
-                // seat (roll about the roll axis, pitch about the centre of
-                // gravity, yaw) and gravity's share along the tilted axes.
-                seat_acc_x_m_s2: a_x - G * pitch + (seat.height_m - b.cg_height_m) * pitch_acc - seat.y_m * lateral.yaw_acc_rad_s2,
-                seat_acc_y_m_s2: a_y + G * roll - (seat.height_m - b.roll_centre_height_m) * roll_acc + seat.x_m * lateral.yaw_acc_rad_s2,
-                seat_acc_z_m_s2: heave_acc - seat.x_m * pitch_acc + seat.y_m * roll_acc,
-                corners: sample.corners,
-                corner_count: v.corner_count(),
+            s.time_s = t_s;
+            s.distance_m = distance;
+            s.speed_m_s = u;
+            s.long_acc_m_s2 = a_x;
+            s.steer_angle_rad = self.drive.steer_angle_rad;
+            s.lat_acc_m_s2 = a_y;
+            s.lat_vel_m_s = lat_vel;
+            s.yaw_rate_rad_s = yaw_rate;
+            s.heading_rad = heading;
+            s.lateral_pos_m = lateral_pos;
+            s.body = BodySample {
+                heave_m: heave,
+                heave_vel_m_s: heave_vel,
+                heave_acc_m_s2: heave_acc,
+                pitch_rad: pitch,
+                pitch_rate_rad_s: pitch_rate,
+                pitch_acc_rad_s2: pitch_acc,
+                roll_rad: roll,
+                roll_rate_rad_s: roll_rate,
+                roll_acc_rad_s2: roll_acc,
             };
-            for (s, c) in sample.corners.iter_mut().zip(v.corners()) {
-                s.body_acc_m_s2 = heave_acc - c.x_m * pitch_acc + c.y_m * roll_acc;
+            // Specific force in body axes: the body's acceleration at the
+            // seat (roll about the roll axis, pitch about the centre of
+            // gravity, yaw) and gravity's share along the tilted axes.
+            s.seat_acc_x_m_s2 = a_x - G * pitch + (seat.height_m - b.cg_height_m) * pitch_acc - seat.y_m * lateral.yaw_acc_rad_s2;
+            s.seat_acc_y_m_s2 = a_y + G * roll - (seat.height_m - b.roll_centre_height_m) * roll_acc + seat.x_m * lateral.yaw_acc_rad_s2;
+            s.seat_acc_z_m_s2 = heave_acc - seat.x_m * pitch_acc + seat.y_m * roll_acc;
+            s.corner_count = v.corner_count();
+            for (cs, c) in s.corners.iter_mut().zip(v.corners()) {
+                cs.body_acc_m_s2 = heave_acc - c.x_m * pitch_acc + c.y_m * roll_acc;
             }
         }
         rate
     }
 
-    fn check(&self, t_s: f64, s: &VehicleState) -> Result<()> {
+    fn check(&self, t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<()> {
         let v = self.vehicle;
-        for (i, c) in v.corners().iter().enumerate() {
-            if let Some(unit) = v.units.get(c.axle) {
-                unit.check_state(&corner_unit(&s.y, BODY_STATES + i * CORNER_STATES), t_s)?;
-            }
+        for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_chunks(y)) {
+            unit.check_state(&split_corner(cy).0, t_s)?;
         }
-        let sum: f64 = s.y.iter().sum();
+        let sum: f64 = y.iter().sum();
         if sum.is_finite() {
             Ok(())
         } else {
-            let bad = s.y.iter().copied().find(|x| !x.is_finite()).unwrap_or(sum);
+            let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(sum);
             Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
         }
     }
 
     fn project(&self, y: &mut [f64; VEHICLE_STATES]) {
         let v = self.vehicle;
-        for (i, c) in v.corners().iter().enumerate() {
-            let off = BODY_STATES + i * CORNER_STATES;
-            let mut s = corner_unit(y, off);
-            if let Some(unit) = v.units.get(c.axle) {
+        let (_, corner_y) = y.split_at_mut(BODY_STATES);
+        for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
+            if let Some(a) = cy.first_chunk_mut::<UNIT_STATES>() {
+                let mut s = UnitState::from_array(a);
                 unit.project(&mut s, v.ambient_k);
-            }
-            for (o, x) in y.iter_mut().skip(off).zip(s.to_array().iter()) {
-                *o = *x;
+                *a = s.to_array();
             }
         }
     }
 
-    /// The state rate and the observed quantities at `(t_s, state)`; fails
-    /// if the state is outside the model's valid region.
-    pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState) -> Result<(VehicleState, VehicleSample)> {
-        self.check(t_s, state)?;
-        let mut sample = VehicleSample::default();
-        let rate = self.evaluate(t_s, &state.y, Some(&mut sample));
-        Ok((VehicleState { y: rate }, sample))
+    /// The state rate at `(t_s, state)`, with the observed quantities
+    /// written into `sample`; fails if the state is outside the model's
+    /// valid region.
+    pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<VehicleState> {
+        self.check(t_s, &state.y)?;
+        Ok(VehicleState { y: self.evaluate(t_s, &state.y, Some(sample)) })
+    }
+
+    /// The state rate at `(t_s, state)`.
+    pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<VehicleState> {
+        self.check(t_s, &state.y)?;
+        Ok(VehicleState { y: self.evaluate(t_s, &state.y, None) })
     }
 
     /// Advances from `t_s` to `t_end_s` in equal RK4 steps of at most
     /// `max_dt_s`; `rate` is the state rate at `t_s` with these inputs and
-    /// valves (from [`Dynamics::rate_and_sample`]).
+    /// valves (from [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
     pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &VehicleState, max_dt_s: f64) -> Result<VehicleState> {
         let y = stepping::advance(self, t_s, t_end_s, &state.y, &rate.y, max_dt_s, |t, y| {
             self.project(y);
-            self.check(t, &VehicleState { y: *y })
+            self.check(t, y)
         })?;
         Ok(VehicleState { y })
     }

@@ -23,7 +23,8 @@ fn drive(vehicle: &Vehicle, road: &Road<'_>, valves: Valves, seconds: f64, dt: f
     for k in 0..(seconds / dt) as usize {
         let t = k as f64 * dt;
         let d = vehicle.dynamics(road, inputs(t), v);
-        let (rate, s) = d.rate_and_sample(t, &x).unwrap();
+        let mut s = VehicleSample::default();
+        let rate = d.rate_and_sample(t, &x, &mut s).unwrap();
         out.push(s);
         x = d.advance(t, t + dt, &x, &rate, dt).unwrap();
     }
