@@ -92,7 +92,7 @@ fn config_from_dict(obj: &Bound<'_, PyAny>) -> PyResult<Config> {
     Ok(c)
 }
 
-fn config_to_dict<'py>(py: Python<'py>, c: &Config) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn config_to_dict<'py>(py: Python<'py>, c: &Config) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let unit = write_unit(py, &c.unit)?;
     unit.set_item("gas", c.unit.gas.name())?;
@@ -115,7 +115,7 @@ fn param_error(e: ParamError) -> PyErr {
 }
 
 /// Compiled parameters from an optional config dict (None: the seed unit).
-fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
+pub(crate) fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
     let config = match config {
         Some(c) if !c.is_none() => config_from_dict(c)?,
         _ => Config::seed_unit(),
@@ -174,7 +174,7 @@ const SPRING_MODES: [&str; 2] = ["hard", "soft"];
 const DAMPER_MODES: [&str; 2] = ["high", "low"];
 const SEQUENCER_STATES: [&str; 5] = ["idle", "lowering", "raising", "holding", "blocked"];
 
-fn driver_mode(value: i64, path: &str) -> PyResult<DriverMode> {
+pub(crate) fn driver_mode(value: i64, path: &str) -> PyResult<DriverMode> {
     match value {
         0 => Ok(DriverMode::Auto),
         1 => Ok(DriverMode::Comfort),
@@ -190,7 +190,7 @@ fn fresh_mask(value: i64, path: &str) -> PyResult<u16> {
         .ok_or_else(|| parameter(format!("{path} = {value} is not a set of input groups (0..={})", input_group::ALL)))
 }
 
-fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
+pub(crate) fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
     v.extract::<T>().map_err(|_| parameter(format!("{path} must be {what}, got {v}")))
 }
 
@@ -210,7 +210,7 @@ fn inputs_from_dict(obj: &Bound<'_, PyAny>) -> PyResult<Inputs> {
     Ok(i)
 }
 
-fn array<'py, T: numpy::Element + Copy>(r: &mut Reader<'py>, name: &str, path: &str, dtype: &str, n: &mut Option<usize>) -> PyResult<Vec<T>> {
+pub(crate) fn array<'py, T: numpy::Element + Copy>(r: &mut Reader<'py>, name: &str, path: &str, dtype: &str, n: &mut Option<usize>) -> PyResult<Vec<T>> {
     let v = r.get(name)?;
     let a: PyReadonlyArray1<'_, T> = extract(&v, &format!("{path}.{name}"), &format!("a 1-D numpy array of {dtype}"))?;
     let values = a.as_array().to_vec();
