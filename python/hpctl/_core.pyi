@@ -1,6 +1,6 @@
 # Hand-kept stub of the Rust extension hpctl._core (checked by stubtest).
 from collections.abc import Callable, Sequence
-from typing import Any, final
+from typing import Any, TypedDict, final, type_check_only
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +42,15 @@ __all__ = [
     "can_encode",
     "can_decode",
     "Ecu",
+    "vehicle_presets",
+    "vehicle_controller_config",
+    "vehicle_statics",
+    "vehicle_run",
+    "vehicle_run_many",
+    "VehiclePlant",
+    "VEHICLE_CHANNELS",
+    "VEHICLE_CORNER_CHANNELS",
+    "VEHICLE_CONTROLLER_CHANNELS",
 ]
 CHANNELS: list[str]
 
@@ -133,3 +142,63 @@ class Ecu:
     def tx_dropped(self) -> int: ...
     def receive(self, id: int, data: bytes, extended: bool = False) -> int | None: ...
     def period(self) -> list[tuple[int, bytes]]: ...
+
+# The vehicles (hp-vehicle): see hpctl.vehicle.
+VEHICLE_CHANNELS: list[str]
+VEHICLE_CORNER_CHANNELS: list[str]
+VEHICLE_CONTROLLER_CHANNELS: list[str]
+
+@type_check_only
+class VehicleStatics(TypedDict):
+    static_load_n: NDArray[np.float64]
+    static_disp_m: NDArray[np.float64]
+    tyre_static_deflection_m: NDArray[np.float64]
+    x_m: NDArray[np.float64]
+    y_m: NDArray[np.float64]
+    total_mass_kg: float
+
+@type_check_only
+class VehicleRun(TypedDict):
+    """1-D arrays per period (``VEHICLE_CHANNELS``); (periods, wheels)
+    arrays per wheel (``VEHICLE_CORNER_CHANNELS``) and per controller
+    (``VEHICLE_CONTROLLER_CHANNELS``, semi-active runs only)."""
+
+    vehicle: dict[str, NDArray[np.float64]]
+    corners: dict[str, NDArray[np.float64]]
+    controller: dict[str, NDArray[np.float64]]
+
+def vehicle_presets() -> dict[str, dict[str, Any]]: ...
+def vehicle_controller_config(vehicle: dict[str, Any]) -> dict[str, Any]: ...
+def vehicle_statics(vehicle: dict[str, Any], ambient_k: float, spring_hard: bool = True, damper_on: bool = True) -> VehicleStatics: ...
+def vehicle_run(
+    vehicle: dict[str, Any],
+    road: dict[str, Any],
+    drive: dict[str, NDArray[Any]],
+    suspension: dict[str, Any],
+    dt_s: float,
+    ambient_k: float,
+    max_dt_s: float = 1e-3,
+    record_every: int = 1,
+    t_gas_sensor_tau_s: float = 1.0,
+    progress: Callable[[int, int], object] | None = None,
+) -> VehicleRun: ...
+def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRun | HpctlError]: ...
+@final
+class VehiclePlant:
+    def __new__(
+        cls, vehicle: dict[str, Any], road: dict[str, Any], ambient_k: float, spring_hard: bool = True, damper_on: bool = True, max_dt_s: float = 1e-3
+    ) -> VehiclePlant: ...
+    @property
+    def corner_count(self) -> int: ...
+    @property
+    def time_s(self) -> float: ...
+    def sample(self) -> dict[str, float | list[float]]: ...
+    def step(
+        self,
+        dt_s: float,
+        valve5_open: Sequence[bool],
+        valve6_open: Sequence[bool],
+        speed_m_s: float,
+        long_acc_m_s2: float = 0.0,
+        steer_angle_rad: float = 0.0,
+    ) -> dict[str, float | list[float]]: ...

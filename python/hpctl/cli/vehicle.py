@@ -192,6 +192,11 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
         out_dir.mkdir(parents=True, exist_ok=True)
         (out_dir / "tuned.json").write_text(json.dumps({"config": result.config}, indent=2) + "\n")
         tuning_plot(result, out_dir / "tuning.png")
+        warnings: list[str] = []
+        if result.best.end_stop_hits:
+            warnings.append(f"{result.best.end_stop_hits} end-stop hit(s) with the tuned configuration")
+        if result.best.failures:
+            warnings.append(f"{result.best.failures} case(s) failed with the tuned configuration")
         summary = {
             "vehicles": list(names),
             "seeds": seed_list,
@@ -204,12 +209,10 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
             "generations": result.generations,
             "evaluations": result.evaluations,
             "history": list(result.history),
-            "warnings": [f"{result.best.end_stop_hits} end-stop hit(s) with the tuned configuration"] if result.best.end_stop_hits else [],
+            "warnings": warnings,
         }
-        if result.best.failures:
-            summary["warnings"].append(f"{result.best.failures} case(s) failed with the tuned configuration")
         (out_dir / "tuning.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
-        _warn(rep, summary["warnings"])
+        _warn(rep, warnings)
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
         else:

@@ -87,7 +87,7 @@ def _grid(length_m: float, dx_m: float, band_cycles_m: tuple[float, float]) -> t
     count = int(np.ceil(max(length_m, 2.0 / band_cycles_m[0]) / dx_m)) + 1
     count += count % 2
     dn = 1.0 / (count * dx_m)
-    return count, dn, np.arange(count // 2 + 1) * dn
+    return count, dn, np.asarray(np.arange(count // 2 + 1) * dn, dtype=np.float64)
 
 
 def _amplitudes(road_class: str, n: FloatArray, dn: float, band_cycles_m: tuple[float, float]) -> FloatArray:

@@ -108,7 +108,7 @@ def rms(x: ArrayLike) -> float:
 def vdv(x: ArrayLike, dt_s: float) -> float:
     """Vibration dose value of a weighted acceleration, m/s^1.75."""
     a = np.asarray(x, dtype=float)
-    return float(np.sum(a**4) * dt_s) ** 0.25
+    return float((np.sum(a**4) * dt_s) ** 0.25)
 
 
 def vector_sum(a_x: float, a_y: float, a_z: float, k: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> float:

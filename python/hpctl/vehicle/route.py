@@ -85,6 +85,11 @@ class Washboard:
 Obstacle = Bump | Pothole | Washboard
 
 
+def _smooth_step(u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """0 to 1 over [0, 1] with zero slope and curvature at both ends."""
+    return np.asarray(u - np.sin(2.0 * np.pi * u) / (2.0 * np.pi), dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class LaneChange:
     """An ISO 3888-2-style double lane change (see the module docs),
@@ -105,11 +110,10 @@ class LaneChange:
         """Lateral position of the path at distances ``x_m`` from the segment start."""
         l1, l2, l3, l4, _ = self.sections_m()
         d = self.offset_m(vehicle_width_m)
-        s = lambda u: u - np.sin(2.0 * np.pi * u) / (2.0 * np.pi)  # noqa: E731
         x = np.asarray(x_m, dtype=float) - self.at_m
         up = np.clip((x - l1) / l2, 0.0, 1.0)
         down = np.clip((x - l1 - l2 - l3) / l4, 0.0, 1.0)
-        return np.asarray(d * (s(up) - s(down)), dtype=np.float64)
+        return np.asarray(d * (_smooth_step(up) - _smooth_step(down)), dtype=np.float64)
 
     @property
     def length_m(self) -> float:
@@ -242,7 +246,7 @@ def build(spec: RouteSpec, vehicle: VehicleSpec) -> Route:
     for k, s in enumerate(spec.segments):
         inside = (x >= pos) & (x < pos + s.length_m)
         tracks = iso8608.two_tracks(s.road_class, s.length_m + 1.0, track_m=track, seed=spec.seed * 1000 + k, dx_m=dx)
-        local = x[inside] - pos
+        local = np.asarray(x[inside] - pos, dtype=np.float64)
         left[inside] += np.interp(local, tracks.distance_m, tracks.left_m)
         right[inside] += np.interp(local, tracks.distance_m, tracks.right_m)
         for o in s.obstacles:
@@ -255,12 +259,12 @@ def build(spec: RouteSpec, vehicle: VehicleSpec) -> Route:
         pos += s.length_m
     # Segments join without steps: each random track is shifted to continue
     # the previous one's end height, faded over the first 10 m.
-    for s in sections[1:]:
-        i = int(round((s.start_m - start) / dx))
+    for sec in sections[1:]:
+        i = int(round((sec.start_m - start) / dx))
         if 0 < i < n:
             for h in (left, right):
                 jump = h[i] - h[i - 1]
-                ramp = np.clip((x[i:] - s.start_m) / 10.0, 0.0, 1.0)
+                ramp = np.clip((x[i:] - sec.start_m) / 10.0, 0.0, 1.0)
                 h[i:] -= jump * (1.0 - ramp)
     # The vehicle starts at rest on level road: zero before the start, faded in over 20 m.
     fade = 0.5 * (1.0 - np.cos(np.pi * np.clip(x / 20.0, 0.0, 1.0)))
@@ -339,7 +343,9 @@ def drive(route: Route, vehicle: VehicleSpec, *, dt_s: float = 1e-3, total_mass_
     t_list, x_list, v_list = [0.0], [0.0], [float(speeds[0])]
     x, v = 0.0, float(speeds[0])
     while x < end:
-        target = float(np.interp(x, xs, allowed))
+        # The allowed speed of the grid point at or behind x (never the next
+        # section's before it begins).
+        target = float(allowed[min(int(x / 0.5), allowed.size - 1)])
         dv = np.clip(target - v, -a_max * dt_s, a_max * dt_s)
         v = max(v + dv, 0.5)
         x += v * dt_s

@@ -212,18 +212,18 @@ class DaskExecutor:
     def __init__(self, address: str, timeout_s: float = 30.0) -> None:
         from dask.distributed import Client
 
-        self.client = Client(address, timeout=timeout_s)
+        self.client = Client(address, timeout=timeout_s)  # type: ignore[no-untyped-call]
 
     def map(self, fn: Callable[[Any], Any], items: Iterable[Any]) -> list[Any]:
         futures = self.client.map(fn, list(items), pure=False)
-        return list(self.client.gather(futures))
+        return list(self.client.gather(futures))  # type: ignore[no-untyped-call]
 
     @property
     def workers(self) -> int:
         return len(self.client.scheduler_info().get("workers", {}))
 
     def close(self) -> None:
-        self.client.close()
+        self.client.close()  # type: ignore[no-untyped-call]
 
 
 @dataclass(frozen=True)
@@ -297,6 +297,16 @@ def tune(
     best = score(problem, best_x)
     default = score(problem, x0)
     return TuneResult(problem, default, best, best_x, apply(default_config, params, best_x), len(history), evaluations, tuple(history))
+
+
+class _Score:
+    """:func:`score` bound to a problem, picklable for cluster workers."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+
+    def __call__(self, x: Sequence[float]) -> Score:
+        return score(self.problem, list(x))
 
 
 class _Objective:
