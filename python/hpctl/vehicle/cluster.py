@@ -54,15 +54,19 @@ class LocalCluster:
         self.address = f"tcp://127.0.0.1:{port}"
         env = {**os.environ, "DASK_DISTRIBUTED__WORKER__DAEMON": "False", "OMP_NUM_THREADS": "1"}
         logs = self.log_dir
-        def out(name: str) -> int | object:
-            return subprocess.DEVNULL if logs is None else (logs / f"{name}.log").open("wb")
-        self.processes.append(subprocess.Popen(
-            [*_dask(), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
-            stdout=out("scheduler"), stderr=subprocess.STDOUT, env=env))  # type: ignore[arg-type]
+
+        def spawn(name: str, args: list[str]) -> None:
+            if logs is None:
+                p = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, env=env)
+            else:
+                with (logs / f"{name}.log").open("wb") as log:
+                    p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=env)
+            self.processes.append(p)
+
+        spawn("scheduler", [*_dask(), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"])
         for k in range(self.workers):
-            self.processes.append(subprocess.Popen(
-                [*_dask(), "worker", self.address, "--no-nanny", "--nthreads", "1", "--host", "127.0.0.1", "--no-dashboard", "--name", f"hpctl-{k}"],
-                stdout=out(f"worker{k}"), stderr=subprocess.STDOUT, env=env))  # type: ignore[arg-type]
+            spawn(f"worker{k}", [*_dask(), "worker", self.address, "--no-nanny", "--nthreads", "1", "--host", "127.0.0.1",
+                                 "--no-dashboard", "--name", f"hpctl-{k}"])
         self._wait(timeout_s)
         return self
 
