@@ -6,7 +6,9 @@
 //!     cargo bench -p hp-vehicle --bench vehicle
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use hp_core::unit::Valves;
+use hp_core::motion::Motion;
+use hp_core::rig::{run as rig_run, Rig, RigKind};
+use hp_core::unit::{Unit, Valves};
 use hp_ctrl::{Params, State};
 use hp_vehicle::closed_loop::Sensors;
 use hp_vehicle::drive::{run, Driver, Suspension};
@@ -32,6 +34,25 @@ fn rough(length_m: f64) -> (Vec<f64>, Vec<f64>) {
 
 fn baseline(c: &mut Criterion) {
     c.bench_function("baseline/exp", |b| b.iter(|| libm::exp(black_box(-0.41))));
+    // One unit on hp-core's SDOF rig for the same 10 s (what the vehicle
+    // does per wheel): the vehicle's cost in units of it.
+    let unit = Unit::new(hp_core::presets::seed_unit()).unwrap();
+    let kind = RigKind::Sdof { sprung_mass_kg: 3000.0, base: Motion::Sine { amplitude_m: 0.02, frequency_hz: 1.0, offset_m: 0.0 } };
+    let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(false, true)).unwrap();
+    let mut g = c.benchmark_group("sdof_10s_at_1khz");
+    g.sample_size(20);
+    g.bench_function("run", |b| {
+        b.iter(|| {
+            let mut last = 0.0;
+            rig_run(&rig, (0..=10_000).map(|i| f64::from(i) * 1e-3), 1e-3, |_, _| Valves::from_modes(false, true), |_, s| {
+                last = s.body_disp_m;
+                true
+            })
+            .unwrap();
+            black_box(last)
+        })
+    });
+    g.finish();
 }
 
 const SECONDS: usize = 10;
