@@ -10,7 +10,6 @@ id (terminate, then kill after a grace period), never by name.
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -32,11 +31,14 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def _dask() -> list[str]:
-    exe = shutil.which("dask", path=str(Path(sys.executable).parent)) or shutil.which("dask")
-    if exe is None:
-        raise ClusterError("the dask command is not installed (pip install 'hpctl[cluster]')")
-    return [exe]
+def _dask(role: str) -> list[str]:
+    """The scheduler or worker command of this interpreter's Dask (the
+    modules, not a ``dask`` script that may be another environment's)."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise ClusterError("Dask's distributed scheduler is not installed (pip install 'hpctl[cluster]')") from None
+    return [sys.executable, "-m", f"distributed.cli.dask_{role}"]
 
 
 @dataclass
@@ -63,9 +65,9 @@ class LocalCluster:
                     p = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=env)
             self.processes.append(p)
 
-        spawn("scheduler", [*_dask(), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"])
+        spawn("scheduler", [*_dask("scheduler"), "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"])
         for k in range(self.workers):
-            spawn(f"worker{k}", [*_dask(), "worker", self.address, "--no-nanny", "--nthreads", "1", "--host", "127.0.0.1",
+            spawn(f"worker{k}", [*_dask("worker"), self.address, "--no-nanny", "--nthreads", "1", "--host", "127.0.0.1",
                                  "--no-dashboard", "--name", f"hpctl-{k}"])
         self._wait(timeout_s)
         return self
