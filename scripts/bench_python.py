@@ -18,10 +18,11 @@ import math
 import os
 import time
 
-import hpctl
 import numpy as np
-from hpctl.sim.run import Case, Step, sdof_rig, uniform_times
 from scipy.integrate import solve_ivp
+
+import hpctl
+from hpctl.sim.run import Case, Step, sdof_rig, uniform_times
 
 # The same physics as hp-core for this case: hard spring (S only), damper
 # off, BWR "textbook" nitrogen, thermal time constant, 43 mm smooth step.
@@ -109,7 +110,7 @@ def python_sdof(unit: hpctl.Unit, duration_s: float, method: str, eos: object = 
         dtemp = (t_wall - temp) / tau - temp / cv * dpdt * dvol / mass_gas
         return [dtemp, dvol, v, force / m - g]
 
-    y0 = [t_wall, unit.small_volume_m3, 0.0, 0.0]
+    y0 = [t_wall, unit.small_acc_volume_m3, 0.0, 0.0]
     t_eval = np.arange(0.0, duration_s + 1e-9, 1e-3)
     if method == "rk4":
         # The same algorithm as hp-core: classical RK4 at 1 ms.

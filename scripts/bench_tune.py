@@ -16,8 +16,7 @@ import time
 
 import numpy as np
 
-from hpctl.vehicle import route
-from hpctl.vehicle import tune as tn
+from hpctl.vehicle import route, tuning
 from hpctl.vehicle.cluster import LocalCluster
 
 
@@ -28,22 +27,22 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
     routes = (route.mixed(scale=a.scale, seed=1),)
-    problem = tn.Problem(("4x4",), routes, references=tn.references(("4x4",), routes, threads=2))
+    problem = tuning.Problem(("4x4",), routes, references=tuning.references(("4x4",), routes, threads=2))
     rng = np.random.default_rng(0)
     bounds = [((np.log10(p.low), np.log10(p.high)) if p.log else (p.low, p.high)) for p in problem.params]
     batch = [[float(rng.uniform(lo, hi)) for lo, hi in bounds] for _ in range(a.candidates)]
-    fn = tn._Score(problem)
+    fn = tuning._Score(problem)
     times: dict[str, float] = {}
     for workers in (1, 2):
         with LocalCluster(workers=workers) as cluster:
-            ex = tn.DaskExecutor(cluster.address)
+            ex = tuning.DaskExecutor(cluster.address)
             ex.map(fn, batch[:workers])  # warm up: imports and route caches on every worker
             t = time.perf_counter()
             ex.map(fn, batch)
             times[f"dask_{workers}"] = time.perf_counter() - t
             ex.close()
     for threads in (1, 2):
-        ex2 = tn.LocalExecutor(threads)
+        ex2 = tuning.LocalExecutor(threads)
         ex2.map(fn, batch[:threads])
         t = time.perf_counter()
         ex2.map(fn, batch)

@@ -3,30 +3,108 @@
 # checks the linked binaries: no panic machinery, no heap, size budgets.
 #
 #   scripts/firmware-build.sh            # build all boards, check
+#   scripts/firmware-build.sh --which    # only say which toolchain it would use
+#   FW_TOOLCHAIN=rustup scripts/firmware-build.sh   # force one: rustup | debian
 #
-# Needs Debian's rustc/cargo with the library sources and the ARM binutils
-# (scripts/install-firmware-toolchain.sh); see docs/firmware.md.
-# Prints the paths of the built ELF files as `elf NAME PATH` lines.
+# Two toolchains, either will do (docs/firmware.md, Build):
+#   rustup  the rustc/cargo on PATH with the prebuilt target
+#           (`rustup target add thumbv7em-none-eabihf`): a plain cross-build.
+#   debian  Debian's rustc-web/cargo-web (/usr/bin, or FW_RUSTC/FW_CARGO)
+#           with the library sources (rust-web-src): core is built from
+#           source, RUSTC_BOOTSTRAP=1 ... -Z build-std=core.
+# FW_TOOLCHAIN=auto (the default) takes rustup's if its target is installed,
+# else Debian's. Both need the ARM binutils (binutils-arm-none-eabi).
+# scripts/install-firmware-toolchain.sh installs them.
+#
+# Prints `toolchain NAME VERSION` and the built ELF files as `elf NAME PATH`
+# lines on stdout. Exit status: 0 built and checked; 1 built, a check
+# failed; 3 no usable firmware toolchain (nothing built; the message says
+# what is missing); anything else: the build failed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
+TARGET=thumbv7em-none-eabihf
+WANT=${FW_TOOLCHAIN:-auto}
+WHICH_ONLY=0
+[ "${1:-}" = "--which" ] && WHICH_ONLY=1
 
-# Debian's cargo and rustc: the core sources under /usr/lib/rustlib must
-# match the compiler exactly. RUSTC_BOOTSTRAP=1 lets it take -Z build-std.
-export RUSTC=${FW_RUSTC:-/usr/bin/rustc}
-CARGO=${FW_CARGO:-/usr/bin/cargo}
-export RUSTC_BOOTSTRAP=1
-# A target directory of its own: the host workspace is built by another
-# compiler, sharing one would only cause rebuilds.
-export CARGO_TARGET_DIR=${FW_TARGET_DIR:-$ROOT/crates/hp-fw/target}
-OUT=$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release
+DEBIAN_RUSTC=${FW_RUSTC:-/usr/bin/rustc}
+DEBIAN_CARGO=${FW_CARGO:-/usr/bin/cargo}
 
-for tool in "$RUSTC" "$CARGO" arm-none-eabi-ld arm-none-eabi-nm arm-none-eabi-size arm-none-eabi-objdump; do
-    command -v "$tool" >/dev/null || { echo "firmware-build: $tool not found (scripts/install-firmware-toolchain.sh)" >&2; exit 2; }
+# Why a toolchain cannot be used, or nothing if it can.
+rustup_missing() {
+    command -v rustc >/dev/null && command -v cargo >/dev/null || { echo "no rustc/cargo on PATH"; return; }
+    local libdir
+    libdir=$(rustc --print target-libdir --target "$TARGET" 2>/dev/null) || { echo "$(rustc -V) does not know $TARGET"; return; }
+    compgen -G "$libdir/libcore-*.rlib" >/dev/null || echo "$(rustc -V) has no prebuilt $TARGET (rustup target add $TARGET)"
+}
+debian_missing() {
+    [ -x "$DEBIAN_RUSTC" ] || { echo "no $DEBIAN_RUSTC (apt-get install rustc-web)"; return; }
+    [ -x "$DEBIAN_CARGO" ] || { echo "no $DEBIAN_CARGO (apt-get install cargo-web)"; return; }
+    local src
+    src="$("$DEBIAN_RUSTC" --print sysroot)/lib/rustlib/src/rust/library/core"
+    [ -d "$src" ] || echo "no library sources at $src (apt-get install rust-web-src)"
+}
+
+case "$WANT" in
+    auto)
+        why_rustup=$(rustup_missing)
+        if [ -z "$why_rustup" ]; then
+            toolchain=rustup
+        else
+            why_debian=$(debian_missing)
+            if [ -z "$why_debian" ]; then
+                toolchain=debian
+            else
+                echo "firmware-build: no firmware toolchain: rustup: $why_rustup; debian: $why_debian (scripts/install-firmware-toolchain.sh)" >&2
+                exit 3
+            fi
+        fi
+        ;;
+    rustup | debian)
+        why=$("${WANT}_missing")
+        if [ -n "$why" ]; then
+            echo "firmware-build: FW_TOOLCHAIN=$WANT cannot be used: $why (scripts/install-firmware-toolchain.sh)" >&2
+            exit 3
+        fi
+        toolchain=$WANT
+        ;;
+    *)
+        echo "firmware-build: FW_TOOLCHAIN=$WANT: expected auto, rustup or debian" >&2
+        exit 2
+        ;;
+esac
+for tool in arm-none-eabi-ld arm-none-eabi-nm arm-none-eabi-size arm-none-eabi-objdump; do
+    command -v "$tool" >/dev/null || { echo "firmware-build: $tool not found (apt-get install binutils-arm-none-eabi; scripts/install-firmware-toolchain.sh)" >&2; exit 3; }
 done
 
+if [ "$toolchain" = rustup ]; then
+    CARGO=cargo
+    export RUSTC=rustc
+    build_std=()
+else
+    # Debian's cargo and rustc: the core sources under /usr/lib/rustlib must
+    # match the compiler exactly. RUSTC_BOOTSTRAP=1 lets it take -Z build-std.
+    CARGO=$DEBIAN_CARGO
+    export RUSTC=$DEBIAN_RUSTC
+    export RUSTC_BOOTSTRAP=1
+    build_std=(-Z build-std=core)
+fi
+version=$("$RUSTC" -V)
+echo "toolchain $toolchain $version"
+echo "firmware-build: toolchain $toolchain ($version)" >&2
+[ "$WHICH_ONLY" -eq 0 ] || exit 0
+
+# A target directory per toolchain: switching between them rebuilds nothing,
+# and the path of an ELF file says which compiler made it. Not the host
+# workspace's: that one is built by another compiler for another target.
+export CARGO_TARGET_DIR=${FW_TARGET_DIR:-$ROOT/crates/hp-fw/target/$toolchain}
+OUT=$CARGO_TARGET_DIR/$TARGET/release
+
 build() {
-    (cd crates/hp-fw && "$CARGO" build --release "$@")
+    # --locked: both toolchains build the versions in crates/hp-fw/Cargo.lock
+    # (chosen for rust-version 1.85, see Cargo.toml); never re-resolve here.
+    (cd crates/hp-fw && "$CARGO" build --locked --release "${build_std[@]}" "$@")
 }
 
 echo "== cross-build (emulator board: hp-fw-mps2, hp-fw-pil)" >&2
@@ -72,8 +150,8 @@ for name in hp-fw-mps2 hp-fw-pil hp-fw-stm32f4; do
         $1 == ".bss" || $1 == ".uninit" { r += $2 }
         END { print f + 0, r + 0 }')
     note=""
-    [ "$flash" -le "$FLASH_BUDGET" ] || note="$note flash OVER the ${FLASH_BUDGET} B budget;"
-    [ "$ram" -le "$RAM_BUDGET" ] || note="$note static RAM OVER the ${RAM_BUDGET} B budget;"
+    [ "$flash" -le "$FLASH_BUDGET" ] || { note="$note flash OVER the ${FLASH_BUDGET} B budget;"; status=1; }
+    [ "$ram" -le "$RAM_BUDGET" ] || { note="$note static RAM OVER the ${RAM_BUDGET} B budget;"; status=1; }
     echo "size $name flash=$flash static_ram=$ram${note}" >&2
 done
 

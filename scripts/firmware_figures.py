@@ -47,12 +47,17 @@ RAM_BUDGET = 8 * 1024
 STEP_BUDGET = 5000
 
 
-def build() -> dict[str, Path]:
+def build() -> tuple[str, dict[str, Path]]:
+    """Builds with the toolchain scripts/firmware-build.sh picks
+    (FW_TOOLCHAIN=auto|rustup|debian); returns "NAME VERSION" of that
+    toolchain and the ELF files."""
     run = subprocess.run([str(ROOT / "scripts" / "firmware-build.sh")], cwd=ROOT, capture_output=True, text=True)
     sys.stderr.write(run.stderr[-3000:])
     if run.returncode not in (0, 1):
         raise SystemExit(f"firmware build failed ({run.returncode})")
-    return {name: Path(path) for kind, name, path in (line.split(maxsplit=2) for line in run.stdout.splitlines()) if kind == "elf"}
+    lines = [line.split(maxsplit=2) for line in run.stdout.splitlines()]
+    toolchain = next(f"{name} {rest}" for kind, name, rest in lines if kind == "toolchain")
+    return toolchain, {name: Path(path) for kind, name, path in lines if kind == "elf"}
 
 
 def sizes(elf: Path) -> dict[str, int]:
@@ -140,8 +145,8 @@ def pil_stack(elf: Path, periods: int = 800) -> dict[str, float]:
             for k in range(periods):
                 w = 2 * math.pi * 1.5 * k * 1e-3
                 inputs = {
-                    "p_small_pa": p_pa * (1 + 0.05 * math.sin(w)),
-                    "p_large_pa": p_pa * (1 + 0.05 * math.sin(w)),
+                    "p_gas_pa": p_pa * (1 + 0.05 * math.sin(w)),
+                    "p_gas2_pa": p_pa * (1 + 0.05 * math.sin(w)),
                     "strut_disp_m": 0.01 * math.sin(w),
                     "body_acc_m_s2": -0.8 * math.cos(w),
                     "speed_m_s": 10.0, "brake_pressed": 0, "lat_acc_m_s2": 0.0, "long_acc_m_s2": 0.0,
@@ -166,8 +171,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", type=Path, help="also write the figures as JSON here")
     args = ap.parse_args()
-    elfs = build()
-    figures: dict[str, object] = {}
+    toolchain, elfs = build()
+    figures: dict[str, object] = {"toolchain": toolchain}
     for name in ("hp-fw-mps2", "hp-fw-pil", "hp-fw-stm32f4"):
         figures[name] = {**sizes(elfs[name]), "heap_bytes": heap_bytes(elfs[name])}
     run = measure(elfs["hp-fw-figures"])
@@ -177,6 +182,7 @@ def main() -> None:
     figures["hp-fw-pil"].update(production)  # type: ignore[attr-defined]
 
     print("Firmware figures (budgets: flash <= 32 KiB, RAM <= 8 KiB, step <= 5000 instructions)")
+    print(f"  built with {toolchain}")
     for name in ("hp-fw-mps2", "hp-fw-pil", "hp-fw-stm32f4"):
         f = figures[name]
         assert isinstance(f, dict)

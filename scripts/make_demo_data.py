@@ -10,19 +10,19 @@ from __future__ import annotations
 from pathlib import Path
 
 from hpctl.data.records import write_record
-from hpctl.identify import virtual_rig as vr
+from hpctl.identify import virtual_rig
 
 OUT = Path(__file__).resolve().parents[1] / "python" / "hpctl" / "data" / "demo"
 EFFECTS = ("friction",)
 
 
 def main() -> None:
-    values = vr.effect_values(EFFECTS, overrides={"friction_coulomb_n": 350.0, "friction_viscous_n_s_per_m": 250.0})
-    unit = vr.truth_unit(EFFECTS, values)
+    values = virtual_rig.effect_values(EFFECTS, overrides={"friction_coulomb_n": 350.0, "friction_viscous_n_s_per_m": 250.0})
+    unit = virtual_rig.truth_unit(EFFECTS, values)
     OUT.mkdir(parents=True, exist_ok=True)
     for old in OUT.glob("*"):
         old.unlink()
-    for rec in vr.make_records(unit, tests=vr.tests_for(EFFECTS), seed=2026):
+    for rec in virtual_rig.make_records(unit, tests=virtual_rig.tests_for(EFFECTS), seed=2026):
         rec.description = "demonstration record (hpctl virtual rig)"
         write_record(rec, OUT / rec.name)
         print("wrote", rec.name)

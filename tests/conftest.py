@@ -1,12 +1,17 @@
-"""Shared fixtures and the hypothesis profile."""
+"""Shared fixtures, the hypothesis profile, and the CI rule: a test that
+cannot run fails in CI instead of being skipped (ci_rules.py)."""
 
 from __future__ import annotations
 
 import os
 
-import hpctl
 import pytest
 from hypothesis import HealthCheck, settings
+
+import hpctl
+
+# Hooks: under CI a skip is reported as a failure (ci_rules.py).
+from ci_rules import pytest_make_collect_report, pytest_runtest_makereport  # noqa: F401
 
 settings.register_profile("ci", max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("thorough", max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])

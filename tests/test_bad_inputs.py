@@ -6,13 +6,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import hpctl
 import numpy as np
 import pytest
-from hpctl import _core
-from hpctl.sim.run import characterisation_rig, sdof_rig
 from hypothesis import given
 from hypothesis import strategies as st
+
+import hpctl
+from hpctl import _core
+from hpctl.sim.run import characterisation_rig, sdof_rig
 
 NASTY = [math.nan, math.inf, -math.inf, 0.0, -0.0, -1.0, 1e300, -1e300, 5e-324]
 
@@ -20,8 +21,8 @@ NASTY = [math.nan, math.inf, -math.inf, 0.0, -0.0, -1.0, 1e300, -1e300, 5e-324]
 @pytest.mark.parametrize(
     ("field", "value", "expected"),
     [
-        ("small_volume_m3", -0.3e-3, "small_volume_m3 = -3e-4 is outside the valid range [1e-6, 1]"),
-        ("large_volume_m3", math.nan, "large_volume_m3 = NaN is outside the valid range [1e-6, 1]"),
+        ("small_acc_volume_m3", -0.3e-3, "small_acc_volume_m3 = -3e-4 is outside the valid range [1e-6, 1]"),
+        ("large_acc_volume_m3", math.nan, "large_acc_volume_m3 = NaN is outside the valid range [1e-6, 1]"),
         ("static_temperature_k", 0.0, "static_temperature_k = 0 is outside the valid range [200, 600]"),
         ("piston_area_m2", math.inf, "piston_area_m2 = inf is outside the valid range [1e-5, 1]"),
         ("tau_s", -2.0, "tau_s = -2 is outside the valid range [0, 1e9]"),
@@ -96,7 +97,7 @@ def test_density_solve_out_of_range() -> None:
 floats = st.one_of(st.sampled_from(NASTY), st.floats(allow_nan=True, allow_infinity=True))
 
 
-@given(field=st.sampled_from(["piston_area_m2", "small_volume_m3", "large_volume_m3", "static_pressure_pa", "static_temperature_k", "tau_s",
+@given(field=st.sampled_from(["piston_area_m2", "small_acc_volume_m3", "large_acc_volume_m3", "static_pressure_pa", "static_temperature_k", "tau_s",
                               "valve6_flow_area_m2", "oil_density_kg_m3", "stroke_compression_m", "end_stop_stiffness_n_per_m"]),
        value=floats, mass=floats, dt=floats, height=floats)
 def test_no_input_crashes_the_core(field: str, value: float, mass: float, dt: float, height: float) -> None:

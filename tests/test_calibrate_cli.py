@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+
 from hpctl.cli import main
 from hpctl.data.records import read_record
 from hpctl.model.effects import LIBRARY

@@ -6,9 +6,10 @@ test_can_codec.py), and the bindings' argument checks."""
 import math
 
 import pytest
-from hpctl import _core
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+from hpctl import _core
 from test_can_codec import (
     DBC,
     MESSAGES,

@@ -14,9 +14,10 @@ from pathlib import Path
 import cantools
 import pytest
 from crccheck.crc import Crc8GsmA
-from hpctl.data import DBC_PATH
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+from hpctl.data import DBC_PATH
 
 ROOT = Path(__file__).resolve().parent.parent
 DBC = cantools.database.load_file(str(DBC_PATH))
@@ -24,8 +25,8 @@ HEADER = ("E2E_CRC", "E2E_Counter")
 
 # Which Inputs field each input signal feeds (the controller's contract).
 INPUT_FIELD = {
-    "PressureSmall": "p_small_pa",
-    "PressureLarge": "p_large_pa",
+    "PressureSmall": "p_gas_pa",
+    "PressureLarge": "p_gas2_pa",
     "StrutDisp": "strut_disp_m",
     "BodyAcc": "body_acc_m_s2",
     "VehicleSpeed": "speed_m_s",

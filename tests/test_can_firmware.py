@@ -8,8 +8,10 @@ sensor frames stop.
 The host reference is `hp_ctrl::can::ecu::Ecu` compiled for x86-64, through
 the bindings (`hpctl._core.Ecu`).
 
-Needs the firmware toolchain (scripts/install-firmware-toolchain.sh);
-without it these tests are skipped with that reason.
+Needs QEMU and a firmware toolchain, rustup's or Debian's
+(scripts/install-firmware-toolchain.sh, docs/firmware.md). Without them
+these tests are skipped with the reason on a developer machine and fail in
+CI (ci_rules.py).
 """
 
 import math
@@ -20,19 +22,23 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from hpctl.hil import pil
 
 ROOT = Path(__file__).resolve().parent.parent
 SAFE_STATE = 1 << 0
 LINK_FAULT = 1 << 3
+NO_TOOLCHAIN = 3  # scripts/firmware-build.sh: no usable firmware toolchain
 
 
 @pytest.fixture(scope="session")
 def firmware() -> dict[str, Path]:
-    missing = [t for t in ("qemu-system-arm", "arm-none-eabi-ld", "/usr/bin/rustc") if shutil.which(t) is None]
-    if missing or not Path("/usr/lib/rustlib/src/rust/library/core").is_dir():
-        pytest.skip(f"firmware toolchain not installed ({', '.join(missing) or 'rust-src'}): scripts/install-firmware-toolchain.sh")
+    if shutil.which("qemu-system-arm") is None:
+        pytest.skip("qemu-system-arm not installed (scripts/install-firmware-toolchain.sh)")
+    # The build script picks the toolchain (FW_TOOLCHAIN=auto|rustup|debian).
     run = subprocess.run([str(ROOT / "scripts" / "firmware-build.sh")], cwd=ROOT, capture_output=True, text=True)
+    if run.returncode == NO_TOOLCHAIN:
+        pytest.skip(run.stderr.strip() or "no firmware toolchain (scripts/install-firmware-toolchain.sh)")
     # Exit 1 = built, but a binary check failed: reported by the build
     # script in scripts/firmware-test.sh; the emulator tests still run.
     assert run.returncode in (0, 1), run.stderr[-4000:]
@@ -109,8 +115,8 @@ def road_inputs(k: int, p_static_pa: float, t_static_k: float) -> dict[str, floa
     w = 2 * math.pi * 1.5
     steer = 0.8 * math.sin(2 * math.pi * (t - 2.8)) if 2.8 <= t < 3.8 else 0.0
     return {
-        "p_small_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
-        "p_large_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
+        "p_gas_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
+        "p_gas2_pa": p_static_pa * (1 + 0.05 * math.sin(w * t)),
         "strut_disp_m": 0.01 * math.sin(w * t),
         "body_acc_m_s2": -0.8 * math.cos(w * t),
         "speed_m_s": 10.0,
@@ -233,8 +239,8 @@ def test_processor_in_the_loop_lowers_the_plant_and_fails_safe(firmware):
                 for k in range(periods):
                     t_read_k += t_weight * (sample["t_gas2_k"] - t_read_k)
                     inputs = {
-                        "p_small_pa": sample["p_gas_pa"],
-                        "p_large_pa": sample["p_gas2_pa"],
+                        "p_gas_pa": sample["p_gas_pa"],
+                        "p_gas2_pa": sample["p_gas2_pa"],
                         "strut_disp_m": sample["disp_m"] - static_disp_m,
                         "body_acc_m_s2": sample["body_acc_m_s2"],
                         "speed_m_s": speed_m_s,

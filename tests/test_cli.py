@@ -10,10 +10,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import hpctl
 import numpy as np
 import pytest
 from click.testing import CliRunner
+
+import hpctl
 from hpctl.cli import main
 from hpctl.data.records import read_record
 
@@ -124,9 +125,9 @@ def test_bad_input_exits_2_with_a_message(tmp_path: Path, args: list[str], messa
 def test_bad_unit_file_exits_2(tmp_path: Path) -> None:
     bad = tmp_path / "unit.toml"
     hpctl.Unit.seed().to_toml(bad)
-    bad.write_text(bad.read_text().replace("small_volume_m3 = 0.0003", "small_volume_m3 = -0.0003"))
+    bad.write_text(bad.read_text().replace("small_acc_volume_m3 = 0.0003", "small_acc_volume_m3 = -0.0003"))
     code, _, stderr = simulate("--unit", str(bad), "--out", str(tmp_path))
-    assert code == 2 and "small_volume_m3 = -3e-4 is outside the valid range" in stderr
+    assert code == 2 and "small_acc_volume_m3 = -3e-4 is outside the valid range" in stderr
 
 
 def test_installed_entry_point_and_internal_error_exit_code(tmp_path: Path) -> None:

@@ -9,17 +9,17 @@ import json
 import math
 from pathlib import Path
 
-import hpctl
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from hpctl.cli import main
-from hpctl.control import closed_loop as cl
-from hpctl.control import road
-from hpctl.control.controller import Diag, DriveMode, SequencerState, seed_config
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import welch
+
+import hpctl
+from hpctl.cli import main
+from hpctl.control import closed_loop, road
+from hpctl.control.controller import Diag, DriveMode, SequencerState, seed_config
 
 # --- the road ------------------------------------------------------------------
 
@@ -92,9 +92,9 @@ roads = st.one_of(
 @given(roads, st.floats(-0.04, -0.01), st.integers(0, 2**31 - 1))
 def test_a_lowering_on_a_random_road_ends_within_tolerance_and_within_the_stroke(road_and_speed: tuple[str, float], target_m: float, seed: int) -> None:
     road_class, speed = road_and_speed
-    scenario = cl.Scenario(END_S, speed, requests=(cl.HeightRequest(REQUEST_S, target_m),))
-    r = cl.run(cl.Case(scenario, road_class, seed))
-    s = cl.height_change_summary(r, REQUEST_S, END_S)
+    scenario = closed_loop.Scenario(END_S, speed, requests=(closed_loop.HeightRequest(REQUEST_S, target_m),))
+    r = closed_loop.run(closed_loop.Case(scenario, road_class, seed))
+    s = closed_loop.height_change_summary(r, REQUEST_S, END_S)
     # Done and holding, at the target within tolerance, measured on the
     # plant: L's gas volume against its volume at the true static load.
     assert s["sequencer_end"] == "holding"
@@ -108,38 +108,38 @@ def test_a_lowering_on_a_random_road_ends_within_tolerance_and_within_the_stroke
     margin = seed_config()["ride_height"]["valve6_margin_pa"]
     lowering = o["valve6_open"] & (o["sequencer"] == SequencerState.LOWERING)
     raising = o["valve6_open"] & (o["sequencer"] == SequencerState.RAISING)
-    assert np.all(i["p_small_pa"][lowering] - i["p_large_pa"][lowering] > margin)
-    assert np.all(i["p_large_pa"][raising] - i["p_small_pa"][raising] > margin)
+    assert np.all(i["p_gas_pa"][lowering] - i["p_gas2_pa"][lowering] > margin)
+    assert np.all(i["p_gas2_pa"][raising] - i["p_gas_pa"][raising] > margin)
     # The plant never gave the controller a reason for the safe state.
     after_recovery = np.flatnonzero((o["diag"] & Diag.SAFE_STATE) == 0)[0]
     assert not np.any(o["diag"][after_recovery:] & Diag.SAFE_STATE)
 
 
 def test_lowering_and_raising_back_by_30_mm() -> None:
-    scenario = cl.Scenario(64.0, 12.0, requests=(cl.HeightRequest(8.0, -0.03), cl.HeightRequest(40.0, 0.0)))
-    r = cl.run(cl.Case(scenario, "C", seed=5))
-    down = cl.height_change_summary(r, 8.0, 40.0)
+    scenario = closed_loop.Scenario(64.0, 12.0, requests=(closed_loop.HeightRequest(8.0, -0.03), closed_loop.HeightRequest(40.0, 0.0)))
+    r = closed_loop.run(closed_loop.Case(scenario, "C", seed=5))
+    down = closed_loop.height_change_summary(r, 8.0, 40.0)
     assert abs(down["error_m"]) < TOLERANCE_M and down["valve6_openings"] > 0
     assert down["time_to_reach_s"] is not None and down["time_to_reach_s"] < 30.0
     # L's pressure ended at its target, within the pressure of the tolerance.
-    assert down["p_large_pa"] == pytest.approx(down["p_large_target_pa"], rel=0.01)
+    assert down["p_gas2_pa"] == pytest.approx(down["p_gas2_target_pa"], rel=0.01)
     # Back to zero: sequenced (valve 6 only while p_L > p_S), then released
     # to the soft spring with the offset gone, so the body does not jump.
-    up = cl.height_change_summary(r, 40.0, 64.0)
+    up = closed_loop.height_change_summary(r, 40.0, 64.0)
     assert up["released_to_soft_s"] is not None
     assert abs(up["held_offset_m"]) < TOLERANCE_M
     o, i = r.outputs, r.inputs
     raising = o["valve6_open"] & (o["sequencer"] == SequencerState.RAISING)
     assert np.any(raising)
     margin = seed_config()["ride_height"]["valve6_margin_pa"]
-    assert np.all(i["p_large_pa"][raising] - i["p_small_pa"][raising] > margin)
+    assert np.all(i["p_gas2_pa"][raising] - i["p_gas_pa"][raising] > margin)
     assert o["sequencer"][-1] == SequencerState.IDLE and o["valve6_open"][-1]
 
 
 def test_manoeuvres_switch_to_handling_at_once_and_back_after_the_hold() -> None:
-    scenario = cl.Scenario(28.0, 15.0, manoeuvres=(cl.LaneChange(8.0), cl.Braking(18.0)))
-    r = cl.run(cl.Case(scenario, "C", seed=9))
-    m = cl.mode_summary(r)
+    scenario = closed_loop.Scenario(28.0, 15.0, manoeuvres=(closed_loop.LaneChange(8.0), closed_loop.Braking(18.0)))
+    r = closed_loop.run(closed_loop.Case(scenario, "C", seed=9))
+    m = closed_loop.mode_summary(r)
     assert len(m["handling_entered_s"]) == 2 and len(m["ride_returned_s"]) == 2
     assert {"TRIGGER_LATERAL", "TRIGGER_STEER_RATE", "TRIGGER_LONGITUDINAL", "TRIGGER_BRAKE"} <= set(m["triggers"])
     t, i, o = r.time_s, r.inputs, r.outputs

@@ -7,9 +7,10 @@ import copy
 import math
 from typing import Any
 
-import hpctl
 import numpy as np
 import pytest
+
+import hpctl
 from hpctl import _core
 from hpctl.control.controller import (
     INPUT_DTYPES,
@@ -30,7 +31,7 @@ from hpctl.control.controller import (
 
 def calm(config: dict[str, Any]) -> Inputs:
     u = config["unit"]
-    return Inputs(p_small_pa=u["static_pressure_pa"], p_large_pa=u["static_pressure_pa"], t_gas_k=u["static_temperature_k"], speed_m_s=10.0)
+    return Inputs(p_gas_pa=u["static_pressure_pa"], p_gas2_pa=u["static_pressure_pa"], t_gas_k=u["static_temperature_k"], speed_m_s=10.0)
 
 
 def test_the_config_round_trips_and_is_the_seed_unit() -> None:
@@ -39,7 +40,7 @@ def test_the_config_round_trips_and_is_the_seed_unit() -> None:
     assert Controller().config == config
     # The controller and the plant share the unit's numbers.
     unit = hpctl.Unit.seed()
-    for key in ("piston_area_m2", "large_volume_m3", "static_pressure_pa", "static_temperature_k", "stroke_compression_m", "stroke_extension_m"):
+    for key in ("piston_area_m2", "large_acc_volume_m3", "static_pressure_pa", "static_temperature_k", "stroke_compression_m", "stroke_extension_m"):
         assert config["unit"][key] == getattr(unit, key), key
     assert config["unit"]["gas"] == unit.gas
 
@@ -83,7 +84,7 @@ def test_step_and_step_many_agree() -> None:
     config = seed_config()
     n = 9000
     base = calm(config).to_dict()
-    arrays = input_arrays(base | {"p_small_pa": base["p_small_pa"] + 2e6 * np.sin(np.arange(n) * 0.01),
+    arrays = input_arrays(base | {"p_gas_pa": base["p_gas_pa"] + 2e6 * np.sin(np.arange(n) * 0.01),
                                   "ride_height_request_m": np.where(np.arange(n) > 2000, -0.03, 0.0),
                                   "lat_acc_m_s2": np.where((np.arange(n) > 7000) & (np.arange(n) < 7300), 3.0, 0.0)})
     dt = np.full(n, 1e-3)
@@ -106,7 +107,7 @@ def test_nan_inf_and_stale_inputs_are_legal_and_give_the_safe_state() -> None:
         out = c.step(good, 1e-3)
     assert not out.safe and out.drive_mode == DriveMode.RIDE and out.valve6_open
     for bad in (
-        Inputs(**(vars(good) | {"p_large_pa": math.nan})),
+        Inputs(**(vars(good) | {"p_gas2_pa": math.nan})),
         Inputs(**(vars(good) | {"t_gas_k": math.inf})),
         Inputs(**(vars(good) | {"speed_m_s": -math.inf})),
         Inputs(**(vars(good) | {"ride_height_request_m": math.nan})),
@@ -115,7 +116,7 @@ def test_nan_inf_and_stale_inputs_are_legal_and_give_the_safe_state() -> None:
         assert out.safe and not out.valve5_open and not out.valve6_open
         assert out.drive_mode == DriveMode.HANDLING and out.sequencer == SequencerState.BLOCKED
         assert out.diag & Diag.NOT_FINITE
-        assert all(math.isfinite(x) for x in (out.ride_height_m, out.p_large_target_pa, out.p_load_pa, out.strut_vel_m_s, out.body_vel_m_s))
+        assert all(math.isfinite(x) for x in (out.ride_height_m, out.p_gas2_target_pa, out.p_load_pa, out.strut_vel_m_s, out.body_vel_m_s))
     # A bad step size too.
     assert c.step(good, math.nan).diag & Diag.BAD_DT
     # Stale: the pressures stop updating for longer than their timeout.
@@ -133,7 +134,7 @@ def test_nan_inf_and_stale_inputs_are_legal_and_give_the_safe_state() -> None:
     ("change", "message"),
     [
         ({"extra_pa": 1.0}, "unknown key inputs.extra_pa"),
-        ({"p_small_pa": "high"}, "inputs.p_small_pa must be a number"),
+        ({"p_gas_pa": "high"}, "inputs.p_gas_pa must be a number"),
         ({"brake_pressed": "yes"}, "inputs.brake_pressed must be a bool"),
         ({"driver_mode": 3}, "inputs.driver_mode = 3 is not a driver mode"),
         ({"driver_mode": 1.5}, "inputs.driver_mode must be an int"),
@@ -161,9 +162,9 @@ def test_missing_inputs_and_bad_arrays_are_parameter_errors() -> None:
     with pytest.raises(hpctl.ParameterError, match="dt_s has 3 values; the inputs have 5"):
         c.step_many(arrays, np.full(3, 1e-3))
     with pytest.raises(hpctl.ParameterError, match="unequal lengths"):
-        input_arrays({"p_small_pa": np.zeros(3), "p_large_pa": np.zeros(4), "t_gas_k": 300.0})
-    with pytest.raises(hpctl.ParameterError, match="missing input field p_small_pa"):
-        input_arrays({"p_large_pa": 1e7, "t_gas_k": 300.0})
+        input_arrays({"p_gas_pa": np.zeros(3), "p_gas2_pa": np.zeros(4), "t_gas_k": 300.0})
+    with pytest.raises(hpctl.ParameterError, match="missing input field p_gas_pa"):
+        input_arrays({"p_gas2_pa": 1e7, "t_gas_k": 300.0})
 
 
 def test_the_python_enums_and_flags_are_the_bindings() -> None:

@@ -18,6 +18,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.typing import NDArray
+
 from hpctl.control.controller import (
     TRIGGERS,
     Controller,
@@ -30,17 +34,14 @@ from hpctl.control.controller import (
     SpringMode,
     seed_config,
 )
-from hypothesis import given, settings
-from hypothesis import strategies as st
-from numpy.typing import NDArray
 
 DT_MAX_S = 0.005
 GROUPS = [InputGroup.PRESSURES, InputGroup.STRUT, InputGroup.BODY, InputGroup.VEHICLE, InputGroup.STEERING, InputGroup.TEMPERATURE, InputGroup.DRIVER]
 TIMEOUT_KEYS = ["pressures_s", "strut_s", "body_s", "vehicle_s", "steering_s", "temperature_s", "driver_s"]
 #: Numeric input fields, the group each belongs to.
 FIELDS = {
-    "p_small_pa": InputGroup.PRESSURES,
-    "p_large_pa": InputGroup.PRESSURES,
+    "p_gas_pa": InputGroup.PRESSURES,
+    "p_gas2_pa": InputGroup.PRESSURES,
     "strut_disp_m": InputGroup.STRUT,
     "body_acc_m_s2": InputGroup.BODY,
     "speed_m_s": InputGroup.VEHICLE,
@@ -128,8 +129,8 @@ def sequence(k: Knobs, config: dict[str, Any]) -> tuple[dict[str, NDArray[Any]],
     p0 = k.pressure_factor * config["unit"]["static_pressure_pa"]
     d = k.dynamics
     inputs: dict[str, NDArray[Any]] = {
-        "p_small_pa": p0 + _smooth(rng, t, k.swing_pa, 8.0),
-        "p_large_pa": p0 + k.large_offset_pa + _smooth(rng, t, 0.2 * k.swing_pa, 2.0),
+        "p_gas_pa": p0 + _smooth(rng, t, k.swing_pa, 8.0),
+        "p_gas2_pa": p0 + k.large_offset_pa + _smooth(rng, t, 0.2 * k.swing_pa, 2.0),
         "strut_disp_m": _smooth(rng, t, 0.03, 5.0),
         "body_acc_m_s2": rng.normal(0.0, 3.0, size=n),
         "speed_m_s": np.clip(18.0 + _smooth(rng, t, 20.0 * d, 0.5), -5.0, 60.0),
@@ -238,7 +239,7 @@ def value_faults(ex: Example) -> NDArray[np.bool_]:
     def outside(x: NDArray[np.float64], lo: float, hi: float) -> NDArray[np.bool_]:
         return ~(np.isfinite(x) & (x >= lo) & (x <= hi))
 
-    bad = outside(i["p_small_pa"], m["pressure_min_pa"], m["pressure_max_pa"]) | outside(i["p_large_pa"], m["pressure_min_pa"], m["pressure_max_pa"])
+    bad = outside(i["p_gas_pa"], m["pressure_min_pa"], m["pressure_max_pa"]) | outside(i["p_gas2_pa"], m["pressure_min_pa"], m["pressure_max_pa"])
     bad |= outside(i["strut_disp_m"], -(u["stroke_extension_m"] + m["disp_margin_m"]), u["stroke_compression_m"] + m["disp_margin_m"])
     bad |= outside(i["body_acc_m_s2"], -m["body_acc_max_m_s2"], m["body_acc_max_m_s2"])
     bad |= outside(i["speed_m_s"], m["speed_min_m_s"], m["speed_max_m_s"])
@@ -322,8 +323,8 @@ def test_valve6_opens_only_when_the_pressures_point_the_right_way(k: Knobs) -> N
     is_open = o["valve6_open"]
     lowering = is_open & (seq == SequencerState.LOWERING)
     raising = is_open & (seq == SequencerState.RAISING)
-    assert np.all(i["p_small_pa"][lowering] - i["p_large_pa"][lowering] > margin)
-    assert np.all(i["p_large_pa"][raising] - i["p_small_pa"][raising] > margin)
+    assert np.all(i["p_gas_pa"][lowering] - i["p_gas2_pa"][lowering] > margin)
+    assert np.all(i["p_gas2_pa"][raising] - i["p_gas_pa"][raising] > margin)
     # Otherwise open only as the soft spring.
     assert np.all(seq[is_open & ~lowering & ~raising] == SequencerState.IDLE)
 
@@ -381,7 +382,7 @@ def test_outputs_are_always_valid(k: Knobs) -> None:
     ex = run(k)
     o = ex.outputs
     u = ex.config["unit"]
-    for name in ("ride_height_m", "p_large_target_pa", "p_load_pa", "strut_vel_m_s", "body_vel_m_s"):
+    for name in ("ride_height_m", "p_gas2_target_pa", "p_load_pa", "strut_vel_m_s", "body_vel_m_s"):
         assert o[name].dtype == np.float64 and np.all(np.isfinite(o[name])), name
     assert o["valve5_open"].dtype == np.bool_ and o["valve6_open"].dtype == np.bool_
     assert set(np.unique(o["drive_mode"])) <= {0, 1} and set(np.unique(o["spring_mode"])) <= {0, 1}
@@ -393,7 +394,7 @@ def test_outputs_are_always_valid(k: Knobs) -> None:
     m = ex.config["monitor"]
     assert np.all(o["p_load_pa"] >= 0.999 * min(m["pressure_min_pa"] / 1.5, u["static_pressure_pa"]))
     assert np.all(o["p_load_pa"] <= 1.001 * max(m["pressure_max_pa"] / 0.5, u["static_pressure_pa"]))
-    assert np.all(o["p_large_target_pa"] >= 0)
+    assert np.all(o["p_gas2_target_pa"] >= 0)
     # Consistency: each valve matches its reported mode; Handling and the
     # safe state close both; valve 6 is open only as the soft spring or
     # for sequencing.

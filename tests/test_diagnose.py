@@ -12,7 +12,8 @@ import secrets
 
 import numpy as np
 import pytest
-from hpctl.identify import virtual_rig as vr
+
+from hpctl.identify import virtual_rig
 from hpctl.identify.diagnose import Diagnosis, diagnose, summary
 from hpctl.model.effects import LIBRARY
 from hpctl.model.unit import Unit
@@ -27,11 +28,11 @@ def seed() -> int:
 
 
 def rig_data(effects: list[str], rng: np.random.Generator) -> tuple[dict[str, float], list]:  # type: ignore[type-arg]
-    values = vr.effect_values(effects, rng)
-    tau = vr.effect_values(["heat_transfer"], rng)["tau_s"]
-    truth = vr.truth_unit(effects, values, template=Unit.seed().replace(tau_s=tau))
+    values = virtual_rig.effect_values(effects, rng)
+    tau = virtual_rig.effect_values(["heat_transfer"], rng)["tau_s"]
+    truth = virtual_rig.truth_unit(effects, values, template=Unit.seed().replace(tau_s=tau))
     values["tau_s"] = tau
-    records = vr.make_records(truth, tests=vr.tests_for(effects), seed=int(rng.integers(2**31)))
+    records = virtual_rig.make_records(truth, tests=virtual_rig.tests_for(effects), seed=int(rng.integers(2**31)))
     return values, records
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import CoolProp.CoolProp as CP
 import numpy as np
 import pytest
+
 from hpctl import _core
 
 P_MPA = np.array([2, 5, 10, 20, 30, 50, 70, 90, 110], float)

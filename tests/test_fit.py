@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import math
 
-import hpctl
 import numpy as np
 import pytest
-from hpctl.identify import virtual_rig as vr
+
+import hpctl
+from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
 from hpctl.identify.signals import apply_sensor_lag, derivative, noise_sigma
@@ -62,7 +63,7 @@ def test_sensor_lag_filter_matches_the_units_lag_state() -> None:
 def friction_fit() -> tuple[dict[str, float], FitResult]:
     truth = {"tau_s": 3.0, "friction_coulomb_n": 500.0, "friction_viscous_n_s_per_m": 400.0}
     unit = hpctl.Unit.seed().replace(tau_s=3.0).with_effects(friction=Friction(500.0, 400.0, 2e-3))
-    records = vr.make_records(unit, "sweep", seed=11)
+    records = virtual_rig.make_records(unit, "sweep", seed=11)
     return truth, fit(prepare(records), ("heat_transfer", "real_gas", "friction"))
 
 
@@ -77,7 +78,7 @@ def test_fit_recovers_parameters_within_their_uncertainty(friction_fit: tuple[di
 
 def test_fit_reports_every_record_and_channel(friction_fit: tuple[dict[str, float], FitResult]) -> None:
     _, r = friction_fit
-    assert {(s.record, s.channel) for s in r.stats} == {(f"sine_{f:g}hz", c) for f in vr.SWEEP_FREQUENCIES_HZ for c in ("force_n", "p_gas_pa", "p_gas2_pa")}
+    assert {(s.record, s.channel) for s in r.stats} == {(f"sine_{f:g}hz", c) for f in virtual_rig.SWEEP_FREQUENCIES_HZ for c in ("force_n", "p_gas_pa", "p_gas2_pa")}
     for s in r.stats:
         assert s.rms <= s.max_abs
         if s.channel != "p_gas2_pa":  # L is sealed off: a constant channel has no range to normalise by
@@ -91,7 +92,7 @@ def test_fit_reports_every_record_and_channel(friction_fit: tuple[dict[str, floa
 
 def test_fit_of_sdof_records_compares_body_displacement() -> None:
     unit = hpctl.Unit.seed().replace(tau_s=1.5)
-    records = vr.make_records(unit, tests=[vr.effect_tests()["sdof"]], seed=5)
+    records = virtual_rig.make_records(unit, tests=[virtual_rig.effect_tests()["sdof"]], seed=5)
     r = fit(prepare(records), ("heat_transfer", "real_gas"))
     assert {s.channel for s in r.stats} >= {"body_disp_m"}
     assert r.values["tau_s"] == pytest.approx(1.5, rel=0.3)

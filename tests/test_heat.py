@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import CoolProp.CoolProp as CP
-import hpctl
 import numpy as np
 import pytest
+
+import hpctl
 from hpctl.sim.experiments import SEED_HEAT_BUILDUP, Experiment, heat_buildup
 
 
@@ -35,7 +36,7 @@ def test_ride_height_change_is_the_gas_expansion_at_the_load_pressure(run: Exper
     s = run.summary
     p = unit.static_pressure_pa  # the charge carries exactly the seed mass at 293.15 K...
     rho_static = CP.PropsSI("Dmass", "P", p, "T", unit.static_temperature_k, "Nitrogen")
-    mass = rho_static * unit.small_volume_m3  # ... with this gas mass in S (hard spring)
+    mass = rho_static * unit.small_acc_volume_m3  # ... with this gas mass in S (hard spring)
 
     def volume(t_k: float) -> float:
         return float(mass / CP.PropsSI("Dmass", "P", p, "T", t_k, "Nitrogen"))

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import hpctl
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import hpctl
 from hpctl.data.records import (
     RecordStatic,
     RecordTest,
@@ -16,8 +19,6 @@ from hpctl.data.records import (
     read_record,
     write_record,
 )
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 GOOD_TOML = """\
 [record]

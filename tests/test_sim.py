@@ -6,9 +6,10 @@ from __future__ import annotations
 import threading
 import time
 
-import hpctl
 import numpy as np
 import pytest
+
+import hpctl
 from hpctl.sim import metrics
 from hpctl.sim.run import Case, characterisation_rig, sdof_rig, uniform_times
 

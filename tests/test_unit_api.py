@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import hpctl
 import pytest
+
+import hpctl
 from hpctl.model.unit import Friction, OilNode
 
 
@@ -14,14 +15,14 @@ def test_seed_unit_carries_the_load_at_the_static_position(seed_unit: hpctl.Unit
     # p_static A = m g + p_atm A: the unit is charged for 3000 kg.
     force = seed_unit.static_force_n(0.0, seed_unit.static_temperature_k, spring_hard=True)
     assert force == pytest.approx(hpctl.SEED_SPRUNG_MASS_KG * 9.80665, rel=1e-9)
-    assert seed_unit.small_volume_m3 == 0.3e-3 and seed_unit.large_volume_m3 == 0.7e-3
+    assert seed_unit.small_acc_volume_m3 == 0.3e-3 and seed_unit.large_acc_volume_m3 == 0.7e-3
 
 
 def test_gas_masses_follow_the_static_charge(seed_unit: hpctl.Unit) -> None:
     ms, ml = seed_unit.gas_masses_kg()
     assert ml / ms == pytest.approx(0.7 / 0.3)
     # N2 at 14.8 MPa, 293 K is about 167 kg/m^3 (CoolProp: 166.96).
-    assert ms / seed_unit.small_volume_m3 == pytest.approx(166.96, rel=0.02)
+    assert ms / seed_unit.small_acc_volume_m3 == pytest.approx(166.96, rel=0.02)
 
 
 @pytest.mark.parametrize("tau_s", [0.0, 2.0, math.inf])

@@ -16,15 +16,14 @@ import hpctl
 from hpctl import _core
 from hpctl.cli import main
 from hpctl.data.records import read_record
-from hpctl.vehicle import evaluate as ev
-from hpctl.vehicle import route
+from hpctl.vehicle import comparison, route
 from hpctl.vehicle.model import preset
 
 
 @pytest.fixture(scope="module")
-def short_runs() -> ev.Evaluation:
+def short_runs() -> comparison.Evaluation:
     """The 4x4 on a short mixed route: soft/low, hard/high and semi-active."""
-    return ev.evaluate([preset("4x4")], route.mixed(scale=0.15), (ev.PASSIVE[0], ev.PASSIVE[3], ev.SEMI_ACTIVE), threads=2)
+    return comparison.evaluate([preset("4x4")], route.mixed(scale=0.15), (comparison.PASSIVE[0], comparison.PASSIVE[3], comparison.SEMI_ACTIVE), threads=2)
 
 
 def test_presets_carry_three_tonnes_per_wheel_on_the_seed_unit() -> None:
@@ -75,7 +74,7 @@ def test_the_lane_change_has_the_iso_3888_2_layout() -> None:
     assert np.allclose(y[(x > 0) & (x < 12)], 0.0) and np.allclose(y[x > 49], 0.0)
 
 
-def test_the_driver_keeps_to_the_speed_limits_and_accelerations(short_runs: ev.Evaluation) -> None:
+def test_the_driver_keeps_to_the_speed_limits_and_accelerations(short_runs: comparison.Evaluation) -> None:
     r = short_runs.results[0].route
     assert r is not None
     d = route.drive(r, preset("4x4"))
@@ -85,7 +84,7 @@ def test_the_driver_keeps_to_the_speed_limits_and_accelerations(short_runs: ev.E
         assert np.all(d.speed_m_s[m] <= s.speed_m_s + 1e-9)
 
 
-def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard(short_runs: ev.Evaluation) -> None:
+def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard(short_runs: comparison.Evaluation) -> None:
     soft, hard, semi = short_runs.results
     assert not short_runs.failed
     assert [s.kind for s in semi.sections] == ["start", "highway", "lane_change", "rough", "obstacles"]
@@ -93,7 +92,7 @@ def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard
     # lane change and rolls within 10 % of the hard passive setting, far
     # less than the soft one.
     assert semi.roll_peak_rad < 1.1 * hard.roll_peak_rad < 0.5 * soft.roll_peak_rad
-    assert ev.mode_share(semi, "lane_change") > 0.2
+    assert comparison.mode_share(semi, "lane_change") > 0.2
     # Comfort: soft/low is the most comfortable passive setting on the rough track.
     assert soft.comfort_m_s2 < hard.comfort_m_s2
     for r in short_runs.results:
@@ -105,8 +104,8 @@ def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard
 
 
 def test_a_failed_case_is_kept_as_a_warning_not_raised() -> None:
-    bad = ev.Setting("broken", semi_active=True, config={"unit": {}})
-    r = ev.run_case(ev.Case(preset("4x4"), route.mixed(scale=0.05), bad))
+    bad = comparison.Setting("broken", semi_active=True, config={"unit": {}})
+    r = comparison.run_case(comparison.Case(preset("4x4"), route.mixed(scale=0.05), bad))
     assert r.error is not None and r.sections == [] and "case failed" in r.warnings[0]
 
 

@@ -31,7 +31,7 @@ fn main() -> Result<(), hp_core::Error> {
             }
             previous = Some((s.time_s, above));
             peak_z = peak_z.max(s.body_disp_m);
-            peak_p = peak_p.max(s.unit.p_small_pa);
+            peak_p = peak_p.max(s.unit.p_gas_true_pa);
             true
         })?;
         let frequency = match (crossings.first(), crossings.get(2)) {

@@ -65,8 +65,8 @@ pub fn seed_unit() -> UnitParams {
     let area = SEED_PISTON_AREA_M2;
     UnitParams {
         piston_area_m2: area,
-        small_volume_m3: SEED_SMALL_VOLUME_M3,
-        large_volume_m3: SEED_LARGE_VOLUME_M3,
+        small_acc_volume_m3: SEED_SMALL_VOLUME_M3,
+        large_acc_volume_m3: SEED_LARGE_VOLUME_M3,
         static_pressure_pa: static_pressure_for_load_pa(SEED_SPRUNG_MASS_KG, area),
         static_temperature_k: SEED_STATIC_TEMPERATURE_K,
         gas: Gas::BwrTextbook,

@@ -75,8 +75,8 @@ pub struct RigSample {
     /// Valve commands in force.
     pub valves: Valves,
     /// Gas volumes, m^3.
-    pub v_small_m3: f64,
-    pub v_large_m3: f64,
+    pub v_gas_m3: f64,
+    pub v_gas2_m3: f64,
     /// Energies dissipated so far, J.
     pub e_damper_j: f64,
     pub e_friction_j: f64,
@@ -186,7 +186,7 @@ impl<'a> Rig<'a> {
         let (unit_rate, out) = self.unit.evaluate(&s.unit, motion, self.valves, self.ambient_k);
         let body_acc = match self.kind {
             RigKind::Characterisation { .. } => 0.0,
-            RigKind::Sdof { sprung_mass_kg, .. } => out.force_n / sprung_mass_kg - STANDARD_GRAVITY_M_S2,
+            RigKind::Sdof { sprung_mass_kg, .. } => out.force_true_n / sprung_mass_kg - STANDARD_GRAVITY_M_S2,
         };
         let rate = match self.kind {
             RigKind::Characterisation { .. } => RigState { unit: unit_rate, body_disp_m: 0.0, body_vel_m_s: 0.0 },
@@ -213,8 +213,8 @@ impl<'a> Rig<'a> {
             body_acc_m_s2: body_acc,
             base_disp_m: base,
             valves: self.valves,
-            v_small_m3: s.unit.v_small_m3,
-            v_large_m3: s.unit.v_large_m3,
+            v_gas_m3: s.unit.v_gas_m3,
+            v_gas2_m3: s.unit.v_gas2_m3,
             e_damper_j: s.unit.e_damper_j,
             e_friction_j: s.unit.e_friction_j,
             e_valve6_j: s.unit.e_valve6_j,

@@ -101,9 +101,9 @@ pub struct UnitParams {
     /// Strut piston area, m^2.
     pub piston_area_m2: f64,
     /// Gas volume of accumulator S at the static position, m^3.
-    pub small_volume_m3: f64,
+    pub small_acc_volume_m3: f64,
     /// Gas volume of accumulator L at the static position, m^3.
-    pub large_volume_m3: f64,
+    pub large_acc_volume_m3: f64,
     /// Gas pressure in both accumulators at the static position, Pa.
     pub static_pressure_pa: f64,
     /// Gas temperature at the static position, K.
@@ -165,12 +165,12 @@ pub const UNIT_STATES: usize = 18;
 /// wall temperature) when the heat transfer is isothermal.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UnitState {
-    pub t_small_k: f64,
-    pub t_large_k: f64,
+    pub t_gas_k: f64,
+    pub t_gas2_k: f64,
     /// Gas volume in S, m^3.
-    pub v_small_m3: f64,
+    pub v_gas_m3: f64,
     /// Gas volume in L, m^3.
-    pub v_large_m3: f64,
+    pub v_gas2_m3: f64,
     pub m_small_kg: f64,
     pub m_large_kg: f64,
     /// Vapour void in the strut, m^3.
@@ -201,10 +201,10 @@ impl UnitState {
     /// As a flat array (the integrator's view).
     pub fn to_array(&self) -> [f64; UNIT_STATES] {
         [
-            self.t_small_k,
-            self.t_large_k,
-            self.v_small_m3,
-            self.v_large_m3,
+            self.t_gas_k,
+            self.t_gas2_k,
+            self.v_gas_m3,
+            self.v_gas2_m3,
             self.m_small_kg,
             self.m_large_kg,
             self.v_void_m3,
@@ -224,13 +224,13 @@ impl UnitState {
 
     /// From a flat array, the inverse of [`UnitState::to_array`].
     pub fn from_array(a: &[f64; UNIT_STATES]) -> Self {
-        let [t_small_k, t_large_k, v_small_m3, v_large_m3, m_small_kg, m_large_kg, v_void_m3, p_strut_pa, t_oil_k, t_wall_k, valve5_open_frac, valve6_open_frac, force_sensor_n, p_small_sensor_pa, p_large_sensor_pa, e_damper_j, e_friction_j, e_valve6_j] =
+        let [t_gas_k, t_gas2_k, v_gas_m3, v_gas2_m3, m_small_kg, m_large_kg, v_void_m3, p_strut_pa, t_oil_k, t_wall_k, valve5_open_frac, valve6_open_frac, force_sensor_n, p_small_sensor_pa, p_large_sensor_pa, e_damper_j, e_friction_j, e_valve6_j] =
             *a;
         UnitState {
-            t_small_k,
-            t_large_k,
-            v_small_m3,
-            v_large_m3,
+            t_gas_k,
+            t_gas2_k,
+            v_gas_m3,
+            v_gas2_m3,
             m_small_kg,
             m_large_kg,
             v_void_m3,
@@ -261,21 +261,21 @@ pub struct StrutMotion {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UnitOutputs {
     /// Strut force (positive = compression force), N.
-    pub force_n: f64,
+    pub force_true_n: f64,
     /// Strut force as the transducer reports it, N.
-    pub force_measured_n: f64,
+    pub force_n: f64,
     /// Absolute strut oil pressure, Pa.
     pub p_strut_pa: f64,
     /// Gas pressure in S, Pa.
-    pub p_small_pa: f64,
+    pub p_gas_true_pa: f64,
     /// Gas pressure in L, Pa.
-    pub p_large_pa: f64,
+    pub p_gas2_true_pa: f64,
     /// Gas pressures as the transducers report them, Pa.
-    pub p_small_measured_pa: f64,
-    pub p_large_measured_pa: f64,
+    pub p_gas_pa: f64,
+    pub p_gas2_pa: f64,
     /// Gas temperatures, K.
-    pub t_small_k: f64,
-    pub t_large_k: f64,
+    pub t_gas_k: f64,
+    pub t_gas2_k: f64,
     /// Gas wall temperature, K.
     pub t_wall_k: f64,
     /// Oil temperature (ambient when the oil node is off), K.
@@ -313,8 +313,8 @@ impl Unit {
     pub fn new(params: UnitParams) -> Result<Self> {
         let p = &params;
         check_range("piston_area_m2", p.piston_area_m2, 1e-5, 1.0)?;
-        check_range("small_volume_m3", p.small_volume_m3, 1e-6, 1.0)?;
-        check_range("large_volume_m3", p.large_volume_m3, 1e-6, 1.0)?;
+        check_range("small_acc_volume_m3", p.small_acc_volume_m3, 1e-6, 1.0)?;
+        check_range("large_acc_volume_m3", p.large_acc_volume_m3, 1e-6, 1.0)?;
         check_range("static_pressure_pa", p.static_pressure_pa, 2.0e5, PRESSURE_RANGE_PA.1)?;
         check_range("static_temperature_k", p.static_temperature_k, 200.0, 600.0)?;
         check_range("oil_density_kg_m3", p.oil_density_kg_m3, 500.0, 2000.0)?;
@@ -365,8 +365,8 @@ impl Unit {
         let rho = p.gas.density_kg_m3(p.static_pressure_pa, p.static_temperature_k)?;
         Ok(Unit {
             params,
-            small_mass_kg: rho * p.small_volume_m3,
-            large_mass_kg: rho * p.large_volume_m3,
+            small_mass_kg: rho * p.small_acc_volume_m3,
+            large_mass_kg: rho * p.large_acc_volume_m3,
             valve6_coefficient: p.valve6.coefficient(p.oil_density_kg_m3),
         })
     }
@@ -391,10 +391,10 @@ impl Unit {
         let (m_s, m_l) = (self.small_mass_kg, self.large_mass_kg);
         let displaced = p.piston_area_m2 * disp_m;
         let (v_s, v_l) = if valves.valve6_open {
-            let total = p.small_volume_m3 + p.large_volume_m3 - displaced;
+            let total = p.small_acc_volume_m3 + p.large_acc_volume_m3 - displaced;
             (total * m_s / (m_s + m_l), total * m_l / (m_s + m_l))
         } else {
-            (p.small_volume_m3 - displaced, p.large_volume_m3)
+            (p.small_acc_volume_m3 - displaced, p.large_acc_volume_m3)
         };
         let min_v = m_s / DENSITY_RANGE_KG_M3.1;
         if !(v_s > min_v) {
@@ -402,16 +402,16 @@ impl Unit {
                 name: "disp_m",
                 value: disp_m,
                 min: -p.stroke_extension_m,
-                max: (p.small_volume_m3 - min_v) / p.piston_area_m2,
+                max: (p.small_acc_volume_m3 - min_v) / p.piston_area_m2,
             });
         }
         let p_s = p.gas.pressure_pa(m_s / v_s, t_k);
         let p_l = p.gas.pressure_pa(m_l / v_l, t_k);
         Ok(UnitState {
-            t_small_k: t_k,
-            t_large_k: t_k,
-            v_small_m3: v_s,
-            v_large_m3: v_l,
+            t_gas_k: t_k,
+            t_gas2_k: t_k,
+            v_gas_m3: v_s,
+            v_gas2_m3: v_l,
             m_small_kg: m_s,
             m_large_kg: m_l,
             v_void_m3: 0.0,
@@ -475,12 +475,12 @@ impl Unit {
         let temperature_ok = |t: f64| t >= t_min && t <= t_max;
         let volume_ok = |v: f64, m: f64| m > 0.0 && v > m / DENSITY_RANGE_KG_M3.1 && v < 10.0;
         // One cheap test on the hot path; the error is built only on failure.
-        let ok = temperature_ok(s.t_small_k)
-            && temperature_ok(s.t_large_k)
+        let ok = temperature_ok(s.t_gas_k)
+            && temperature_ok(s.t_gas2_k)
             && temperature_ok(s.t_wall_k)
             && temperature_ok(s.t_oil_k)
-            && volume_ok(s.v_small_m3, s.m_small_kg)
-            && volume_ok(s.v_large_m3, s.m_large_kg)
+            && volume_ok(s.v_gas_m3, s.m_small_kg)
+            && volume_ok(s.v_gas2_m3, s.m_large_kg)
             && (s.p_strut_pa + s.v_void_m3 + s.force_sensor_n + s.p_small_sensor_pa + s.p_large_sensor_pa).is_finite();
         if ok {
             Ok(())
@@ -495,8 +495,8 @@ impl Unit {
         let bad = |name, value, min, max| Error::StateOutOfRange { name, value, min, max, time_s };
         let (t_min, t_max) = TEMPERATURE_RANGE_K;
         for (name, t) in [
-            ("t_small_k", s.t_small_k),
-            ("t_large_k", s.t_large_k),
+            ("t_gas_k", s.t_gas_k),
+            ("t_gas2_k", s.t_gas2_k),
             ("t_wall_k", s.t_wall_k),
             ("t_oil_k", s.t_oil_k),
         ] {
@@ -505,8 +505,8 @@ impl Unit {
             }
         }
         for (name, v, m) in [
-            ("v_small_m3", s.v_small_m3, s.m_small_kg),
-            ("v_large_m3", s.v_large_m3, s.m_large_kg),
+            ("v_gas_m3", s.v_gas_m3, s.m_small_kg),
+            ("v_gas2_m3", s.v_gas2_m3, s.m_large_kg),
         ] {
             let min_v = m / DENSITY_RANGE_KG_M3.1;
             if !(v > min_v && v < 10.0 && m > 0.0) {
@@ -561,10 +561,10 @@ impl Unit {
         };
 
         // Gas states.
-        let t_s = gas_temperature_k(p.heat, state.t_small_k, t_wall);
-        let t_l = gas_temperature_k(p.heat, state.t_large_k, t_wall);
-        let props_s = p.gas.props(state.m_small_kg / state.v_small_m3, t_s);
-        let props_l = p.gas.props(state.m_large_kg / state.v_large_m3, t_l);
+        let t_s = gas_temperature_k(p.heat, state.t_gas_k, t_wall);
+        let t_l = gas_temperature_k(p.heat, state.t_gas2_k, t_wall);
+        let props_s = p.gas.props(state.m_small_kg / state.v_gas_m3, t_s);
+        let props_l = p.gas.props(state.m_large_kg / state.v_gas2_m3, t_l);
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
         // Valve 6.
@@ -602,30 +602,30 @@ impl Unit {
         rate.v_void_m3 = if cavitating { q_damper - displaced_rate } else { 0.0 };
 
         // Gas volumes and masses.
-        rate.v_small_m3 = -(q_damper - q6);
-        rate.v_large_m3 = -q6;
+        rate.v_gas_m3 = -(q_damper - q6);
+        rate.v_gas2_m3 = -q6;
         if let Some(l) = e.leakage {
             rate.m_small_kg = -state.m_small_kg / l.time_constant_s;
             rate.m_large_kg = -state.m_large_kg / l.time_constant_s;
         }
-        rate.t_small_k = temperature_rate_k_s(
+        rate.t_gas_k = temperature_rate_k_s(
             p.heat,
             &props_s,
             t_s,
             t_wall,
             state.m_small_kg,
-            state.v_small_m3,
-            rate.v_small_m3,
+            state.v_gas_m3,
+            rate.v_gas_m3,
             rate.m_small_kg,
         );
-        rate.t_large_k = temperature_rate_k_s(
+        rate.t_gas2_k = temperature_rate_k_s(
             p.heat,
             &props_l,
             t_l,
             t_wall,
             state.m_large_kg,
-            state.v_large_m3,
-            rate.v_large_m3,
+            state.v_gas2_m3,
+            rate.v_gas2_m3,
             rate.m_large_kg,
         );
 
@@ -672,15 +672,15 @@ impl Unit {
         };
 
         let outputs = UnitOutputs {
-            force_n: force,
-            force_measured_n: force_measured,
+            force_true_n: force,
+            force_n: force_measured,
             p_strut_pa: p_strut,
-            p_small_pa: p_s,
-            p_large_pa: p_l,
-            p_small_measured_pa: p_s_measured,
-            p_large_measured_pa: p_l_measured,
-            t_small_k: t_s,
-            t_large_k: t_l,
+            p_gas_true_pa: p_s,
+            p_gas2_true_pa: p_l,
+            p_gas_pa: p_s_measured,
+            p_gas2_pa: p_l_measured,
+            t_gas_k: t_s,
+            t_gas2_k: t_l,
             t_wall_k: t_wall,
             t_oil_k: t_oil,
             damper_force_n: damper_force,
@@ -725,8 +725,8 @@ impl Unit {
         }
         if p.heat == HeatTransfer::Isothermal {
             let wall = if p.effects.oil_node.is_some() { s.t_wall_k } else { ambient_k };
-            s.t_small_k = wall;
-            s.t_large_k = wall;
+            s.t_gas_k = wall;
+            s.t_gas2_k = wall;
         }
         if p.effects.oil_node.is_none() {
             s.t_oil_k = ambient_k;

@@ -14,7 +14,7 @@ use hp_core::unit::{Unit, Valves};
 fn end_state(unit: &Unit, dt_s: f64) -> (f64, f64, f64) {
     let kind = RigKind::Sdof { sprung_mass_kg: 3000.0, base: Motion::Sine { amplitude_m: 0.03, frequency_hz: 1.2, offset_m: 0.0 } };
     let s = *run_uniform(unit, kind, Valves::from_modes(false, true), 2.0, 0.5, dt_s).last().unwrap();
-    (s.body_disp_m, s.unit.t_small_k, s.unit.p_large_pa)
+    (s.body_disp_m, s.unit.t_gas_k, s.unit.p_gas2_true_pa)
 }
 
 #[test]

@@ -25,11 +25,11 @@ fn adiabatic_cycle_returns_to_its_start() {
     let unit = unit_with(|p| p.heat = HeatTransfer::Adiabatic);
     let samples = run_uniform(&unit, sine(0.05, 1.0), HARD_ON, 5.0, 0.01, 1e-4);
     let (first, last) = (samples[0], samples[samples.len() - 1]);
-    assert!((last.unit.t_small_k / first.unit.t_small_k - 1.0).abs() < 1e-9);
-    assert!((last.unit.p_small_pa / first.unit.p_small_pa - 1.0).abs() < 1e-9);
+    assert!((last.unit.t_gas_k / first.unit.t_gas_k - 1.0).abs() < 1e-9);
+    assert!((last.unit.p_gas_true_pa / first.unit.p_gas_true_pa - 1.0).abs() < 1e-9);
     // ... even though the gas heated by tens of kelvin within each cycle.
-    let t_max = samples.iter().map(|s| s.unit.t_small_k).fold(0.0, f64::max);
-    assert!(t_max - first.unit.t_small_k > 30.0);
+    let t_max = samples.iter().map(|s| s.unit.t_gas_k).fold(0.0, f64::max);
+    assert!(t_max - first.unit.t_gas_k > 30.0);
 }
 
 /// Work done on the gas spring alone over the last period, J: the loop area
@@ -41,7 +41,7 @@ fn spring_loop_area_j(unit: &hp_core::unit::Unit, amplitude_m: f64, frequency_hz
     let samples = run_uniform(unit, sine(amplitude_m, frequency_hz), HARD_ON, periods / frequency_hz, out_dt, dt);
     let area = unit.params().piston_area_m2;
     let p_atm = unit.params().ambient_pressure_pa;
-    loop_integral(last_period(&samples, frequency_hz, periods).iter().map(|s| (s.disp_m, area * (s.unit.p_small_pa - p_atm))))
+    loop_integral(last_period(&samples, frequency_hz, periods).iter().map(|s| (s.disp_m, area * (s.unit.p_gas_true_pa - p_atm))))
 }
 
 #[test]
@@ -58,7 +58,7 @@ fn ideal_gas_loop_area_matches_linear_theory_and_peaks_at_omega_tau_one() {
     let cp = cp0_molar_j_per_mol_k(p.static_temperature_k);
     let gamma = cp / (cp - MOLAR_GAS_CONSTANT_J_PER_MOL_K);
     let amp = 5e-4;
-    let scale = std::f64::consts::PI * amp * amp * p.piston_area_m2 * p.piston_area_m2 * p.static_pressure_pa / p.small_volume_m3;
+    let scale = std::f64::consts::PI * amp * amp * p.piston_area_m2 * p.piston_area_m2 * p.static_pressure_pa / p.small_acc_volume_m3;
     let mut best = (0.0, 0.0);
     for x in [0.1, 0.3, 0.6, 0.8, 1.0, 1.25, 1.6, 3.0, 10.0] {
         let f = x / (2.0 * std::f64::consts::PI * tau);
@@ -110,7 +110,7 @@ fn adiabatic_cycle_work_equals_energy_dissipated() {
     let periods = 4.0;
     let samples = run_uniform(&unit, sine(0.05, f), SOFT_ON, periods / f, 1e-4, 1e-4);
     let cycle = last_period(&samples, f, periods);
-    let work = loop_integral(cycle.iter().map(|s| (s.disp_m, s.unit.force_n)));
+    let work = loop_integral(cycle.iter().map(|s| (s.disp_m, s.unit.force_true_n)));
     let (a, b) = (cycle[0], cycle[cycle.len() - 1]);
     let dissipated = (b.e_damper_j - a.e_damper_j) + (b.e_valve6_j - a.e_valve6_j);
     assert!(b.e_valve6_j - a.e_valve6_j > 0.0);

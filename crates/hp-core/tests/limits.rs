@@ -19,10 +19,10 @@ fn tau_zero_is_exactly_isothermal_even_at_high_speed() {
     let samples = run_uniform(&unit, sine(0.05, 2.0), HARD_ON, 1.0, 0.01, 1e-4);
     let (m_s, _) = unit.gas_masses_kg();
     for s in &samples {
-        assert_eq!(s.unit.t_small_k, t_wall);
+        assert_eq!(s.unit.t_gas_k, t_wall);
         // Pressure is the isotherm's at the current volume, to rounding.
-        let p_iso = unit.params().gas.pressure_pa(m_s / s.v_small_m3, t_wall);
-        assert!((s.unit.p_small_pa / p_iso - 1.0).abs() < 1e-12);
+        let p_iso = unit.params().gas.pressure_pa(m_s / s.v_gas_m3, t_wall);
+        assert!((s.unit.p_gas_true_pa / p_iso - 1.0).abs() < 1e-12);
     }
 }
 
@@ -41,11 +41,11 @@ fn slow_compression_follows_the_reference_isotherm() {
     for k in 1..=4 {
         let time = k as f64 * 31.0 - 0.25;
         let s = samples.iter().min_by(|a, b| (a.time_s - time).abs().total_cmp(&(b.time_s - time).abs())).unwrap();
-        assert!((s.unit.t_small_k - t).abs() < 1e-4 * t, "not settled: {}", s.unit.t_small_k);
-        let rho = m_s / s.v_small_m3;
+        assert!((s.unit.t_gas_k - t).abs() < 1e-4 * t, "not settled: {}", s.unit.t_gas_k);
+        let rho = m_s / s.v_gas_m3;
         let p_ref = coolprop_isotherm_pa(rho, t);
         let eos_error = (Gas::BwrTextbook.pressure_pa(rho, t) / p_ref - 1.0).abs();
-        let sim_error = (s.unit.p_small_pa / p_ref - 1.0).abs();
+        let sim_error = (s.unit.p_gas_true_pa / p_ref - 1.0).abs();
         assert!(sim_error <= eos_error + 1e-4, "rho={rho}: sim {sim_error} vs eos {eos_error}");
         assert!(sim_error < 0.02);
     }
@@ -83,7 +83,7 @@ fn tau_infinity_follows_the_reference_isentrope() {
         p.heat = HeatTransfer::from_tau_s(f64::INFINITY).unwrap();
     });
     let (m_s, _) = unit.gas_masses_kg();
-    let v0 = unit.params().small_volume_m3;
+    let v0 = unit.params().small_acc_volume_m3;
     let area = unit.params().piston_area_m2;
     let rows: Vec<_> = fixture("n2_isentropes.csv").into_iter().filter(|r| r["case"] == 0.0).collect();
     let t0 = rows[0]["t_k"];
@@ -113,10 +113,10 @@ fn tau_infinity_follows_the_reference_isentrope() {
         let rise_ref = r["t_k"] - t0;
         let allowed = ratio_error * rise_ref + 0.05;
         assert!(
-            (s.unit.t_small_k - r["t_k"]).abs() <= allowed,
+            (s.unit.t_gas_k - r["t_k"]).abs() <= allowed,
             "rho={}: T {} vs CoolProp {} (allowed {allowed})",
             r["rho_kg_m3"],
-            s.unit.t_small_k,
+            s.unit.t_gas_k,
             r["t_k"]
         );
         checked += 1;
@@ -132,7 +132,7 @@ fn polytropic_ideal_gas_keeps_p_v_to_the_n_constant() {
             p.heat = HeatTransfer::polytropic(n).unwrap();
         });
         let samples = run_uniform(&unit, sine(0.08, 0.5), HARD_ON, 4.0, 0.01, 1e-3);
-        let invariant = |s: &hp_core::rig::RigSample| s.unit.p_small_pa * s.v_small_m3.powf(n);
+        let invariant = |s: &hp_core::rig::RigSample| s.unit.p_gas_true_pa * s.v_gas_m3.powf(n);
         let first = invariant(&samples[0]);
         for s in &samples {
             assert!((invariant(s) / first - 1.0).abs() < 1e-9, "n={n}: {}", invariant(s) / first);

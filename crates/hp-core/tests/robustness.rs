@@ -31,7 +31,7 @@ proptest! {
     fn unit_construction_never_panics(area in any_f64(), vs in any_f64(), p in any_f64(), t in any_f64(), tau in any_f64()) {
         let mut params = seed_unit();
         params.piston_area_m2 = area;
-        params.small_volume_m3 = vs;
+        params.small_acc_volume_m3 = vs;
         params.static_pressure_pa = p;
         params.static_temperature_k = t;
         params.heat = match hp_core::thermal::HeatTransfer::from_tau_s(tau) { Ok(h) => h, Err(_) => params.heat };
@@ -58,7 +58,7 @@ proptest! {
                 let mut n = 0;
                 let result = run(&rig, (0..20).map(|i| i as f64 * 0.05), dt, |_, _| Valves::default(), |_, s| {
                     n += 1;
-                    s.unit.force_n.is_finite()
+                    s.unit.force_true_n.is_finite()
                 });
                 // Either it ran, or it reported why.
                 if result.is_ok() { prop_assert!(n >= 1); }
@@ -70,11 +70,11 @@ proptest! {
 #[test]
 fn errors_name_parameter_value_and_range() {
     let mut params = seed_unit();
-    params.small_volume_m3 = -1e-3;
+    params.small_acc_volume_m3 = -1e-3;
     let e = Unit::new(params).unwrap_err();
-    assert_eq!(e, Error::OutOfRange { name: "small_volume_m3", value: -1e-3, min: 1e-6, max: 1.0 });
+    assert_eq!(e, Error::OutOfRange { name: "small_acc_volume_m3", value: -1e-3, min: 1e-6, max: 1.0 });
     let text = format!("{e}");
-    assert_eq!(text, "small_volume_m3 = -0.001 is outside the valid range [1e-6, 1]");
+    assert_eq!(text, "small_acc_volume_m3 = -0.001 is outside the valid range [1e-6, 1]");
 }
 
 #[test]
@@ -93,7 +93,7 @@ fn too_large_step_is_reported_not_exploded() {
     let kind = RigKind::Sdof { sprung_mass_kg: 3000.0, base: Motion::Step { height_m: 0.043, start_s: 0.1, rise_s: 0.05 } };
     let rig = Rig::new(&unit, kind, 293.15, Valves::default()).unwrap();
     // 0.5 s steps: far beyond RK4's stability for the valve-6 orifice.
-    let r = run(&rig, (0..=40).map(|i| i as f64 * 0.5), 0.5, |_, _| Valves::default(), |_, s| s.unit.force_n.is_finite());
+    let r = run(&rig, (0..=40).map(|i| i as f64 * 0.5), 0.5, |_, _| Valves::default(), |_, s| s.unit.force_true_n.is_finite());
     assert!(r.is_err(), "{r:?}");
 }
 

@@ -22,8 +22,8 @@ fn road(params: &Params) -> Vec<Inputs> {
             let t = k as f64 * DT_S;
             let w = 2.0 * std::f64::consts::PI;
             Inputs {
-                p_small_pa: unit.static_pressure_pa * (1.0 + 0.1 * (1.5 * w * t).sin()),
-                p_large_pa: unit.static_pressure_pa * (1.0 + 0.05 * (1.5 * w * t + 0.3).sin()),
+                p_gas_pa: unit.static_pressure_pa * (1.0 + 0.1 * (1.5 * w * t).sin()),
+                p_gas2_pa: unit.static_pressure_pa * (1.0 + 0.05 * (1.5 * w * t + 0.3).sin()),
                 strut_disp_m: 0.02 * (1.5 * w * t).sin(),
                 body_acc_m_s2: 0.5 * (1.1 * w * t).cos(),
                 speed_m_s: 15.0,

@@ -30,7 +30,7 @@ use hp_ctrl::can::ecu::{Ecu, Link};
 use hp_ctrl::can::{self, Accepted, CanFrame, InputDecoder, Kind, LinkParams, Reject};
 
 fn parse_hex(s: &str) -> Option<Vec<u8>> {
-    if !s.len().is_multiple_of(2) {
+    if s.len() % 2 != 0 {
         return None;
     }
     (0..s.len()).step_by(2).map(|i| u8::from_str_radix(s.get(i..i + 2)?, 16).ok()).collect()
@@ -132,11 +132,11 @@ fn decode(frame: &CanFrame) -> String {
 
 fn inputs_line(i: &hp_ctrl::Inputs) -> String {
     format!(
-        "inputs p_small_pa={:?} p_large_pa={:?} strut_disp_m={:?} body_acc_m_s2={:?} speed_m_s={:?} \
+        "inputs p_gas_pa={:?} p_gas2_pa={:?} strut_disp_m={:?} body_acc_m_s2={:?} speed_m_s={:?} \
          lat_acc_m_s2={:?} long_acc_m_s2={:?} steer_angle_rad={:?} steer_rate_rad_s={:?} brake_pressed={} \
          t_gas_k={:?} driver_mode={} ride_height_request_m={:?} fresh={} link_fault={}",
-        i.p_small_pa,
-        i.p_large_pa,
+        i.p_gas_pa,
+        i.p_gas2_pa,
         i.strut_disp_m,
         i.body_acc_m_s2,
         i.speed_m_s,

@@ -86,7 +86,7 @@ pub struct State {
     /// Last valid ride-height estimate, m.
     ride_height_m: f32,
     /// Last valid target pressure of L, Pa.
-    p_large_target_pa: f32,
+    p_gas2_target_pa: f32,
 }
 
 impl State {
@@ -100,7 +100,7 @@ impl State {
             ride_height: RideHeightState::new(),
             load: LoadState::new(),
             ride_height_m: 0.0,
-            p_large_target_pa: 0.0,
+            p_gas2_target_pa: 0.0,
         }
     }
 }
@@ -124,8 +124,8 @@ impl Default for State {
 /// let p_static = params.config().unit.static_pressure_pa;
 /// let mut state = State::new();
 /// let inputs = Inputs {
-///     p_small_pa: p_static,
-///     p_large_pa: p_static,
+///     p_gas_pa: p_static,
+///     p_gas2_pa: p_static,
 ///     t_gas_k: params.config().unit.static_temperature_k,
 ///     speed_m_s: 10.0,
 ///     fresh: input_group::ALL,
@@ -145,7 +145,7 @@ impl Default for State {
 /// assert!(out.valve6_open);
 /// assert!(out.ride_height_m.abs() < 1e-3);
 /// // A NaN reading gives the safe state in the same period.
-/// let bad = Inputs { p_large_pa: f64::NAN, ..inputs };
+/// let bad = Inputs { p_gas2_pa: f64::NAN, ..inputs };
 /// let out = step(&params, &mut state, &bad, 1e-3);
 /// assert!(!out.valve5_open && !out.valve6_open);
 /// assert_ne!(out.diag & hp_ctrl::diag::SAFE_STATE, 0);
@@ -189,7 +189,7 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         && usable(BODY)
         && !params.ride_height.manoeuvring(vehicle.lat_acc_m_s2, vehicle.long_acc_m_s2, vehicle.brake_pressed);
     let load_inputs = calm.then(|| LoadInputs {
-        p_small_pa: inputs.p_small_pa as f32,
+        p_gas_pa: inputs.p_gas_pa as f32,
         strut_disp_m: inputs.strut_disp_m as f32,
         body_acc_m_s2: inputs.body_acc_m_s2 as f32 - state.estimator.body_acc_offset_m_s2(),
     });
@@ -205,8 +205,8 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         state.ride_height_m =
             // max/min rather than clamp: clamp keeps a panic path for bounds
             // it cannot prove ordered, and the firmware must link none.
-            (table.offset_m(inputs.p_large_pa as f32, t_k) - reference_m).max(stroke_min_m).min(stroke_max_m);
-        state.p_large_target_pa = table.pressure_pa(reference_m + request_m, t_k);
+            (table.offset_m(inputs.p_gas2_pa as f32, t_k) - reference_m).max(stroke_min_m).min(stroke_max_m);
+        state.p_gas2_target_pa = table.pressure_pa(reference_m + request_m, t_k);
     } else {
         flags |= diag::HEIGHT_ESTIMATE_HELD;
     }
@@ -221,8 +221,8 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         &RideHeightInputs {
             request_m,
             height_m: state.ride_height_m,
-            p_small_pa: inputs.p_small_pa,
-            p_large_pa: inputs.p_large_pa,
+            p_gas_pa: inputs.p_gas_pa,
+            p_gas2_pa: inputs.p_gas2_pa,
             lat_acc_m_s2: vehicle.lat_acc_m_s2,
             long_acc_m_s2: vehicle.long_acc_m_s2,
             brake_pressed: vehicle.brake_pressed,
@@ -252,7 +252,7 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
         sequencer: height.sequencer,
         diag: flags,
         ride_height_m: f64::from(state.ride_height_m),
-        p_large_target_pa: f64::from(state.p_large_target_pa),
+        p_gas2_target_pa: f64::from(state.p_gas2_target_pa),
         p_load_pa: f64::from(p_load_pa),
         strut_vel_m_s: f64::from(state.estimator.strut_vel_m_s()),
         body_vel_m_s: f64::from(state.estimator.body_vel_m_s()),

@@ -48,7 +48,7 @@ pub const SEQUENCER_PAUSED: u32 = 1 << 17;
 /// Ride mode wants the soft spring but a ride-height offset is requested or
 /// held, so valve 6 stays closed (the ride height has priority).
 pub const HEIGHT_HOLDS_SPRING: u32 = 1 << 18;
-/// `ride_height_m` (and `p_large_target_pa`) are held from an earlier
+/// `ride_height_m` (and `p_gas2_target_pa`) are held from an earlier
 /// period because the pressures or the temperature are not valid now.
 pub const HEIGHT_ESTIMATE_HELD: u32 = 1 << 19;
 

@@ -37,7 +37,7 @@ pub struct UnitConfig {
     /// Strut piston area, m^2.
     pub piston_area_m2: f64,
     /// Gas volume of L at the nominal static position, m^3.
-    pub large_volume_m3: f64,
+    pub large_acc_volume_m3: f64,
     /// Gas pressure at the nominal static position, Pa.
     pub static_pressure_pa: f64,
     /// Gas temperature of the static charge, K.
@@ -56,7 +56,7 @@ impl UnitConfig {
     pub fn from_unit(unit: &hp_core::unit::UnitParams) -> Self {
         UnitConfig {
             piston_area_m2: unit.piston_area_m2,
-            large_volume_m3: unit.large_volume_m3,
+            large_acc_volume_m3: unit.large_acc_volume_m3,
             static_pressure_pa: unit.static_pressure_pa,
             static_temperature_k: unit.static_temperature_k,
             gas: unit.gas,
@@ -72,7 +72,7 @@ impl UnitConfig {
 
     pub(crate) fn validate(&self) -> Result<(), ParamError> {
         check("unit.piston_area_m2", self.piston_area_m2, 1.0e-5, 0.1)?;
-        check("unit.large_volume_m3", self.large_volume_m3, 1.0e-6, 0.1)?;
+        check("unit.large_acc_volume_m3", self.large_acc_volume_m3, 1.0e-6, 0.1)?;
         check("unit.static_pressure_pa", self.static_pressure_pa, 1.0e5, 1.2e8)?;
         check("unit.static_temperature_k", self.static_temperature_k, 200.0, 600.0)?;
         check("unit.stroke_compression_m", self.stroke_compression_m, 1.0e-3, 1.0)?;
@@ -82,8 +82,8 @@ impl UnitConfig {
         check_below(
             "unit.piston_area_m2 * unit.stroke_compression_m",
             self.piston_area_m2 * self.stroke_compression_m,
-            "unit.large_volume_m3",
-            self.large_volume_m3,
+            "unit.large_acc_volume_m3",
+            self.large_acc_volume_m3,
         )
     }
 }
@@ -166,9 +166,9 @@ impl LargeTable {
         let rho_static = gas
             .density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k)
             .map_err(ParamError::Gas)?;
-        let mass_kg = rho_static * unit.large_volume_m3;
+        let mass_kg = rho_static * unit.large_acc_volume_m3;
         let u_range_m = (-(unit.stroke_compression_m + margin_m), unit.stroke_extension_m + margin_m);
-        let volume_m3 = |u_m: f64| unit.large_volume_m3 + unit.piston_area_m2 * u_m;
+        let volume_m3 = |u_m: f64| unit.large_acc_volume_m3 + unit.piston_area_m2 * u_m;
         let rho0 = mass_kg / volume_m3(u_range_m.1);
         let rho_step = (mass_kg / volume_m3(u_range_m.0) - rho0) / (TABLE_DENSITIES - 1) as f64;
         let t_step_k = (t_max_k - t_min_k) / (TABLE_TEMPERATURES - 1) as f64;
@@ -187,7 +187,7 @@ impl LargeTable {
                     && p < hp_core::gas::PRESSURE_RANGE_PA.1
                     && p32 > previous;
                 if !usable {
-                    let volume_offset_m = (mass_kg / rho - unit.large_volume_m3) / unit.piston_area_m2;
+                    let volume_offset_m = (mass_kg / rho - unit.large_acc_volume_m3) / unit.piston_area_m2;
                     return Err(ParamError::GasTable { t_k, volume_offset_m, p_pa: p });
                 }
                 *cell = p32;
@@ -201,7 +201,7 @@ impl LargeTable {
             rho0_kg_m3: rho0 as f32,
             rho_step_kg_m3: rho_step as f32,
             mass_kg: mass_kg as f32,
-            v0_m3: unit.large_volume_m3 as f32,
+            v0_m3: unit.large_acc_volume_m3 as f32,
             area_m2: unit.piston_area_m2 as f32,
             u_range_m: (u_range_m.0 as f32, u_range_m.1 as f32),
         })

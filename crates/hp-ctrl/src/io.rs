@@ -72,7 +72,7 @@ pub enum SequencerState {
 ///
 /// | group | fields |
 /// |---|---|
-/// | `PRESSURES` | `p_small_pa`, `p_large_pa` |
+/// | `PRESSURES` | `p_gas_pa`, `p_gas2_pa` |
 /// | `STRUT` | `strut_disp_m` |
 /// | `BODY` | `body_acc_m_s2` |
 /// | `VEHICLE` | `speed_m_s`, `lat_acc_m_s2`, `long_acc_m_s2`, `brake_pressed` |
@@ -96,9 +96,9 @@ pub mod input_group {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Inputs {
     /// Gas pressure in the always-connected accumulator S, Pa.
-    pub p_small_pa: f64,
+    pub p_gas_pa: f64,
     /// Gas pressure in the switchable accumulator L, Pa.
-    pub p_large_pa: f64,
+    pub p_gas2_pa: f64,
     /// Strut compression from the nominal static position, m (positive = compression).
     pub strut_disp_m: f64,
     /// Body vertical acceleration, gravity removed, m/s^2 (positive = up).
@@ -147,7 +147,7 @@ pub struct Outputs {
     pub ride_height_m: f64,
     /// The pressure in L that holds the (clamped) ride-height request at
     /// the measured gas temperature and the estimated load pressure, Pa.
-    pub p_large_target_pa: f64,
+    pub p_gas2_target_pa: f64,
     /// Estimated static load pressure (slow low-pass of `p_S`), Pa.
     pub p_load_pa: f64,
     /// Estimated strut compression rate, m/s (positive = compressing).

@@ -76,7 +76,7 @@ impl LoadParams {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoadInputs {
     /// Gas pressure in S, Pa.
-    pub p_small_pa: f32,
+    pub p_gas_pa: f32,
     /// Strut compression, m.
     pub strut_disp_m: f32,
     /// Body vertical acceleration with the sensor's offset removed, m/s^2.
@@ -149,7 +149,7 @@ impl LoadState {
 /// assert_eq!(load::step(&p, &mut s, None, 1000), 15.0e6);
 /// // At rest every period after the first (which starts the turning-point
 /// // detection) is a sample, weighted by the calm time it stands for.
-/// let at_rest = |p_small_pa| Some(LoadInputs { p_small_pa, strut_disp_m: 0.0, body_acc_m_s2: 0.0 });
+/// let at_rest = |p_gas_pa| Some(LoadInputs { p_gas_pa, strut_disp_m: 0.0, body_acc_m_s2: 0.0 });
 /// load::step(&p, &mut s, at_rest(16.0e6), 1000);
 /// load::step(&p, &mut s, at_rest(16.0e6), 1000);
 /// load::step(&p, &mut s, at_rest(17.0e6), 1000);
@@ -169,7 +169,7 @@ pub fn step(p: &LoadParams, s: &mut LoadState, inputs: Option<LoadInputs>, dt_us
     let off_the_stops = i.strut_disp_m >= stroke_min_m && i.strut_disp_m <= stroke_max_m;
     let now = Previous {
         disp_m: i.strut_disp_m,
-        sample_pa: (acc_g.abs() <= 0.5 && off_the_stops).then(|| i.p_small_pa / (1.0 + acc_g)),
+        sample_pa: (acc_g.abs() <= 0.5 && off_the_stops).then(|| i.p_gas_pa / (1.0 + acc_g)),
     };
     if let Some(previous) = s.previous.replace(now) {
         let direction = if now.disp_m > previous.disp_m {

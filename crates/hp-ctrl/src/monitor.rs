@@ -284,8 +284,8 @@ fn value_fault(x: f64, min: f64, max: f64) -> u32 {
 fn value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
     let symmetric = |x: f64, max: f64| value_fault(x, -max, max);
     [
-        value_fault(i.p_small_pa, p.pressure_pa.0, p.pressure_pa.1)
-            | value_fault(i.p_large_pa, p.pressure_pa.0, p.pressure_pa.1),
+        value_fault(i.p_gas_pa, p.pressure_pa.0, p.pressure_pa.1)
+            | value_fault(i.p_gas2_pa, p.pressure_pa.0, p.pressure_pa.1),
         value_fault(i.strut_disp_m, p.disp_m.0, p.disp_m.1),
         symmetric(i.body_acc_m_s2, p.body_acc_max_m_s2),
         value_fault(i.speed_m_s, p.speed_m_s.0, p.speed_m_s.1)
@@ -310,8 +310,8 @@ pub fn step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Opt
             };
             // Rate checks between consecutive good fresh samples.
             let rate_checked = [
-                (&mut s.p_small, inputs.p_small_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
-                (&mut s.p_large, inputs.p_large_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
+                (&mut s.p_small, inputs.p_gas_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
+                (&mut s.p_large, inputs.p_gas2_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
                 (&mut s.disp, inputs.strut_disp_m, input_group::STRUT, p.disp_rate_m_per_us),
                 (&mut s.t_gas, inputs.t_gas_k, input_group::TEMPERATURE, p.temperature_rate_k_per_us),
             ];

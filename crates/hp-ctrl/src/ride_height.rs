@@ -116,8 +116,8 @@ impl RideHeightConfig {
         check_below(
             "unit.piston_area_m2 * (unit.stroke_compression_m + ride_height.request_max_m)",
             unit.piston_area_m2 * (unit.stroke_compression_m + self.request_max_m),
-            "unit.large_volume_m3",
-            unit.large_volume_m3,
+            "unit.large_acc_volume_m3",
+            unit.large_acc_volume_m3,
         )?;
         check("ride_height.request_deadband_m", self.request_deadband_m, 0.0, self.request_max_m)?;
         check("ride_height.tolerance_m", self.tolerance_m, 1.0e-4, 0.05)?;
@@ -190,8 +190,8 @@ pub struct RideHeightInputs {
     pub height_m: f32,
     /// The pressures exactly as measured (the valve-timing comparison runs
     /// in double precision so its margin is exact).
-    pub p_small_pa: f64,
-    pub p_large_pa: f64,
+    pub p_gas_pa: f64,
+    pub p_gas2_pa: f64,
     pub lat_acc_m_s2: f32,
     pub long_acc_m_s2: f32,
     pub brake_pressed: bool,
@@ -286,8 +286,8 @@ pub fn step(p: &RideHeightParams, s: &mut RideHeightState, i: &RideHeightInputs,
             _ => SequencerState::Holding,
         };
         let want_open = match s.phase {
-            SequencerState::Lowering => i.p_small_pa - i.p_large_pa > p.valve6_margin_pa,
-            SequencerState::Raising => i.p_large_pa - i.p_small_pa > p.valve6_margin_pa,
+            SequencerState::Lowering => i.p_gas_pa - i.p_gas2_pa > p.valve6_margin_pa,
+            SequencerState::Raising => i.p_gas2_pa - i.p_gas_pa > p.valve6_margin_pa,
             _ => false,
         };
         (s.phase, want_open)

@@ -9,7 +9,7 @@ fn the_seed_unit_is_the_plant_models_unit() {
     let unit = hp_core::presets::seed_unit();
     let c = params.config().unit;
     assert_eq!(c.piston_area_m2, unit.piston_area_m2);
-    assert_eq!(c.large_volume_m3, hp_core::presets::SEED_LARGE_VOLUME_M3);
+    assert_eq!(c.large_acc_volume_m3, hp_core::presets::SEED_LARGE_VOLUME_M3);
     assert_eq!(c.static_temperature_k, hp_core::presets::SEED_STATIC_TEMPERATURE_K);
     // p = p_atm + m g / A for the 3000 kg sprung mass.
     let expected = 101_325.0 + 3000.0 * 9.80665 / unit.piston_area_m2;
@@ -77,8 +77,8 @@ fn hysteresis_pairs_must_be_ordered() {
 #[test]
 fn a_large_accumulator_too_small_for_the_stroke_is_rejected() {
     let mut config = Config::seed_unit();
-    config.unit.large_volume_m3 = 0.9 * config.unit.piston_area_m2 * config.unit.stroke_compression_m;
-    assert!(matches!(config.validate(), Err(ParamError::NotBelow { limit_name: "unit.large_volume_m3", .. })));
+    config.unit.large_acc_volume_m3 = 0.9 * config.unit.piston_area_m2 * config.unit.stroke_compression_m;
+    assert!(matches!(config.validate(), Err(ParamError::NotBelow { limit_name: "unit.large_acc_volume_m3", .. })));
 }
 
 #[test]
@@ -86,8 +86,8 @@ fn the_gas_table_must_leave_gas_in_l_beyond_the_stroke_by_the_largest_request() 
     // The table spans the stroke widened by request_max_m on both sides.
     let mut config = Config::seed_unit();
     let a = config.unit.piston_area_m2;
-    config.unit.large_volume_m3 = a * (config.unit.stroke_compression_m + 0.5 * config.ride_height.request_max_m);
-    assert!(matches!(config.validate(), Err(ParamError::NotBelow { limit_name: "unit.large_volume_m3", .. })));
+    config.unit.large_acc_volume_m3 = a * (config.unit.stroke_compression_m + 0.5 * config.ride_height.request_max_m);
+    assert!(matches!(config.validate(), Err(ParamError::NotBelow { limit_name: "unit.large_acc_volume_m3", .. })));
     config.ride_height.request_max_m *= 0.4;
     assert!(config.validate().is_ok(), "{:?}", config.validate());
 }
@@ -96,7 +96,7 @@ fn the_gas_table_must_leave_gas_in_l_beyond_the_stroke_by_the_largest_request() 
 fn a_unit_outside_the_gas_models_range_is_rejected_not_tabulated() {
     // L nearly emptied of gas at full lowering: above 300 MPa.
     let mut config = Config::seed_unit();
-    config.unit.large_volume_m3 = 1.02 * config.unit.piston_area_m2 * config.unit.stroke_compression_m;
+    config.unit.large_acc_volume_m3 = 1.02 * config.unit.piston_area_m2 * config.unit.stroke_compression_m;
     config.unit.static_pressure_pa = 1.0e8;
     config.ride_height.request_max_m = 0.0;
     config.ride_height.request_deadband_m = 0.0;

@@ -11,11 +11,11 @@ fn spoil(inputs: &Inputs, field: usize, value: f64) -> (Inputs, u16) {
     let mut i = *inputs;
     let group = match field {
         0 => {
-            i.p_small_pa = value;
+            i.p_gas_pa = value;
             input_group::PRESSURES
         }
         1 => {
-            i.p_large_pa = value;
+            i.p_gas2_pa = value;
             input_group::PRESSURES
         }
         2 => {
@@ -87,7 +87,7 @@ fn not_finite_inputs_give_the_safe_state_in_the_same_period() {
             assert!(is_safe(&out), "field {field} = {value}: {out:?}");
             assert_ne!(out.diag & diag::NOT_FINITE, 0);
             assert_ne!(out.diag & diag::group(group), 0, "field {field}");
-            assert!(out.ride_height_m.is_finite() && out.p_large_target_pa.is_finite());
+            assert!(out.ride_height_m.is_finite() && out.p_gas2_target_pa.is_finite());
         }
     }
 }
@@ -144,7 +144,7 @@ fn a_finite_oversized_request_is_clamped_not_a_fault() {
     let out = step(&params, &mut state, &inputs, DT_S);
     assert_eq!(out.diag & diag::SAFE_STATE, 0);
     assert_ne!(out.diag & diag::REQUEST_CLAMPED, 0);
-    let target_height_m = common::held_offset_m(&params, out.p_large_target_pa, out.p_load_pa, inputs.t_gas_k);
+    let target_height_m = common::held_offset_m(&params, out.p_gas2_target_pa, out.p_load_pa, inputs.t_gas_k);
     assert!((target_height_m + max).abs() < common::TABLE_HEIGHT_ACCURACY_M, "{target_height_m}");
 }
 
@@ -156,8 +156,8 @@ fn jumps_faster_than_physics_give_the_safe_state() {
     let calm_inputs = calm(&params);
     // Twice the largest plausible change in one period, and half of it.
     let cases = [
-        (0, calm_inputs.p_small_pa, m.pressure_rate_max_pa_s, input_group::PRESSURES),
-        (1, calm_inputs.p_large_pa, m.pressure_rate_max_pa_s, input_group::PRESSURES),
+        (0, calm_inputs.p_gas_pa, m.pressure_rate_max_pa_s, input_group::PRESSURES),
+        (1, calm_inputs.p_gas2_pa, m.pressure_rate_max_pa_s, input_group::PRESSURES),
         (2, 0.0, m.disp_rate_max_m_s, input_group::STRUT),
         (9, calm_inputs.t_gas_k, m.temperature_rate_max_k_s, input_group::TEMPERATURE),
     ];
@@ -252,7 +252,7 @@ fn recovery_needs_the_inputs_good_continuously() {
     let recovery_s = params.config().monitor.recovery_s;
     let mut state = in_ride(&params);
     let good = calm(&params);
-    let bad = Inputs { p_small_pa: f64::NAN, ..good };
+    let bad = Inputs { p_gas_pa: f64::NAN, ..good };
     assert!(is_safe(&step(&params, &mut state, &bad, DT_S)));
     // Good for most of the recovery time, then one bad period: start again.
     let out = run(&params, &mut state, &good, recovery_s - 10.0 * DT_S);
@@ -270,8 +270,8 @@ fn the_estimates_are_held_while_their_inputs_are_invalid() {
     let mut state = in_ride(&params);
     let good = calm(&params);
     let before = step(&params, &mut state, &good, DT_S);
-    let out = step(&params, &mut state, &Inputs { p_large_pa: f64::NAN, ..good }, DT_S);
+    let out = step(&params, &mut state, &Inputs { p_gas2_pa: f64::NAN, ..good }, DT_S);
     assert_eq!(out.ride_height_m, before.ride_height_m);
-    assert_eq!(out.p_large_target_pa, before.p_large_target_pa);
+    assert_eq!(out.p_gas2_target_pa, before.p_gas2_target_pa);
     assert_ne!(out.diag & diag::HEIGHT_ESTIMATE_HELD, 0);
 }

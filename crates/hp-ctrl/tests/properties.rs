@@ -118,8 +118,8 @@ fn period_strategy(sc: Scenario) -> impl Strategy<Value = Period> {
                 fault,
             )| {
                 let mut inputs = Inputs {
-                    p_small_pa: sc.p_static_pa + dp_s,
-                    p_large_pa: sc.p_static_pa + dp_l,
+                    p_gas_pa: sc.p_static_pa + dp_s,
+                    p_gas2_pa: sc.p_static_pa + dp_l,
                     strut_disp_m: disp,
                     body_acc_m_s2: body,
                     speed_m_s: speed,
@@ -136,8 +136,8 @@ fn period_strategy(sc: Scenario) -> impl Strategy<Value = Period> {
                 };
                 if let Some((field, value)) = fault {
                     let slot = match field {
-                        0 => &mut inputs.p_small_pa,
-                        1 => &mut inputs.p_large_pa,
+                        0 => &mut inputs.p_gas_pa,
+                        1 => &mut inputs.p_gas2_pa,
                         2 => &mut inputs.strut_disp_m,
                         3 => &mut inputs.body_acc_m_s2,
                         4 => &mut inputs.speed_m_s,
@@ -197,8 +197,8 @@ fn value_fault(config: &Config, i: &Inputs) -> bool {
     let u = &config.unit;
     let within = |x: f64, lo: f64, hi: f64| x.is_finite() && x >= lo && x <= hi;
     let sym = |x: f64, max: f64| within(x, -max, max);
-    !(within(i.p_small_pa, m.pressure_min_pa, m.pressure_max_pa)
-        && within(i.p_large_pa, m.pressure_min_pa, m.pressure_max_pa)
+    !(within(i.p_gas_pa, m.pressure_min_pa, m.pressure_max_pa)
+        && within(i.p_gas2_pa, m.pressure_min_pa, m.pressure_max_pa)
         && within(i.strut_disp_m, -(u.stroke_extension_m + m.disp_margin_m), u.stroke_compression_m + m.disp_margin_m)
         && sym(i.body_acc_m_s2, m.body_acc_max_m_s2)
         && within(i.speed_m_s, m.speed_min_m_s, m.speed_max_m_s)
@@ -251,8 +251,8 @@ fn check_valve6_direction(config: &Config, periods: &[Period], outs: &[Outputs])
     for (period, out) in periods.iter().zip(outs).filter(|(_, out)| out.valve6_open) {
         let i = &period.inputs;
         match out.sequencer {
-            SequencerState::Lowering => prop_assert!(i.p_small_pa > i.p_large_pa + margin, "{:?} {:?}", i, out),
-            SequencerState::Raising => prop_assert!(i.p_large_pa > i.p_small_pa + margin, "{:?} {:?}", i, out),
+            SequencerState::Lowering => prop_assert!(i.p_gas_pa > i.p_gas2_pa + margin, "{:?} {:?}", i, out),
+            SequencerState::Raising => prop_assert!(i.p_gas2_pa > i.p_gas_pa + margin, "{:?} {:?}", i, out),
             other => prop_assert_eq!(other, SequencerState::Idle),
         }
     }
@@ -357,7 +357,7 @@ fn check_outputs_valid(config: &Config, outs: &[Outputs]) -> Result<(), TestCase
         prop_assert!(
             out.ride_height_m >= -u.stroke_compression_m - 1e-6 && out.ride_height_m <= u.stroke_extension_m + 1e-6
         );
-        prop_assert!(out.p_large_target_pa.is_finite() && out.p_large_target_pa >= 0.0);
+        prop_assert!(out.p_gas2_target_pa.is_finite() && out.p_gas2_target_pa >= 0.0);
         // The load pressure is a mean of valid pressures (or the configured one).
         let m = &config.monitor;
         prop_assert!(out.p_load_pa >= m.pressure_min_pa.min(u.static_pressure_pa) * 0.999);

@@ -58,12 +58,12 @@ fn l_at_the_load_pressure_reads_as_zero_offset_at_any_temperature() {
         // The target of a zero request is the load pressure itself, and of
         // -30 mm the pressure of L's gas squeezed by 30 mm of strut travel
         // from its volume at the load pressure (reference: the EOS).
-        assert!((out.p_large_target_pa / unit.static_pressure_pa - 1.0).abs() < 2e-3, "{}", out.p_large_target_pa);
+        assert!((out.p_gas2_target_pa / unit.static_pressure_pa - 1.0).abs() < 2e-3, "{}", out.p_gas2_target_pa);
         let inputs = Inputs { ride_height_request_m: -0.03, ..inputs };
         let out = step(&params, &mut state, &inputs, DT_S);
         let expected_pa = target_pressure_pa(&params, -0.03, unit.static_pressure_pa, t_k);
-        let error_m = held_offset_m(&params, out.p_large_target_pa, unit.static_pressure_pa, t_k) + 0.03;
-        assert!(error_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{t_k} K: {} vs {expected_pa}", out.p_large_target_pa);
+        let error_m = held_offset_m(&params, out.p_gas2_target_pa, unit.static_pressure_pa, t_k) + 0.03;
+        assert!(error_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{t_k} K: {} vs {expected_pa}", out.p_gas2_target_pa);
     }
 }
 
@@ -74,7 +74,7 @@ fn the_zero_offset_follows_the_measured_load() {
     let params = seed();
     let unit = params.config().unit;
     let p_heavy_pa = 1.1 * unit.static_pressure_pa;
-    let heavy = Inputs { p_small_pa: p_heavy_pa, p_large_pa: p_heavy_pa, ..calm(&params) };
+    let heavy = Inputs { p_gas_pa: p_heavy_pa, p_gas2_pa: p_heavy_pa, ..calm(&params) };
     let mut state = State::new();
     let out = common::run(&params, &mut state, &heavy, 3.0);
     assert!((out.p_load_pa / p_heavy_pa - 1.0).abs() < 1e-6, "{}", out.p_load_pa);
@@ -83,7 +83,7 @@ fn the_zero_offset_follows_the_measured_load() {
     let inputs = Inputs { ride_height_request_m: 0.03, ..heavy };
     let out = step(&params, &mut state, &inputs, DT_S);
     let t_k = unit.static_temperature_k;
-    let error_m = held_offset_m(&params, out.p_large_target_pa, p_heavy_pa, t_k) - 0.03;
+    let error_m = held_offset_m(&params, out.p_gas2_target_pa, p_heavy_pa, t_k) - 0.03;
     assert!(error_m.abs() < TABLE_HEIGHT_ACCURACY_M, "{error_m}");
 }
 
@@ -91,7 +91,7 @@ fn the_zero_offset_follows_the_measured_load() {
 /// by road input: enough plant to close the sequencing loop.
 struct ToyUnit {
     gas_mass_kg: f64,
-    v_large_m3: f64,
+    v_gas2_m3: f64,
     t_k: f64,
     time_s: f64,
     /// Amplitude and frequency of S's pressure swing.
@@ -107,31 +107,31 @@ impl ToyUnit {
         let unit = params.config().unit;
         ToyUnit {
             gas_mass_kg: common::large_gas_mass_kg(params),
-            v_large_m3: unit.large_volume_m3,
+            v_gas2_m3: unit.large_acc_volume_m3,
             t_k: unit.static_temperature_k,
             time_s: 0.0,
             swing_pa: 2.0e6,
             swing_hz: 1.5,
         }
     }
-    fn p_small_pa(&self, params: &Params) -> f64 {
+    fn p_gas_pa(&self, params: &Params) -> f64 {
         params.config().unit.static_pressure_pa
             + self.swing_pa * (2.0 * std::f64::consts::PI * self.swing_hz * self.time_s).sin()
     }
-    fn p_large_pa(&self, params: &Params) -> f64 {
-        params.config().unit.gas.pressure_pa(self.gas_mass_kg / self.v_large_m3, self.t_k)
+    fn p_gas2_pa(&self, params: &Params) -> f64 {
+        params.config().unit.gas.pressure_pa(self.gas_mass_kg / self.v_gas2_m3, self.t_k)
     }
     /// The offset L holds from the soft-mode rest state: L's gas volume
     /// against its volume at the (mean) load pressure, the static one.
     fn height_m(&self, params: &Params) -> f64 {
         let unit = params.config().unit;
-        let u_m = (self.v_large_m3 - unit.large_volume_m3) / unit.piston_area_m2;
+        let u_m = (self.v_gas2_m3 - unit.large_acc_volume_m3) / unit.piston_area_m2;
         u_m - large_offset_m(params, unit.static_pressure_pa, self.t_k)
     }
     fn inputs(&self, params: &Params, request_m: f64, driver: DriverMode) -> Inputs {
         Inputs {
-            p_small_pa: self.p_small_pa(params),
-            p_large_pa: self.p_large_pa(params),
+            p_gas_pa: self.p_gas_pa(params),
+            p_gas2_pa: self.p_gas2_pa(params),
             t_gas_k: self.t_k,
             ride_height_request_m: request_m,
             driver_mode: driver,
@@ -141,8 +141,8 @@ impl ToyUnit {
     /// Advances one period with valve 6 as commanded (oil into L lowers its gas volume).
     fn advance(&mut self, params: &Params, valve6_open: bool) {
         if valve6_open {
-            let flow_m3_s = Self::CONDUCTANCE * (self.p_small_pa(params) - self.p_large_pa(params));
-            self.v_large_m3 -= flow_m3_s * DT_S;
+            let flow_m3_s = Self::CONDUCTANCE * (self.p_gas_pa(params) - self.p_gas2_pa(params));
+            self.v_gas2_m3 -= flow_m3_s * DT_S;
         }
         self.time_s += DT_S;
     }
@@ -171,10 +171,10 @@ fn sequence(
             _ => {}
         }
         if out.valve6_open && out.sequencer == SequencerState::Lowering {
-            assert!(inputs.p_small_pa - inputs.p_large_pa > margin);
+            assert!(inputs.p_gas_pa - inputs.p_gas2_pa > margin);
         }
         if out.valve6_open && out.sequencer == SequencerState::Raising {
-            assert!(inputs.p_large_pa - inputs.p_small_pa > margin);
+            assert!(inputs.p_gas2_pa - inputs.p_gas_pa > margin);
         }
         assert_eq!(out.spring_mode, SpringMode::Hard);
         plant.advance(params, out.valve6_open);
@@ -200,8 +200,8 @@ fn lowering_then_raising_by_30_mm_without_a_pump() {
     let p_load_pa = out.p_load_pa;
     assert!((p_load_pa / params.config().unit.static_pressure_pa - 1.0).abs() < 0.01, "{p_load_pa}");
     let p_target = target_pressure_pa(&params, -0.03, p_load_pa, plant.t_k);
-    assert!(plant.p_large_pa(&params) >= p_target - 1.0e3, "{} vs {p_target}", plant.p_large_pa(&params));
-    let expected_m = held_offset_m(&params, plant.p_large_pa(&params), p_load_pa, plant.t_k);
+    assert!(plant.p_gas2_pa(&params) >= p_target - 1.0e3, "{} vs {p_target}", plant.p_gas2_pa(&params));
+    let expected_m = held_offset_m(&params, plant.p_gas2_pa(&params), p_load_pa, plant.t_k);
     assert!((out.ride_height_m - expected_m).abs() < TABLE_HEIGHT_ACCURACY_M, "{} vs {expected_m}", out.ride_height_m);
     // Ride mode, but the height holds the spring hard.
     assert_eq!(out.drive_mode, DriveMode::Ride);
@@ -242,7 +242,7 @@ fn returning_to_zero_is_sequenced_before_the_spring_goes_soft() {
             SequencerState::Raising => {
                 raising_periods += 1;
                 if out.valve6_open {
-                    assert!(inputs.p_large_pa - inputs.p_small_pa > rh.valve6_margin_pa);
+                    assert!(inputs.p_gas2_pa - inputs.p_gas_pa > rh.valve6_margin_pa);
                 }
                 assert_ne!(out.diag & diag::HEIGHT_HOLDS_SPRING, 0);
             }
@@ -276,7 +276,7 @@ fn in_handling_the_sequencer_keeps_the_zero_offset() {
     let tolerance_m = params.config().ride_height.tolerance_m;
     let mut state = in_ride(&params);
     let mut plant = ToyUnit::new(&params);
-    plant.v_large_m3 -= 0.02 * params.config().unit.piston_area_m2; // 20 mm low
+    plant.v_gas2_m3 -= 0.02 * params.config().unit.piston_area_m2; // 20 mm low
     let (out, _) = sequence(&params, &mut state, &mut plant, 0.0, DriverMode::Sport, 60.0);
     assert_eq!(out.sequencer, SequencerState::Holding);
     assert_eq!(out.drive_mode, DriveMode::Handling);
@@ -294,8 +294,8 @@ fn a_hot_unit_entering_handling_keeps_its_height() {
     plant.t_k = unit.static_temperature_k + 40.0;
     let u_rest_m = large_offset_m(&params, unit.static_pressure_pa, plant.t_k);
     assert!(u_rest_m > 0.04, "{u_rest_m}");
-    plant.v_large_m3 = unit.large_volume_m3 + unit.piston_area_m2 * u_rest_m;
-    let v_rest_m3 = plant.v_large_m3;
+    plant.v_gas2_m3 = unit.large_acc_volume_m3 + unit.piston_area_m2 * u_rest_m;
+    let v_rest_m3 = plant.v_gas2_m3;
     let mut state = State::new();
     for _ in 0..20_000 {
         let out = step(&params, &mut state, &plant.inputs(&params, 0.0, DriverMode::Sport), DT_S);
@@ -304,7 +304,7 @@ fn a_hot_unit_entering_handling_keeps_its_height() {
         assert!(matches!(out.sequencer, SequencerState::Holding | SequencerState::Blocked), "{out:?}");
         plant.advance(&params, out.valve6_open);
     }
-    assert_eq!(plant.v_large_m3, v_rest_m3);
+    assert_eq!(plant.v_gas2_m3, v_rest_m3);
 }
 
 #[test]
@@ -320,7 +320,7 @@ fn the_load_pressure_is_a_slow_mean_of_calm_valid_periods() {
     for k in 0..160_000 {
         let t_s = k as f64 * DT_S;
         let p_s = p0_pa + amplitude_pa * (2.0 * std::f64::consts::PI * f_hz * t_s).sin();
-        out = step(&params, &mut state, &Inputs { p_small_pa: p_s, p_large_pa: p_s, ..calm(&params) }, DT_S);
+        out = step(&params, &mut state, &Inputs { p_gas_pa: p_s, p_gas2_pa: p_s, ..calm(&params) }, DT_S);
         // After the start (a running mean including the 6 s at the static
         // pressure, then the low-pass) has decayed below 1 kPa.
         if t_s > 7.0 * rh.load_pressure_tau_s {
@@ -332,7 +332,7 @@ fn the_load_pressure_is_a_slow_mean_of_calm_valid_periods() {
     assert!(worst_pa < 1.1 * ripple_pa + 5.0e3, "{worst_pa} vs {ripple_pa}");
     // Cornering, braking, and the safe state do not move it.
     let before = out.p_load_pa;
-    let far = Inputs { p_small_pa: 0.8 * p0_pa, p_large_pa: 0.8 * p0_pa, ..calm(&params) };
+    let far = Inputs { p_gas_pa: 0.8 * p0_pa, p_gas2_pa: 0.8 * p0_pa, ..calm(&params) };
     for spoiler in [
         Inputs { lat_acc_m_s2: 1.1 * rh.block_lat_acc_m_s2, ..far },
         Inputs { long_acc_m_s2: -1.1 * rh.block_long_acc_m_s2, ..far },
@@ -373,7 +373,7 @@ fn the_load_pressure_ignores_the_damper_and_the_body_acceleration() {
         let p_strut = p_load_pa * (1.0 + a / g);
         let p_s = if v > 0.0 { p_strut - k_compression * v } else { p_strut + k_rebound * -v };
         let inputs =
-            Inputs { p_small_pa: p_s, p_large_pa: p_s, strut_disp_m: x, body_acc_m_s2: a + 0.2, ..calm(&params) };
+            Inputs { p_gas_pa: p_s, p_gas2_pa: p_s, strut_disp_m: x, body_acc_m_s2: a + 0.2, ..calm(&params) };
         out = step(&params, &mut state, &inputs, DT_S);
         if t_s > 100.0 {
             sum_pa += p_s;
@@ -391,7 +391,7 @@ fn before_any_calm_period_the_load_pressure_is_the_configured_static_pressure() 
     let params = seed();
     let unit = params.config().unit;
     let mut state = State::new();
-    let inputs = Inputs { p_small_pa: 0.9 * unit.static_pressure_pa, ..calm(&params) };
+    let inputs = Inputs { p_gas_pa: 0.9 * unit.static_pressure_pa, ..calm(&params) };
     // Power-on is the safe state: no update, the configured value.
     let out = common::run(&params, &mut state, &inputs, 0.2);
     assert_eq!(out.p_load_pa, f64::from(unit.static_pressure_pa as f32));
@@ -470,7 +470,7 @@ fn the_valve_opens_only_past_the_margin_in_the_wanted_direction() {
     let mut opened_at = None;
     for k in 0..4000 {
         let p_s = p_l - 1.0e6 + 1.0e3 * k as f64;
-        let inputs = Inputs { p_small_pa: p_s, p_large_pa: p_l, ride_height_request_m: -0.03, ..calm(&params) };
+        let inputs = Inputs { p_gas_pa: p_s, p_gas2_pa: p_l, ride_height_request_m: -0.03, ..calm(&params) };
         let out = step(&params, &mut state, &inputs, DT_S);
         if out.sequencer == SequencerState::Lowering && out.valve6_open && opened_at.is_none() {
             opened_at = Some(p_s - p_l);

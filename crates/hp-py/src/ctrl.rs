@@ -37,7 +37,7 @@ macro_rules! block {
 }
 
 block!(read_unit, write_unit, hp_ctrl::gas_table::UnitConfig, [
-    piston_area_m2, large_volume_m3, static_pressure_pa, static_temperature_k, stroke_compression_m, stroke_extension_m,
+    piston_area_m2, large_acc_volume_m3, static_pressure_pa, static_temperature_k, stroke_compression_m, stroke_extension_m,
 ]);
 block!(read_monitor, write_monitor, hp_ctrl::monitor::MonitorConfig, [
     pressure_min_pa, pressure_max_pa, temperature_min_k, temperature_max_k, disp_margin_m, body_acc_max_m_s2,
@@ -143,8 +143,8 @@ fn get<T: Copy, V: Copy>(x: &T, field: fn(&mut T) -> &mut V) -> V {
 }
 
 const INPUT_FLOATS: [FloatField<Inputs>; 11] = [
-    ("p_small_pa", |i| &mut i.p_small_pa),
-    ("p_large_pa", |i| &mut i.p_large_pa),
+    ("p_gas_pa", |i| &mut i.p_gas_pa),
+    ("p_gas2_pa", |i| &mut i.p_gas2_pa),
     ("strut_disp_m", |i| &mut i.strut_disp_m),
     ("body_acc_m_s2", |i| &mut i.body_acc_m_s2),
     ("speed_m_s", |i| &mut i.speed_m_s),
@@ -288,7 +288,7 @@ fn outputs_to_arrays<'py>(py: Python<'py>, outs: &[Outputs]) -> PyResult<Bound<'
     d.set_item("sequencer", col_u8(|o| o.sequencer as u8))?;
     d.set_item("diag", outs.iter().map(|o| o.diag).collect::<Vec<u32>>().into_pyarray(py))?;
     d.set_item("ride_height_m", col_f(|o| o.ride_height_m))?;
-    d.set_item("p_large_target_pa", col_f(|o| o.p_large_target_pa))?;
+    d.set_item("p_gas2_target_pa", col_f(|o| o.p_gas2_target_pa))?;
     d.set_item("p_load_pa", col_f(|o| o.p_load_pa))?;
     d.set_item("strut_vel_m_s", col_f(|o| o.strut_vel_m_s))?;
     d.set_item("body_vel_m_s", col_f(|o| o.body_vel_m_s))?;
@@ -322,7 +322,7 @@ fn outputs_to_dict<'py>(py: Python<'py>, o: &Outputs) -> PyResult<Bound<'py, PyD
     d.set_item("sequencer", o.sequencer as u8)?;
     d.set_item("diag", o.diag)?;
     d.set_item("ride_height_m", o.ride_height_m)?;
-    d.set_item("p_large_target_pa", o.p_large_target_pa)?;
+    d.set_item("p_gas2_target_pa", o.p_gas2_target_pa)?;
     d.set_item("p_load_pa", o.p_load_pa)?;
     d.set_item("strut_vel_m_s", o.strut_vel_m_s)?;
     d.set_item("body_vel_m_s", o.body_vel_m_s)?;

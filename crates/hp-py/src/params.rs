@@ -141,8 +141,8 @@ pub fn unit(obj: &Bound<'_, PyAny>) -> PyResult<UnitParams> {
     };
     let params = UnitParams {
         piston_area_m2: r.f64("piston_area_m2")?,
-        small_volume_m3: r.f64("small_volume_m3")?,
-        large_volume_m3: r.f64("large_volume_m3")?,
+        small_acc_volume_m3: r.f64("small_acc_volume_m3")?,
+        large_acc_volume_m3: r.f64("large_acc_volume_m3")?,
         static_pressure_pa: r.f64("static_pressure_pa")?,
         static_temperature_k: r.f64("static_temperature_k")?,
         gas,
@@ -298,8 +298,8 @@ pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py,
         Ok(cd)
     };
     d.set_item("piston_area_m2", p.piston_area_m2)?;
-    d.set_item("small_volume_m3", p.small_volume_m3)?;
-    d.set_item("large_volume_m3", p.large_volume_m3)?;
+    d.set_item("small_acc_volume_m3", p.small_acc_volume_m3)?;
+    d.set_item("large_acc_volume_m3", p.large_acc_volume_m3)?;
     d.set_item("static_pressure_pa", p.static_pressure_pa)?;
     d.set_item("static_temperature_k", p.static_temperature_k)?;
     d.set_item("gas", p.gas.name())?;

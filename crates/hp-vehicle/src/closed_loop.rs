@@ -68,13 +68,13 @@ impl Default for Sensors {
 /// let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(false, true)).unwrap();
 /// let sample = rig.sample(0.0, &rig.initial_state().unwrap()).unwrap();
 /// let inputs = sensed(&sample, 293.15, &VehicleSignals { speed_m_s: 10.0, ..VehicleSignals::default() });
-/// assert_eq!(inputs.p_small_pa, sample.unit.p_small_measured_pa);
+/// assert_eq!(inputs.p_gas_pa, sample.unit.p_gas_pa);
 /// assert_eq!(inputs.speed_m_s, 10.0);
 /// ```
 pub fn sensed(sample: &RigSample, t_gas_k: f64, vehicle: &VehicleSignals) -> Inputs {
     Inputs {
-        p_small_pa: sample.unit.p_small_measured_pa,
-        p_large_pa: sample.unit.p_large_measured_pa,
+        p_gas_pa: sample.unit.p_gas_pa,
+        p_gas2_pa: sample.unit.p_gas2_pa,
         strut_disp_m: sample.disp_m,
         body_acc_m_s2: sample.body_acc_m_s2,
         speed_m_s: vehicle.speed_m_s,
@@ -157,7 +157,7 @@ pub fn run(
         // Times as multiples of the period, so they do not drift.
         let t_s = index as f64 * dt_s;
         let (rate, sample) = rig.rate_and_sample(t_s, &x)?;
-        let t_true_k = sample.unit.t_large_k;
+        let t_true_k = sample.unit.t_gas2_k;
         let t_read_k = t_gas_k.map_or(t_true_k, |t: f64| t + t_gas_weight * (t_true_k - t));
         t_gas_k = Some(t_read_k);
         let inputs = sensed(&sample, t_read_k, &vehicle_at(index, t_s));

@@ -30,7 +30,7 @@ pub struct CornerMotion {
 pub struct CornerForces {
     /// Strut compression from the static position of the unit and its rate.
     pub strut: StrutMotion,
-    /// The unit's outputs (strut force `unit.force_n`, compression positive).
+    /// The unit's outputs (strut force `unit.force_true_n`, compression positive).
     pub unit: UnitOutputs,
     /// Tyre deflection, m (<= 0: the wheel is off the ground).
     pub tyre_deflection_m: f64,

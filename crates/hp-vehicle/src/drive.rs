@@ -76,14 +76,14 @@ impl Suspension<'_> {
 /// let mut sample = Default::default();
 /// v.dynamics(&Road::FLAT, driver.drive_inputs(), valves).rate_and_sample(0.0, &x, &mut sample).unwrap();
 /// let inputs = sensed(&sample, 1, 293.15, &driver);
-/// assert_eq!(inputs.p_small_pa, sample.corners[1].forces.unit.p_small_measured_pa);
+/// assert_eq!(inputs.p_gas_pa, sample.corners[1].forces.unit.p_gas_pa);
 /// assert_eq!(inputs.speed_m_s, 10.0);
 /// ```
 pub fn sensed(sample: &VehicleSample, corner: usize, t_gas_k: f64, driver: &Driver) -> Inputs {
     let c = sample.corners.get(corner).copied().unwrap_or_default();
     Inputs {
-        p_small_pa: c.forces.unit.p_small_measured_pa,
-        p_large_pa: c.forces.unit.p_large_measured_pa,
+        p_gas_pa: c.forces.unit.p_gas_pa,
+        p_gas2_pa: c.forces.unit.p_gas2_pa,
         strut_disp_m: c.forces.strut.disp_m,
         body_acc_m_s2: c.body_acc_m_s2,
         speed_m_s: driver.speed_m_s,
@@ -154,7 +154,7 @@ pub fn run(
         let rate = dynamics.rate_and_sample(t_s, &x, &mut sample)?;
         let mut read = [0.0; MAX_CORNERS];
         for (k, (r, c)) in read.iter_mut().zip(sample.corners.iter()).enumerate().take(corners) {
-            let t_true = c.forces.unit.t_large_k;
+            let t_true = c.forces.unit.t_gas2_k;
             *r = match &t_gas_k {
                 Some(prev) => {
                     let p = prev.get(k).copied().unwrap_or(t_true);

@@ -213,8 +213,8 @@ pub struct CornerSample {
     /// Vertical acceleration of the body above the wheel, gravity removed, m/s^2.
     pub body_acc_m_s2: f64,
     /// Gas volumes of S and L, m^3.
-    pub v_small_m3: f64,
-    pub v_large_m3: f64,
+    pub v_gas_m3: f64,
+    pub v_gas2_m3: f64,
     pub valves: Valves,
 }
 
@@ -459,7 +459,7 @@ impl Dynamics<'_> {
             };
             let (unit_rate, f) =
                 corner::evaluate(unit, &c.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, *valves, v.ambient_k);
-            let strut = f.unit.force_n;
+            let strut = f.unit.force_true_n;
             let wheel_acc = (f.tyre_force_n - strut - c.lateral_transfer_kg * a_y) / c.unsprung_mass_kg - G;
             force += strut;
             moment_pitch -= c.x_m * strut;
@@ -476,8 +476,8 @@ impl Dynamics<'_> {
                 s.wheel_vel_m_s = wheel_vel;
                 s.wheel_acc_m_s2 = wheel_acc;
                 s.road_m = road_m;
-                s.v_small_m3 = unit_state.v_small_m3;
-                s.v_large_m3 = unit_state.v_large_m3;
+                s.v_gas_m3 = unit_state.v_gas_m3;
+                s.v_gas2_m3 = unit_state.v_gas2_m3;
                 s.valves = *valves;
             }
         }

@@ -70,7 +70,7 @@ fn lowering_by_30_mm_on_a_rough_road_holds_what_the_gas_says() {
         // THE rule of pump-free sequencing, on the pressures the controller saw.
         let (i, o) = (p.inputs, p.outputs);
         match o.sequencer {
-            SequencerState::Lowering if o.valve6_open => assert!(i.p_small_pa - i.p_large_pa > margin_pa),
+            SequencerState::Lowering if o.valve6_open => assert!(i.p_gas_pa - i.p_gas2_pa > margin_pa),
             SequencerState::Raising => panic!("raising while lowering to a fixed request: {o:?}"),
             SequencerState::Lowering => moved = true,
             _ => {}
@@ -93,8 +93,8 @@ fn lowering_by_30_mm_on_a_rough_road_holds_what_the_gas_says() {
     // 3 mm restart band plus 1 mm of estimation error.
     let u = unit.params();
     let (_, gas_mass_kg) = unit.gas_masses_kg();
-    let rest_m3 = gas_mass_kg / u.gas.density_kg_m3(u.static_pressure_pa, sample.unit.t_large_k).unwrap();
-    let held_m = (sample.v_large_m3 - rest_m3) / u.piston_area_m2;
+    let rest_m3 = gas_mass_kg / u.gas.density_kg_m3(u.static_pressure_pa, sample.unit.t_gas2_k).unwrap();
+    let held_m = (sample.v_gas2_m3 - rest_m3) / u.piston_area_m2;
     assert!((held_m + 0.03).abs() < 0.004, "held {held_m} m, estimate {} m", out.ride_height_m);
 }
 

@@ -43,7 +43,7 @@ fn every_wheel_rides_soft_on_a_calm_road_and_firms_up_together_in_a_lane_change(
             periods.push((q.index as f64 * DT_S, modes, q.valves[..n].to_vec(), q.sample.lat_acc_m_s2));
             // Each controller sees its own unit.
             for k in 0..n {
-                assert_eq!(q.inputs[k].p_large_pa, q.sample.corners[k].forces.unit.p_large_measured_pa);
+                assert_eq!(q.inputs[k].p_gas2_pa, q.sample.corners[k].forces.unit.p_gas2_pa);
                 assert_eq!(q.inputs[k].strut_disp_m, q.sample.corners[k].forces.strut.disp_m);
             }
             true

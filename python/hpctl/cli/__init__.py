@@ -21,7 +21,7 @@ def main() -> None:
 
 
 main.add_command(simulate.simulate)
-main.add_command(closed_loop.closed_loop)
+main.add_command(closed_loop.closed_loop_cmd)
 for command in calibrate.COMMANDS + vehicle.COMMANDS:
     main.add_command(command)
 

@@ -14,6 +14,7 @@ from typing import Any
 import click
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.text import Text
 
 from hpctl.errors import HpctlError
 from hpctl.model.unit import Unit
@@ -144,13 +145,16 @@ def errors(rep: Reporter) -> Iterator[None]:
     except (click.ClickException, click.exceptions.Exit, click.exceptions.Abort):
         raise
     except HpctlError as e:
-        rep.errors.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
+        # A message is data, never markup: "[static]" must survive, and a
+        # "[/x]" in a user's file must not crash the printer. No hard wrap:
+        # paths stay whole for whoever greps the output.
+        rep.errors.print(Text.assemble(("error: ", "red"), str(e)), soft_wrap=True, highlight=False)
         sys.exit(EXIT_BAD_INPUT)
     except KeyboardInterrupt:
         rep.errors.print("interrupted")
         sys.exit(130)
     except Exception as e:  # noqa: BLE001 - the last line of defence
-        rep.errors.print(f"[red]internal error:[/red] {type(e).__name__}: {e}", markup=True, highlight=False)
+        rep.errors.print(Text.assemble(("internal error: ", "red"), f"{type(e).__name__}: {e}"), soft_wrap=True, highlight=False)
         if rep.errors.is_terminal:
             traceback.print_exc()
         sys.exit(EXIT_INTERNAL)

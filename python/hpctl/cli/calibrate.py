@@ -14,8 +14,7 @@ from hpctl.cli._ui import Reporter, errors, jsonable, status
 from hpctl.data import DEMO_DIR
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
 from hpctl.errors import ParameterError
-from hpctl.identify import diagnose as dg
-from hpctl.identify import virtual_rig
+from hpctl.identify import diagnose, virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
 from hpctl.model.effects import LIBRARY, MODELS, model_params, parse_model
@@ -176,9 +175,9 @@ def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
 def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool) -> None:
 
     with status(rep, "diagnosing") as spinner:
-        diag = dg.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
+        diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
     path = report.diagnosis_report(diag, out_dir)
-    summary = dg.summary(diag)
+    summary = diagnose.summary(diag)
     (out_dir / "diagnosis.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
     if as_json:
         click.echo(json.dumps(jsonable(summary), indent=2))

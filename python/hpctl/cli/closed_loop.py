@@ -20,18 +20,18 @@ from hpctl.cli._ui import Reporter, errors, fmt, jsonable, load_unit
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/closed-loop"), show_default=True, help="Output folder.")
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
-def closed_loop(unit_file: Path | None, road_class: str, speed_m_s: float, lower_m: float, seed: int, out_dir: Path, quiet: bool, as_json: bool) -> None:
+def closed_loop_cmd(unit_file: Path | None, road_class: str, speed_m_s: float, lower_m: float, seed: int, out_dir: Path, quiet: bool, as_json: bool) -> None:
     """Run the controller in closed loop with the unit (3000 kg SDOF) over a
     random road: lower the ride height without a pump and raise it back,
     then switch modes on a lane change and a braking burst. Writes PNG plots
     and summary.json into the output folder."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
-        from hpctl.control import closed_loop as cl
+        from hpctl.control import closed_loop
         from hpctl.report.closed_loop import plot_height_change, plot_modes
 
         unit = load_unit(unit_file, None, None)
-        height, modes, summary = cl.demo(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
+        height, modes, summary = closed_loop.demo(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
         out_dir.mkdir(parents=True, exist_ok=True)
         where = f"ISO 8608 class {road_class.upper()} road at {speed_m_s:g} m/s, seed {seed}"
         plot_height_change(height, out_dir / "ride_height.png", f"Pump-free lowering by {1e3 * lower_m:g} mm and back ({where})")
@@ -54,7 +54,7 @@ def closed_loop(unit_file: Path | None, road_class: str, speed_m_s: float, lower
                 t.add_column(col, justify="right")
             for name in ("lowering", "raising"):
                 s = summary[name]
-                t.add_row(name, *(fmt(s[k], 1e-6, 2) for k in ("p_small_pa", "p_large_pa", "p_large_target_pa", "p_load_estimate_pa", "p_load_true_pa")))
+                t.add_row(name, *(fmt(s[k], 1e-6, 2) for k in ("p_gas_pa", "p_gas2_pa", "p_gas2_target_pa", "p_load_estimate_pa", "p_load_true_pa")))
             rep.out.print(t)
             m = summary["modes"]
             rep.out.print(f"Handling entered at {', '.join(f'{x:.2f}' for x in m['handling_entered_s']) or '-'} s, Ride again at "

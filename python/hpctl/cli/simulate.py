@@ -23,7 +23,7 @@ from hpctl.cli._ui import (
 )
 from hpctl.data.records import write_record
 from hpctl.model.unit import GAS_MODELS, SEED_SPRUNG_MASS_KG, Unit
-from hpctl.sim import experiments as ex
+from hpctl.sim import experiments
 from hpctl.sim.run import Sine, Step, Steps
 
 
@@ -74,18 +74,18 @@ def _sweep(
     pressures: str | None, taus: str | None, threads: int | None, out_dir: Path,
 ) -> dict[str, Any]:
     from hpctl.report.plots import sweep_plot
-    from hpctl.sim import sweep as sw
+    from hpctl.sim import sweep
 
-    summary = sw.run_sweep(
+    summary = sweep.run_sweep(
         unit, spring_hard=spring != "soft", mass_kg=mass_kg,
         pressures_pa=parse_floats(pressures, "--sweep-pressure-pa"), taus_s=parse_floats(taus, "--sweep-tau-s"),
-        damper=damper, height_m=amplitude_m if amplitude_m is not None else ex.SEED_STEP_M, threads=threads, say=rep.err.print,
+        damper=damper, height_m=amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M, threads=threads, say=rep.err.print,
     )
     with (out_dir / "sweep.csv").open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=sw.COLUMNS, lineterminator="\n")
+        w = csv.DictWriter(f, fieldnames=sweep.COLUMNS, lineterminator="\n")
         w.writeheader()
         for row in summary["rows"]:
-            w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sw.COLUMNS})
+            w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sweep.COLUMNS})
     sweep_plot(summary["rows"], out_dir / "sweep.png", spring != "soft")
     return summary
 
@@ -99,30 +99,30 @@ def _simulate(
 
     springs = modes(spring, ("hard", "soft"))
     dampers = modes(damper, ("on", "off"))
-    runs: list[ex.Experiment] = []
+    runs: list[experiments.Experiment] = []
     from hpctl.report import plots
 
     with rep.bars() as bar:
         if test == "seed":
-            runs = ex.seed_experiments(unit, progress=bar)
+            runs = experiments.seed_experiments(unit, progress=bar)
         elif test == "sdof-step":
             for hard in springs:
                 for on in dampers:
-                    runs.append(ex.sdof_step(
-                        unit, spring_hard=hard, damper_on=on, height_m=given(amplitude_m, ex.SEED_STEP_M),
+                    runs.append(experiments.sdof_step(
+                        unit, spring_hard=hard, damper_on=on, height_m=given(amplitude_m, experiments.SEED_STEP_M),
                         duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=given(dt_s, 1e-3),
-                        progress=bar(f"SDOF step ({ex.spring_name(hard)}, damper {ex.damper_name(on)})"),
+                        progress=bar(f"SDOF step ({experiments.spring_name(hard)}, damper {experiments.damper_name(on)})"),
                     ))
         elif test == "heat":
             for hard in springs:
-                runs.append(ex.heat_buildup(
+                runs.append(experiments.heat_buildup(
                     unit, duration_s=given(duration_s, 75 * 60.0), frequency_hz=given(frequency_hz, 0.5), amplitude_m=given(amplitude_m, 0.06),
-                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=given(dt_s, 2e-3), progress=bar(f"heat build-up ({ex.spring_name(hard)})"),
+                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=given(dt_s, 2e-3), progress=bar(f"heat build-up ({experiments.spring_name(hard)})"),
                 ))
         else:
             for hard in springs:
                 for on in dampers:
-                    name = f"{test} ({ex.spring_name(hard)}, damper {ex.damper_name(on)})"
+                    name = f"{test} ({experiments.spring_name(hard)}, damper {experiments.damper_name(on)})"
                     if test == "sine":
                         f = given(frequency_hz, 0.1)
                         motion: Sine | Steps | Step = Sine(given(amplitude_m, 0.05), f)
@@ -134,7 +134,7 @@ def _simulate(
                         motion = Step(given(amplitude_m, 0.05), start_s=1.0, rise_s=0.05)
                         dur = given(duration_s, 30.0)
                     sample = min(0.01, dur / 2000) if dur > 0 else 0.01
-                    runs.append(ex.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
+                    runs.append(experiments.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
 
     records = out_dir / "records"
     for e in runs:
@@ -154,15 +154,15 @@ def _simulate(
     if steps:
         plots.step_responses(steps, out_dir / "step_responses.png", title=f"SDOF step response ({mass_kg:g} kg)")
     summary: dict[str, Any] = {"test": test, "unit": {"piston_area_m2": unit.piston_area_m2, "static_pressure_pa": unit.static_pressure_pa, "tau_s": unit.tau_s, "gas": unit.gas}}
-    summary.update(ex.headline(runs))
+    summary.update(experiments.headline(runs))
     summary["runs"] = [dict(e.summary, name=e.name) for e in runs]
     if test == "heat":
-        summary["seed"] = ex.SEED_HEAT_BUILDUP
+        summary["seed"] = experiments.SEED_HEAT_BUILDUP
     _print_summary(rep, runs, test)
     return summary
 
 
-def _print_summary(rep: Reporter, runs: Sequence[ex.Experiment], test: str) -> None:
+def _print_summary(rep: Reporter, runs: Sequence[experiments.Experiment], test: str) -> None:
     steps = [e.summary for e in runs if e.record.kind == "sdof"]
     chars = [e.summary for e in runs if e.record.kind == "characterisation"]
     if steps:
@@ -182,7 +182,7 @@ def _print_summary(rep: Reporter, runs: Sequence[ex.Experiment], test: str) -> N
                       fmt(s.get("loop_area_j"), 1, 0), fmt(s.get("gas_loop_area_j"), 1, 0), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if test == "heat":
-        seed = ex.SEED_HEAT_BUILDUP
+        seed = experiments.SEED_HEAT_BUILDUP
         t = Table(title="Damper heat build-up: this model vs the seed")
         for col in ("quantity", "hpctl", "seed"):
             t.add_column(col, justify="right")

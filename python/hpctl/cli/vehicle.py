@@ -11,6 +11,7 @@ from typing import Any
 
 import click
 from rich.table import Table
+from rich.text import Text
 
 from hpctl.cli._ui import Reporter, errors, jsonable
 
@@ -19,8 +20,9 @@ EXIT_CASES_FAILED = 3
 
 
 def _warn(rep: Reporter, warnings: list[str]) -> None:
+    # Text, never markup (a message is data), no hard wrap.
     for w in warnings:
-        rep.errors.print(f"[yellow]warning:[/yellow] {w}", markup=True, highlight=False)
+        rep.errors.print(Text.assemble(("warning: ", "yellow"), w), soft_wrap=True, highlight=False)
 
 
 @click.command("evaluate")
@@ -49,21 +51,21 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
         from hpctl.data.records import write_record
         from hpctl.errors import ParameterError
         from hpctl.report.vehicle import comparison_rows, lane_change_plot, markdown_table, ride_handling_plot
-        from hpctl.vehicle import evaluate as ev
+        from hpctl.vehicle import comparison
         from hpctl.vehicle.model import preset
         from hpctl.vehicle.route import mixed
 
         if threads is not None and threads < 1:
             raise ParameterError(f"threads = {threads} must be at least 1")
-        names = {"soft-low": ev.PASSIVE[0], "soft-high": ev.PASSIVE[1], "hard-low": ev.PASSIVE[2], "hard-high": ev.PASSIVE[3], "semi-active": ev.SEMI_ACTIVE}
-        chosen = [names[s] for s in settings] if settings else list(ev.SETTINGS)
+        names = {"soft-low": comparison.PASSIVE[0], "soft-high": comparison.PASSIVE[1], "hard-low": comparison.PASSIVE[2], "hard-high": comparison.PASSIVE[3], "semi-active": comparison.SEMI_ACTIVE}
+        chosen = [names[s] for s in settings] if settings else list(comparison.SETTINGS)
         if config_file is not None:
             config = _read_config(config_file)
-            chosen = [ev.Setting(s.name, semi_active=True, config=config) if s.semi_active else s for s in chosen]
+            chosen = [comparison.Setting(s.name, semi_active=True, config=config) if s.semi_active else s for s in chosen]
         spec = mixed(seed=seed, scale=scale)
         specs = [preset(v) for v in (vehicles or ("4x4", "8x8"))]
         with rep.err.status("driving") if not quiet else _null():
-            result = ev.evaluate(specs, spec, chosen, threads=threads)
+            result = comparison.evaluate(specs, spec, chosen, threads=threads)
         out_dir.mkdir(parents=True, exist_ok=True)
         rows = comparison_rows(result)
         (out_dir / "comparison.md").write_text(markdown_table(rows))
@@ -76,7 +78,7 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
             rec_dir.mkdir(exist_ok=True)
             for r in result.results:
                 if records == "all" or r.case.setting.semi_active:
-                    for stem, rec in ev.wheel_records(r):
+                    for stem, rec in comparison.wheel_records(r):
                         write_record(rec, rec_dir / stem)
                         written.append(stem)
         summary = {
@@ -170,7 +172,7 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
         from hpctl.cli._ui import parse_floats
         from hpctl.errors import ParameterError
         from hpctl.report.vehicle import tuning_plot
-        from hpctl.vehicle import tune as tn
+        from hpctl.vehicle import tuning
         from hpctl.vehicle.route import mixed
 
         seed_list = [int(s) for s in (parse_floats(seeds, "--seeds") or [])]
@@ -180,12 +182,12 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
             raise ParameterError(f"popsize = {popsize} and maxiter = {maxiter} must be at least 1")
         routes = tuple(mixed(seed=s, scale=scale) for s in seed_list)
         names = tuple(vehicles or ("4x4",))
-        executor: tn.Executor = tn.DaskExecutor(cluster) if cluster else tn.LocalExecutor(threads)
+        executor: tuning.Executor = tuning.DaskExecutor(cluster) if cluster else tuning.LocalExecutor(threads)
         try:
             with rep.err.status("passive references") if not quiet else _null():
-                refs = tn.references(names, routes, threads=threads)
-            problem = tn.Problem(names, routes, references=refs)
-            result = tn.tune(problem, executor, popsize=popsize, maxiter=maxiter, seed=seed,
+                refs = tuning.references(names, routes, threads=threads)
+            problem = tuning.Problem(names, routes, references=refs)
+            result = tuning.tune(problem, executor, popsize=popsize, maxiter=maxiter, seed=seed,
                              on_generation=lambda g, f: rep.err.print(f"generation {g}: best J = {f:.4f}"))
         finally:
             executor.close()

@@ -121,8 +121,8 @@ def group_flag(group: InputGroup) -> Diag:
 class Inputs:
     """What the ECU measures in one period, SI units."""
 
-    p_small_pa: float
-    p_large_pa: float
+    p_gas_pa: float
+    p_gas2_pa: float
     t_gas_k: float
     strut_disp_m: float = 0.0
     body_acc_m_s2: float = 0.0
@@ -156,7 +156,7 @@ class Outputs:
     sequencer: SequencerState
     diag: Diag
     ride_height_m: float
-    p_large_target_pa: float
+    p_gas2_target_pa: float
     p_load_pa: float
     strut_vel_m_s: float
     body_vel_m_s: float
@@ -172,7 +172,7 @@ class Outputs:
             sequencer=SequencerState(d["sequencer"]),
             diag=Diag(d["diag"]),
             ride_height_m=float(d["ride_height_m"]),
-            p_large_target_pa=float(d["p_large_target_pa"]),
+            p_gas2_target_pa=float(d["p_gas2_target_pa"]),
             p_load_pa=float(d["p_load_pa"]),
             strut_vel_m_s=float(d["strut_vel_m_s"]),
             body_vel_m_s=float(d["body_vel_m_s"]),

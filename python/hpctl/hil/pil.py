@@ -35,7 +35,7 @@ PIL_TICK_ID = 0x050
 
 #: Which DBC signal carries which ``hp_ctrl::Inputs`` field.
 INPUT_SIGNALS = {
-    "HP_Pressures": {"PressureSmall": "p_small_pa", "PressureLarge": "p_large_pa"},
+    "HP_Pressures": {"PressureSmall": "p_gas_pa", "PressureLarge": "p_gas2_pa"},
     "HP_Strut": {"StrutDisp": "strut_disp_m"},
     "HP_Body": {"BodyAcc": "body_acc_m_s2"},
     "HP_Vehicle": {

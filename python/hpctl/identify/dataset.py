@@ -64,8 +64,8 @@ def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
     t = template or Unit.seed()
     return t.replace(
         piston_area_m2=record.unit.piston_area_m2,
-        small_volume_m3=record.unit.small_acc_volume_m3,
-        large_volume_m3=record.unit.large_acc_volume_m3,
+        small_acc_volume_m3=record.unit.small_acc_volume_m3,
+        large_acc_volume_m3=record.unit.large_acc_volume_m3,
         static_pressure_pa=record.static.pressure_pa,
         static_temperature_k=record.static.temperature_k,
     )

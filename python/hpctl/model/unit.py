@@ -147,8 +147,8 @@ class Unit:
     """
 
     piston_area_m2: float
-    small_volume_m3: float
-    large_volume_m3: float
+    small_acc_volume_m3: float
+    large_acc_volume_m3: float
     static_pressure_pa: float
     static_temperature_k: float
     gas: str

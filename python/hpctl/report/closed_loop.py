@@ -27,7 +27,7 @@ def plot_height_change(r: ClosedLoop, path: Path, title: str) -> Path:
     ax[0].legend(loc="lower left", fontsize=8)
     ax[1].plot(t, 1e-6 * r.plant["p_gas_pa"], lw=0.5, alpha=0.7, label="p_S")
     ax[1].plot(t, 1e-6 * r.plant["p_gas2_pa"], lw=1.2, label="p_L")
-    ax[1].plot(t, 1e-6 * o["p_large_target_pa"], "k--", lw=1.0, label="target p_L")
+    ax[1].plot(t, 1e-6 * o["p_gas2_target_pa"], "k--", lw=1.0, label="target p_L")
     ax[1].plot(t, 1e-6 * o["p_load_pa"], ":", color="tab:red", lw=1.2, label="load pressure estimate")
     ax[1].set_ylabel("gas pressure [MPa]")
     ax[1].legend(loc="upper left", fontsize=8, ncol=2)

@@ -9,8 +9,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hpctl.report.plots import save
-from hpctl.vehicle.evaluate import HANDLING_SECTION, CaseResult, Evaluation, mode_share
-from hpctl.vehicle.tune import TuneResult
+from hpctl.vehicle.comparison import HANDLING_SECTION, CaseResult, Evaluation, mode_share
+from hpctl.vehicle.tuning import TuneResult
 
 
 def _pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, str]]:
@@ -19,11 +19,11 @@ def _pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, 
     return sorted(front)
 
 
-def ride_handling_plot(ev: Evaluation, path: Path) -> Path:
+def ride_handling_plot(evaluation: Evaluation, path: Path) -> Path:
     """Comfort on the rough track against roll in the lane change, one
     panel per vehicle: the passive settings and their compromise front,
     the semi-active point beside it (PNG)."""
-    groups = ev.by_vehicle()
+    groups = evaluation.by_vehicle()
     fig, axes = plt.subplots(1, len(groups), figsize=(6.2 * len(groups), 5.2), squeeze=False)
     for ax, (name, results) in zip(axes[0], groups.items()):
         ok = [r for r in results if r.error is None]
@@ -82,10 +82,10 @@ def _f(v: float, scale: float = 1.0, digits: int = 3) -> str:
     return "-" if v is None or not math.isfinite(v) else f"{v * scale:.{digits}f}"
 
 
-def comparison_rows(ev: Evaluation) -> list[dict[str, str]]:
+def comparison_rows(evaluation: Evaluation) -> list[dict[str, str]]:
     """The comparison table, one row per vehicle and setting."""
     rows = []
-    for r in ev.results:
+    for r in evaluation.results:
         rough, lc, hw, ob = (r.section(k) for k in ("rough", "lane_change", "highway", "obstacles"))
         if r.error is not None or rough is None or lc is None:
             rows.append({"vehicle": r.case.vehicle.name, "setting": r.case.setting.name, "note": f"failed: {r.error}"})

@@ -79,7 +79,7 @@ def _record(
     return RigRecord(
         kind="sdof" if kind == "sdof" else "characterisation",
         description=description,
-        unit=RecordUnit(unit.piston_area_m2, unit.small_volume_m3, unit.large_volume_m3, "N2"),
+        unit=RecordUnit(unit.piston_area_m2, unit.small_acc_volume_m3, unit.large_acc_volume_m3, "N2"),
         static=RecordStatic(unit.static_pressure_pa, unit.static_temperature_k, ambient_k),
         test=test,
         data=data,
@@ -279,7 +279,7 @@ def heat_buildup(
             "dynamic_force_range_start_n": float(np.ptp(r["force_n"][first])),
             "dynamic_force_range_end_n": float(np.ptp(r["force_n"][last])),
             "ride_height_change_m": x0 - x1,
-            "ride_height_change_of_gas_volume": (x0 - x1) * unit.piston_area_m2 / (unit.small_volume_m3 if spring_hard else unit.small_volume_m3 + unit.large_volume_m3),
+            "ride_height_change_of_gas_volume": (x0 - x1) * unit.piston_area_m2 / (unit.small_acc_volume_m3 if spring_hard else unit.small_acc_volume_m3 + unit.large_acc_volume_m3),
         }
     )
     return e

@@ -2,5 +2,5 @@
 and drivers (:mod:`~hpctl.vehicle.route`), ISO 2631-1 comfort
 (:mod:`~hpctl.vehicle.iso2631`) and the section metrics
 (:mod:`~hpctl.vehicle.metrics`), the passive-versus-semi-active comparison
-(:mod:`~hpctl.vehicle.evaluate`) and the controller's tuning
-(:mod:`~hpctl.vehicle.tune`). The dynamics run in Rust (``hp-vehicle``)."""
+(:mod:`~hpctl.vehicle.comparison`) and the controller's tuning
+(:mod:`~hpctl.vehicle.tuning`). The dynamics run in Rust (``hp-vehicle``)."""

@@ -38,7 +38,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from hpctl.control import road as iso8608
+from hpctl.control import road
 from hpctl.control.controller import DriverMode
 from hpctl.errors import ParameterError
 from hpctl.vehicle.model import VehicleSpec
@@ -245,7 +245,7 @@ def build(spec: RouteSpec, vehicle: VehicleSpec) -> Route:
     track = vehicle.track_m
     for k, s in enumerate(spec.segments):
         inside = (x >= pos) & (x < pos + s.length_m)
-        tracks = iso8608.two_tracks(s.road_class, s.length_m + 1.0, track_m=track, seed=spec.seed * 1000 + k, dx_m=dx)
+        tracks = road.two_tracks(s.road_class, s.length_m + 1.0, track_m=track, seed=spec.seed * 1000 + k, dx_m=dx)
         local = np.asarray(x[inside] - pos, dtype=np.float64)
         left[inside] += np.interp(local, tracks.distance_m, tracks.left_m)
         right[inside] += np.interp(local, tracks.distance_m, tracks.right_m)

@@ -61,7 +61,9 @@ impl Timing {
     /// ```
     pub fn due(&self, index: u32) -> bool {
         let (cycle, delay) = (u32::from(self.cycle_ms), u32::from(self.start_delay_ms));
-        cycle != 0 && index >= delay && (index - delay).is_multiple_of(cycle)
+        // `%` rather than `is_multiple_of` (Rust 1.87): the firmware builds with
+        // 1.85 (docs/firmware.md). `cycle != 0` is checked first.
+        cycle != 0 && index >= delay && (index - delay) % cycle == 0
     }
 }
 
@@ -441,8 +443,8 @@ pub struct PilTick {
 /// `HP_Pressures`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Pressures {
-    pub p_small_pa: f64,
-    pub p_large_pa: f64,
+    pub p_gas_pa: f64,
+    pub p_gas2_pa: f64,
 }
 
 /// `HP_Strut`.
@@ -513,8 +515,8 @@ pub struct HeightCtrl {
     /// Estimated static load pressure (`Outputs::p_load_pa`).
     pub p_load_pa: f64,
     /// Pressure in L that holds the requested height
-    /// (`Outputs::p_large_target_pa`).
-    pub p_large_target_pa: f64,
+    /// (`Outputs::p_gas2_target_pa`).
+    pub p_gas2_target_pa: f64,
 }
 
 /// `HP_Motion`: the velocity estimates of the skyhook law.
@@ -615,7 +617,7 @@ impl Message {
     pub fn signal_bits(&self) -> Result<u64, EncodeError> {
         Ok(match self {
             Message::PilTick(m) => TICK_INDEX.uint_bits(u32::from(m.index))?,
-            Message::Pressures(m) => PRESSURE_SMALL.bits_of(m.p_small_pa)? | PRESSURE_LARGE.bits_of(m.p_large_pa)?,
+            Message::Pressures(m) => PRESSURE_SMALL.bits_of(m.p_gas_pa)? | PRESSURE_LARGE.bits_of(m.p_gas2_pa)?,
             Message::Strut(m) => STRUT_DISP.bits_of(m.disp_m)?,
             Message::Body(m) => BODY_ACC.bits_of(m.acc_m_s2)?,
             Message::Vehicle(m) => {
@@ -638,7 +640,7 @@ impl Message {
                     | STEP_INDEX.uint_bits(u32::from(m.step_index))?
             }
             Message::Status(m) => RIDE_HEIGHT.bits_of(m.ride_height_m)? | DIAG.uint_bits(m.diag)?,
-            Message::HeightCtrl(m) => PRESSURE_LOAD.bits_of(m.p_load_pa)? | PRESSURE_LARGE_TARGET.bits_of(m.p_large_target_pa)?,
+            Message::HeightCtrl(m) => PRESSURE_LOAD.bits_of(m.p_load_pa)? | PRESSURE_LARGE_TARGET.bits_of(m.p_gas2_target_pa)?,
             Message::Motion(m) => STRUT_VEL.bits_of(m.strut_vel_m_s)? | BODY_VEL.bits_of(m.body_vel_m_s)?,
             Message::DiagE2e(m) => {
                 REJECT_CRC.uint_bits(u32::from(m.crc))?
@@ -664,8 +666,8 @@ impl Message {
         Some(match kind {
             Kind::PilTick => Message::PilTick(PilTick { index: u16::try_from(uint(&TICK_INDEX, w)?).ok()? }),
             Kind::Pressures => Message::Pressures(Pressures {
-                p_small_pa: PRESSURE_SMALL.value_in(w)?,
-                p_large_pa: PRESSURE_LARGE.value_in(w)?,
+                p_gas_pa: PRESSURE_SMALL.value_in(w)?,
+                p_gas2_pa: PRESSURE_LARGE.value_in(w)?,
             }),
             Kind::Strut => Message::Strut(Strut { disp_m: STRUT_DISP.value_in(w)? }),
             Kind::Body => Message::Body(Body { acc_m_s2: BODY_ACC.value_in(w)? }),
@@ -709,7 +711,7 @@ impl Message {
             Kind::Status => Message::Status(Status { ride_height_m: RIDE_HEIGHT.value_in(w)?, diag: uint(&DIAG, w)? }),
             Kind::HeightCtrl => Message::HeightCtrl(HeightCtrl {
                 p_load_pa: PRESSURE_LOAD.value_in(w)?,
-                p_large_target_pa: PRESSURE_LARGE_TARGET.value_in(w)?,
+                p_gas2_target_pa: PRESSURE_LARGE_TARGET.value_in(w)?,
             }),
             Kind::Motion => Message::Motion(Motion { strut_vel_m_s: STRUT_VEL.value_in(w)?, body_vel_m_s: BODY_VEL.value_in(w)? }),
             Kind::DiagE2e => Message::DiagE2e(DiagE2e {

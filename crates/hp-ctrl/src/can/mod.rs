@@ -22,7 +22,7 @@
 //! ```
 //! use hp_ctrl::can::{decode, encode, Message, messages::Pressures};
 //!
-//! let msg = Message::Pressures(Pressures { p_small_pa: 8.0e6, p_large_pa: 7.5e6 });
+//! let msg = Message::Pressures(Pressures { p_gas_pa: 8.0e6, p_gas2_pa: 7.5e6 });
 //! let frame = encode(&msg, 3).unwrap();
 //! let (back, counter) = decode(&frame).unwrap();
 //! assert_eq!((back, counter), (msg, 3));

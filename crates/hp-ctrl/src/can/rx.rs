@@ -147,8 +147,8 @@ impl InputDecoder {
         match msg {
             Message::PilTick(t) => return Ok(Accepted::Tick(t.index)),
             Message::Pressures(m) => {
-                i.p_small_pa = m.p_small_pa;
-                i.p_large_pa = m.p_large_pa;
+                i.p_gas_pa = m.p_gas_pa;
+                i.p_gas2_pa = m.p_gas2_pa;
             }
             Message::Strut(m) => i.strut_disp_m = m.disp_m,
             Message::Body(m) => i.body_acc_m_s2 = m.acc_m_s2,

@@ -132,7 +132,7 @@ fn frame_format_errors() {
 #[test]
 fn typed_fields_land_in_the_named_signals() {
     let msgs = [
-        Message::Pressures(Pressures { p_small_pa: 1.234e7, p_large_pa: 9.87e6 }),
+        Message::Pressures(Pressures { p_gas_pa: 1.234e7, p_gas2_pa: 9.87e6 }),
         Message::Vehicle(Vehicle { speed_m_s: 12.34, brake_pressed: true, lat_acc_m_s2: -2.5, long_acc_m_s2: 3.25 }),
         Message::Steering(Steering { angle_rad: -1.5, rate_rad_s: 2.75 }),
         Message::Driver(Driver { mode: DriverMode::Sport, ride_height_request_m: -0.05 }),
@@ -147,7 +147,7 @@ fn typed_fields_land_in_the_named_signals() {
             step_index: 54321,
         }),
         Message::Status(Status { ride_height_m: -0.1234, diag: 0xDEAD_BEEF }),
-        Message::HeightCtrl(HeightCtrl { p_load_pa: 14_810_000.0, p_large_target_pa: 16_330_010.0 }),
+        Message::HeightCtrl(HeightCtrl { p_load_pa: 14_810_000.0, p_gas2_target_pa: 16_330_010.0 }),
         Message::Motion(Motion { strut_vel_m_s: -0.7315, body_vel_m_s: 0.0425 }),
     ];
     let expected: [&[(&str, f64)]; 8] = [
@@ -181,7 +181,7 @@ fn typed_fields_land_in_the_named_signals() {
 
 fn all_inputs_frames(tx: &mut Transmitter) -> Vec<CanFrame> {
     let msgs = [
-        Message::Pressures(Pressures { p_small_pa: 8e6, p_large_pa: 7e6 }),
+        Message::Pressures(Pressures { p_gas_pa: 8e6, p_gas2_pa: 7e6 }),
         Message::Strut(Strut { disp_m: 0.01 }),
         Message::Body(Body { acc_m_s2: -0.5 }),
         Message::Vehicle(Vehicle { speed_m_s: 10.0, brake_pressed: true, lat_acc_m_s2: 0.5, long_acc_m_s2: -1.0 }),
@@ -208,7 +208,7 @@ fn decoder_fills_every_input_and_marks_every_group() {
     let i = rx.end_period();
     assert_eq!(i.fresh, input_group::ALL);
     assert!(!i.link_fault);
-    assert!((i.p_small_pa - 8e6).abs() < 5.0 && (i.p_large_pa - 7e6).abs() < 5.0);
+    assert!((i.p_gas_pa - 8e6).abs() < 5.0 && (i.p_gas2_pa - 7e6).abs() < 5.0);
     assert!((i.strut_disp_m - 0.01).abs() < 5e-6);
     assert!((i.body_acc_m_s2 + 0.5).abs() < 1e-3);
     assert!((i.speed_m_s - 10.0).abs() < 5e-3 && i.brake_pressed);
@@ -221,7 +221,7 @@ fn decoder_fills_every_input_and_marks_every_group() {
     let held = rx.end_period();
     assert_eq!(held.fresh, 0);
     assert!(!held.link_fault);
-    assert_eq!(held.p_small_pa, i.p_small_pa);
+    assert_eq!(held.p_gas_pa, i.p_gas_pa);
 }
 
 #[test]
@@ -329,7 +329,7 @@ fn status_clamps_and_zeroes_bad_ride_height() {
 fn height_ctrl_and_motion_limit_and_zero_bad_values() {
     let out = |p: f64, v: f64| crate::Outputs {
         p_load_pa: p,
-        p_large_target_pa: -p,
+        p_gas2_target_pa: -p,
         strut_vel_m_s: v,
         body_vel_m_s: -v,
         ..Default::default()
@@ -342,7 +342,7 @@ fn height_ctrl_and_motion_limit_and_zero_bad_values() {
     ] {
         let h = HeightCtrl::from_outputs(&out(p, v));
         let m = Motion::from_outputs(&out(p, v));
-        assert_eq!((h.p_load_pa, h.p_large_target_pa, m.strut_vel_m_s, m.body_vel_m_s), expect, "{p} {v}");
+        assert_eq!((h.p_load_pa, h.p_gas2_target_pa, m.strut_vel_m_s, m.body_vel_m_s), expect, "{p} {v}");
         assert!(encode(&Message::HeightCtrl(h), 0).is_ok() && encode(&Message::Motion(m), 0).is_ok());
     }
 }
@@ -441,8 +441,8 @@ proptest! {
     #[test]
     fn one_bit_flip_is_rejected(t in 0.0f64..=1.0, counter in 0u8..15, bit in 0usize..64) {
         let msg = Message::Pressures(Pressures {
-            p_small_pa: in_range(Kind::Pressures.signal("PressureSmall").unwrap(), t),
-            p_large_pa: in_range(Kind::Pressures.signal("PressureLarge").unwrap(), 1.0 - t),
+            p_gas_pa: in_range(Kind::Pressures.signal("PressureSmall").unwrap(), t),
+            p_gas2_pa: in_range(Kind::Pressures.signal("PressureLarge").unwrap(), 1.0 - t),
         });
         let good = encode(&msg, counter).unwrap();
         let mut p = *good.payload();
@@ -530,7 +530,7 @@ fn ecu_with_good_inputs_leaves_the_safe_state() {
     let mut tx = Transmitter::new();
     let cfg = crate::Config::seed_unit();
     let msgs = [
-        Message::Pressures(Pressures { p_small_pa: cfg.unit.static_pressure_pa, p_large_pa: cfg.unit.static_pressure_pa }),
+        Message::Pressures(Pressures { p_gas_pa: cfg.unit.static_pressure_pa, p_gas2_pa: cfg.unit.static_pressure_pa }),
         Message::Strut(Strut { disp_m: 0.0 }),
         Message::Body(Body { acc_m_s2: 0.0 }),
         Message::Vehicle(Vehicle { speed_m_s: 10.0, brake_pressed: false, lat_acc_m_s2: 0.0, long_acc_m_s2: 0.0 }),
@@ -566,7 +566,7 @@ fn ecu_without_parameters_stays_safe() {
 fn documented_frame_vectors() {
     // docs/can.md; bytes computed with cantools and crccheck's CRC-8/GSM-A
     // (python/hpctl/pil.py), independently of this codec.
-    let p = encode(&Message::Pressures(Pressures { p_small_pa: 14_811_300.0, p_large_pa: 12_000_000.0 }), 0).unwrap();
+    let p = encode(&Message::Pressures(Pressures { p_gas_pa: 14_811_300.0, p_gas2_pa: 12_000_000.0 }), 0).unwrap();
     assert_eq!(p.payload(), &[0xF5, 0x00, 0xAA, 0x99, 0x16, 0x80, 0x4F, 0x12]);
     let cmd = ValveCmd {
         valve5_open: true,
@@ -580,7 +580,7 @@ fn documented_frame_vectors() {
     };
     let v = encode(&Message::ValveCmd(cmd), 5).unwrap();
     assert_eq!(v.payload(), &[0x03, 0x05, 0x1B, 0x00, 0xD2, 0x04, 0x00, 0x00]);
-    let h = encode(&Message::HeightCtrl(HeightCtrl { p_load_pa: 14_811_300.0, p_large_target_pa: 15_790_390.0 }), 3).unwrap();
+    let h = encode(&Message::HeightCtrl(HeightCtrl { p_load_pa: 14_811_300.0, p_gas2_target_pa: 15_790_390.0 }), 3).unwrap();
     assert_eq!(h.payload(), &[0xEF, 0x03, 0xAA, 0x99, 0x16, 0x1F, 0x18, 0x18]);
     let m = encode(&Message::Motion(Motion { strut_vel_m_s: -0.7315, body_vel_m_s: 0.0425 }), 0).unwrap();
     assert_eq!(m.payload(), &[0x2E, 0x00, 0x49, 0xFA, 0x55, 0x00, 0x00, 0x00]);

@@ -88,7 +88,7 @@ impl HeightCtrl {
     pub fn from_outputs(out: &Outputs) -> Self {
         HeightCtrl {
             p_load_pa: sendable(out.p_load_pa, 0.0, PRESSURE_LIMIT_PA),
-            p_large_target_pa: sendable(out.p_large_target_pa, 0.0, PRESSURE_LIMIT_PA),
+            p_gas2_target_pa: sendable(out.p_gas2_target_pa, 0.0, PRESSURE_LIMIT_PA),
         }
     }
 }

@@ -15,8 +15,8 @@ pub fn seed() -> Params {
 pub fn calm(params: &Params) -> Inputs {
     let unit = &params.config().unit;
     Inputs {
-        p_small_pa: unit.static_pressure_pa,
-        p_large_pa: unit.static_pressure_pa,
+        p_gas_pa: unit.static_pressure_pa,
+        p_gas2_pa: unit.static_pressure_pa,
         t_gas_k: unit.static_temperature_k,
         speed_m_s: 10.0,
         fresh: input_group::ALL,
@@ -61,7 +61,7 @@ pub fn is_safe(out: &Outputs) -> bool {
 pub fn large_gas_mass_kg(params: &Params) -> f64 {
     use hp_core::gas::EquationOfState;
     let unit = &params.config().unit;
-    unit.gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap() * unit.large_volume_m3
+    unit.gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap() * unit.large_acc_volume_m3
 }
 
 /// Pressure of L's gas at the volume offset `u_m` (L's gas volume change
@@ -70,7 +70,7 @@ pub fn large_gas_mass_kg(params: &Params) -> f64 {
 pub fn large_pressure_pa(params: &Params, u_m: f64, t_k: f64) -> f64 {
     use hp_core::gas::EquationOfState;
     let unit = &params.config().unit;
-    let volume_m3 = unit.large_volume_m3 + unit.piston_area_m2 * u_m;
+    let volume_m3 = unit.large_acc_volume_m3 + unit.piston_area_m2 * u_m;
     unit.gas.pressure_pa(large_gas_mass_kg(params) / volume_m3, t_k)
 }
 
@@ -80,7 +80,7 @@ pub fn large_offset_m(params: &Params, p_pa: f64, t_k: f64) -> f64 {
     use hp_core::gas::EquationOfState;
     let unit = &params.config().unit;
     let volume_m3 = large_gas_mass_kg(params) / unit.gas.density_kg_m3(p_pa, t_k).unwrap();
-    (volume_m3 - unit.large_volume_m3) / unit.piston_area_m2
+    (volume_m3 - unit.large_acc_volume_m3) / unit.piston_area_m2
 }
 
 /// The ride-height offset L's pressure `p_pa` holds relative to the

@@ -266,7 +266,7 @@ def wheel_records(result: CaseResult) -> list[tuple[str, RigRecord]]:
         }
         rec = RigRecord(
             kind="sdof",
-            unit=RecordUnit(u.piston_area_m2, u.small_volume_m3, u.large_volume_m3),
+            unit=RecordUnit(u.piston_area_m2, u.small_acc_volume_m3, u.large_acc_volume_m3),
             static=RecordStatic(u.static_pressure_pa, u.static_temperature_k, u.static_temperature_k if result.case.ambient_k is None else result.case.ambient_k),
             test=RecordTest("hard" if hard.mean() >= 0.5 else "soft", "on" if on.mean() >= 0.5 else "off", "drive"),
             data={c: np.ascontiguousarray(x, dtype=np.float64) for c, x in data.items()},

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from scipy.optimize import differential_evolution
 
 from hpctl.errors import ParameterError
-from hpctl.vehicle.evaluate import PASSIVE, Case, Setting, run_case
+from hpctl.vehicle.comparison import PASSIVE, Case, Setting, run_case
 from hpctl.vehicle.model import preset
 from hpctl.vehicle.route import Route, RouteSpec, build
 
