@@ -16,6 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "python" / "hpctl"
 #: from lower layers and from its own subpackage only.
 LAYERS: dict[str, int] = {
     "_core": 0,
+    "_coretypes": 0,
     "errors": 1,
     "caveats": 1,
     "model": 2,

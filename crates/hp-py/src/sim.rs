@@ -251,6 +251,12 @@ pub fn static_force_n(unit: &Bound<'_, PyAny>, disp_m: f64, t_k: f64, spring_har
     })
 }
 
+/// The gas pressure that carries `load_n` at rest, Pa.
+#[pyfunction]
+pub fn load_pressure_pa(unit: &Bound<'_, PyAny>, load_n: f64) -> PyResult<f64> {
+    guard(|| Unit::new(params::unit(unit)?).map_err(to_py)?.load_pressure_pa(load_n).map_err(to_py))
+}
+
 /// Strut compression at which the unit carries `load_n` at rest with the
 /// gas at `t_k`, m.
 #[pyfunction]
@@ -336,6 +342,13 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(seed_unit, m)?)?;
     m.add_function(wrap_pyfunction!(seed_sprung_mass_kg, m)?)?;
     m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
+    m.add_function(wrap_pyfunction!(load_pressure_pa, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
+    m.add("STANDARD_GRAVITY_M_S2", hp_core::unit::STANDARD_GRAVITY_M_S2)?;
+    let ranges = PyDict::new(m.py());
+    for r in hp_core::ranges::ALL {
+        ranges.set_item(r.name, (r.min, r.max))?;
+    }
+    m.add("PARAMETER_RANGES", ranges)?;
     Ok(())
 }

@@ -101,8 +101,7 @@ def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_
     rep = Reporter(quiet, as_json)
     if list_effects:
         if as_json:
-            click.echo(json.dumps({n: {"description": e.description, "params": [p.name for p in e.params], "revealed_by": e.needs}
-                                   for n, e in LIBRARY.items()}, indent=2))
+            click.echo(json.dumps({n: e.to_json() for n, e in LIBRARY.items()}, indent=2))
         else:
             for n, e in LIBRARY.items():
                 click.echo(f"{n:16} {e.description} [{', '.join(p.name for p in e.params) or 'no parameters'}]")

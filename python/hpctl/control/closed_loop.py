@@ -28,14 +28,14 @@ from numpy.typing import NDArray
 from scipy.signal import lfilter
 
 from hpctl import _core
+from hpctl._coretypes import ClosedLoopDict
 from hpctl.control import road
 from hpctl.control.controller import Diag, DriveMode, DriverMode, SequencerState
 from hpctl.errors import ParameterError
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, Unit
 from hpctl.sim.run import sdof_rig
 
 FloatArray = NDArray[np.float64]
-STANDARD_GRAVITY_M_S2 = 9.80665
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ class Case:
         scenario["driver_mode"] = np.full(n, int(self.scenario.driver_mode), dtype=np.int64)
         return {
             "unit": self.unit.to_dict(),
-            "rig": sdof_rig(base, self.sprung_mass_kg),
+            "rig": sdof_rig(base, self.sprung_mass_kg).to_core(),
             "scenario": scenario,
             "dt_s": float(self.dt_s),
             "ambient_k": self.unit.static_temperature_k if self.ambient_k is None else float(self.ambient_k),
@@ -195,8 +195,7 @@ class ClosedLoop:
     @property
     def static_load_pressure_pa(self) -> float:
         """The gas pressure that carries the sprung mass at rest (absolute), Pa."""
-        u = self.case.unit
-        return u.ambient_pressure_pa + self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2 / u.piston_area_m2
+        return self.case.unit.load_pressure_pa(self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2)
 
     def held_offset_m(self) -> FloatArray:
         """The ride-height offset the oil in L gives at rest, from the
@@ -210,7 +209,7 @@ class ClosedLoop:
         return np.asarray((self.plant["v_gas2_m3"] - rest_m3) / u.piston_area_m2, dtype=np.float64)
 
 
-def _result(case: Case, d: Mapping[str, Mapping[str, NDArray[Any]]]) -> ClosedLoop:
+def _result(case: Case, d: ClosedLoopDict) -> ClosedLoop:
     return ClosedLoop(case, dict(d["plant"]), dict(d["inputs"]), dict(d["outputs"]))
 
 

@@ -19,6 +19,7 @@ import numpy as np
 import tomli_w
 from numpy.typing import NDArray
 
+from hpctl import _core
 from hpctl.errors import RecordError
 
 Kind = Literal["characterisation", "sdof"]
@@ -106,20 +107,23 @@ class RigRecord:
         return np.full(len(self.data["time_s"]), self.test.damper == "on")
 
 
-# TOML schema: table -> key -> (type, required, valid range or choices, unit hint).
+# TOML schema: table -> key -> (type, required, valid range or choices).
+# Ranges of what the core models are the core's own (hp_core::ranges), so
+# that a record the reader accepts is one the model can simulate.
 _Range = tuple[float, float]
+_CORE = _core.PARAMETER_RANGES
 _SCHEMA: dict[str, dict[str, tuple[type, bool, Any]]] = {
     "record": {"kind": (str, True, KINDS), "description": (str, False, None)},
     "unit": {
-        "piston_area_m2": (float, True, (1e-5, 1.0)),
-        "small_acc_volume_m3": (float, True, (1e-6, 1.0)),
-        "large_acc_volume_m3": (float, True, (1e-6, 1.0)),
+        "piston_area_m2": (float, True, _CORE["piston_area_m2"]),
+        "small_acc_volume_m3": (float, True, _CORE["small_acc_volume_m3"]),
+        "large_acc_volume_m3": (float, True, _CORE["large_acc_volume_m3"]),
         "gas": (str, False, ("N2",)),
     },
     "static": {
-        "pressure_pa": (float, True, (1e5, 3e8)),
-        "temperature_k": (float, True, (200.0, 600.0)),
-        "ambient_k": (float, True, (200.0, 600.0)),
+        "pressure_pa": (float, True, _CORE["static_pressure_pa"]),
+        "temperature_k": (float, True, _CORE["static_temperature_k"]),
+        "ambient_k": (float, True, _CORE["static_temperature_k"]),
     },
     "test": {
         "spring": (str, True, ("soft", "hard")),
@@ -128,7 +132,7 @@ _SCHEMA: dict[str, dict[str, tuple[type, bool, Any]]] = {
         "amplitude_m": (float, False, (0.0, 1.0)),
         "frequency_hz": (float, False, (0.0, 1e3)),
     },
-    "sdof": {"sprung_mass_kg": (float, True, (1.0, 1e6))},
+    "sdof": {"sprung_mass_kg": (float, True, _CORE["sprung_mass_kg"])},
 }
 
 # Suffixes of non-SI names people use, to say what was meant.

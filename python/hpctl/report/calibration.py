@@ -64,9 +64,9 @@ def loop_area_plot(results: Sequence[tuple[str, FitResult]], path: Path) -> Path
         return None
     fig, ax = plt.subplots(figsize=(7, 4.5))
     measured = rows[0][1]
-    ax.semilogx([m["frequency_hz"] for m in measured], [m["measured_j"] for m in measured], "ko", label="measured")
+    ax.semilogx([m.frequency_hz for m in measured], [m.measured_j for m in measured], "ko", label="measured")
     for label, areas in rows:
-        ax.semilogx([m["frequency_hz"] for m in areas], [m["model_j"] for m in areas], "-", label=label)
+        ax.semilogx([m.frequency_hz for m in areas], [m.model_j for m in areas], "-", label=label)
     ax.set_xlabel("excitation frequency [Hz]")
     ax.set_ylabel("force-displacement loop area [J]")
     ax.grid(True, which="both", alpha=0.3)
@@ -185,7 +185,7 @@ def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
                   "a Coulomb friction loop keeps its area at every frequency.", "",
                   "| frequency [Hz] | amplitude [m] | measured [J] | declared model [J] | final model [J] |", "|---|---|---|---|---|"]
         for a, b in zip(areas_initial, areas_final):
-            lines.append(f"| {a['frequency_hz']:g} | {_fmt(a['amplitude_m'])} | {a['measured_j']:.1f} | {a['model_j']:.1f} | {b['model_j']:.1f} |")
+            lines.append(f"| {a.frequency_hz:g} | {_fmt(a.amplitude_m)} | {a.measured_j:.1f} | {a.model_j:.1f} | {b.model_j:.1f} |")
         png = loop_area_plot([("declared model", initial), ("final model", final)], out_dir / "loop_areas.png")
         if png:
             lines += ["", f"![loop areas]({png.name})"]

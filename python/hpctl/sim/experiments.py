@@ -18,7 +18,7 @@ import numpy as np
 
 from hpctl import _core
 from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, OilNode, Unit
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, OilNode, Unit
 from hpctl.sim import metrics
 from hpctl.sim.run import (
     Motion,
@@ -26,7 +26,6 @@ from hpctl.sim.run import (
     Result,
     Sine,
     Step,
-    Steps,
     run_characterisation,
     run_sdof,
 )
@@ -198,13 +197,6 @@ def headline(experiments: list[Experiment]) -> dict[str, Any]:
     return out
 
 
-def slow_steps(unit: Unit, *, spring_hard: bool, increment_m: float = 0.02, count: int = 4, dwell_s: float = 30.0, progress: Progress | None = None) -> Experiment:
-    """Slow increments with dwells: the isothermal characteristic."""
-    motion = Steps(increment_m, count, ramp_s=2.0, dwell_s=dwell_s)
-    return characterisation(unit, motion, motion.duration_s, spring_hard=spring_hard, damper_on=False, dt_s=1e-3, sample_dt_s=0.1, progress=progress)
-
-
-
 def seed_oil_node() -> OilNode:
     """The seed's lumped oil / gas-wall thermal nodes (see hp-core presets)."""
     return OilNode(**_core.seed_oil_node())
@@ -252,7 +244,7 @@ def heat_buildup(
     last = metrics.last_cycle(t, frequency_hz)
     t_gas_end = float(np.mean(r["t_gas_k"][last]))
     t_oil_end = float(np.mean(r["t_oil_k"][last]))
-    load = sprung_mass_kg * 9.80665
+    load = sprung_mass_kg * STANDARD_GRAVITY_M_S2
 
     def rate(t_k: float) -> float:
         h = 1e-3

@@ -8,12 +8,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, Union
+from typing import Any, Literal, Union, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
+from hpctl._coretypes import CaseDict, CharacterisationRigDict, MotionDict, SampledDict, SdofRigDict
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
@@ -81,13 +82,13 @@ class Sampled:
 Motion = Union[Hold, Sine, Step, Steps, Sampled]
 
 
-def _motion_dict(m: Motion) -> dict[str, Any]:
+def _motion_dict(m: Motion) -> MotionDict:
     if isinstance(m, Sampled):
-        d: dict[str, Any] = {"kind": "sampled", "time_s": np.ascontiguousarray(m.time_s, float), "disp_m": np.ascontiguousarray(m.disp_m, float)}
+        d: SampledDict = {"kind": "sampled", "time_s": np.ascontiguousarray(m.time_s, float), "disp_m": np.ascontiguousarray(m.disp_m, float)}
         if m.vel_m_s is not None:
             d["vel_m_s"] = np.ascontiguousarray(m.vel_m_s, float)
         return d
-    return dict(vars(m))
+    return cast(MotionDict, dict(vars(m)))
 
 
 @dataclass(frozen=True)
@@ -109,7 +110,7 @@ Progress = Callable[[int, int], None]
 
 def _case(
     unit: Unit,
-    rig: dict[str, Any],
+    rig: Rig,
     times_s: ArrayLike,
     *,
     spring_hard: bool | ArrayLike,
@@ -117,13 +118,13 @@ def _case(
     dt_s: float,
     ambient_k: float | None,
     channels: Sequence[str] | None,
-) -> dict[str, Any]:
+) -> CaseDict:
     def flags(v: bool | ArrayLike) -> bool | list[bool]:
         return bool(v) if np.ndim(v) == 0 else [bool(x) for x in np.asarray(v).ravel()]
 
     return {
         "unit": unit.to_dict(),
-        "rig": rig,
+        "rig": rig.to_core(),
         "times_s": np.ascontiguousarray(times_s, dtype=float),
         "dt_s": float(dt_s),
         "ambient_k": unit.static_temperature_k if ambient_k is None else float(ambient_k),
@@ -133,14 +134,42 @@ def _case(
     }
 
 
-def characterisation_rig(strut: Motion) -> dict[str, Any]:
-    """The rig description for a prescribed strut compression."""
-    return {"kind": "characterisation", "strut": _motion_dict(strut)}
+@dataclass(frozen=True)
+class CharacterisationRig:
+    """The characterisation rig: the actuator prescribes the strut's
+    compression."""
+
+    strut: Motion
+
+    def to_core(self) -> CharacterisationRigDict:
+        """The plain-dict form the Rust core reads."""
+        return {"kind": "characterisation", "strut": _motion_dict(self.strut)}
 
 
-def sdof_rig(base: Motion, sprung_mass_kg: float = SEED_SPRUNG_MASS_KG) -> dict[str, Any]:
-    """The rig description for a sprung mass on the unit over a moving base."""
-    return {"kind": "sdof", "sprung_mass_kg": float(sprung_mass_kg), "base": _motion_dict(base)}
+@dataclass(frozen=True)
+class SdofRig:
+    """The single-degree-of-freedom rig: a sprung mass on the unit over a
+    moving base."""
+
+    base: Motion
+    sprung_mass_kg: float = SEED_SPRUNG_MASS_KG
+
+    def to_core(self) -> SdofRigDict:
+        """The plain-dict form the Rust core reads."""
+        return {"kind": "sdof", "sprung_mass_kg": float(self.sprung_mass_kg), "base": _motion_dict(self.base)}
+
+
+Rig = Union[CharacterisationRig, SdofRig]
+
+
+def characterisation_rig(strut: Motion) -> CharacterisationRig:
+    """The rig for a prescribed strut compression."""
+    return CharacterisationRig(strut)
+
+
+def sdof_rig(base: Motion, sprung_mass_kg: float = SEED_SPRUNG_MASS_KG) -> SdofRig:
+    """The rig for a sprung mass on the unit over a moving base."""
+    return SdofRig(base, sprung_mass_kg)
 
 
 def uniform_times(duration_s: float, sample_dt_s: float) -> FloatArray:
@@ -151,7 +180,7 @@ def uniform_times(duration_s: float, sample_dt_s: float) -> FloatArray:
 
 def run(
     unit: Unit,
-    rig: dict[str, Any],
+    rig: Rig,
     times_s: ArrayLike,
     *,
     spring_hard: bool | ArrayLike = True,
@@ -199,7 +228,7 @@ class Case:
     """One run for :func:`run_many`."""
 
     unit: Unit
-    rig: dict[str, Any]
+    rig: Rig
     times_s: FloatArray
     spring_hard: bool | ArrayLike = True
     damper_on: bool | ArrayLike = True
