@@ -1,6 +1,6 @@
 # Hand-kept stub of the Rust extension hpctl._core (checked by stubtest).
 from collections.abc import Callable, Sequence
-from typing import Any, TypedDict, final, type_check_only
+from typing import Any, final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -64,7 +64,12 @@ from hpctl._coretypes import (
     GasPropsDict,
     OilNodeDict,
     RigDict,
+    RoadDict,
+    SuspensionDict,
     UnitDict,
+    VehicleDict,
+    VehicleRunDict,
+    VehicleStaticsDict,
 )
 
 CHANNELS: list[str]
@@ -167,45 +172,26 @@ VEHICLE_CHANNELS: list[str]
 VEHICLE_CORNER_CHANNELS: list[str]
 VEHICLE_CONTROLLER_CHANNELS: list[str]
 
-@type_check_only
-class VehicleStatics(TypedDict):
-    static_load_n: NDArray[np.float64]
-    static_disp_m: NDArray[np.float64]
-    tyre_static_deflection_m: NDArray[np.float64]
-    x_m: NDArray[np.float64]
-    y_m: NDArray[np.float64]
-    total_mass_kg: float
-
-@type_check_only
-class VehicleRun(TypedDict):
-    """1-D arrays per period (``VEHICLE_CHANNELS``); (periods, wheels)
-    arrays per wheel (``VEHICLE_CORNER_CHANNELS``) and per controller
-    (``VEHICLE_CONTROLLER_CHANNELS``, semi-active runs only)."""
-
-    vehicle: dict[str, NDArray[np.float64]]
-    corners: dict[str, NDArray[np.float64]]
-    controller: dict[str, NDArray[np.float64]]
-
-def vehicle_presets() -> dict[str, dict[str, Any]]: ...
-def vehicle_controller_config(vehicle: dict[str, Any]) -> dict[str, Any]: ...
-def vehicle_statics(vehicle: dict[str, Any], ambient_k: float, spring_hard: bool = True, damper_on: bool = True) -> VehicleStatics: ...
+def vehicle_presets() -> dict[str, VehicleDict]: ...
+def vehicle_controller_config(vehicle: VehicleDict) -> dict[str, Any]: ...
+def vehicle_statics(vehicle: VehicleDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True) -> VehicleStaticsDict: ...
 def vehicle_run(
-    vehicle: dict[str, Any],
-    road: dict[str, Any],
+    vehicle: VehicleDict,
+    road: RoadDict,
     drive: dict[str, NDArray[Any]],
-    suspension: dict[str, Any],
+    suspension: SuspensionDict,
     dt_s: float,
     ambient_k: float,
     max_dt_s: float = 1e-3,
     record_every: int = 1,
     t_gas_sensor_tau_s: float = 1.0,
     progress: Callable[[int, int], object] | None = None,
-) -> VehicleRun: ...
-def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRun | HpctlError]: ...
+) -> VehicleRunDict: ...
+def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRunDict | HpctlError]: ...
 @final
 class VehiclePlant:
     def __new__(
-        cls, vehicle: dict[str, Any], road: dict[str, Any], ambient_k: float, spring_hard: bool = True, damper_on: bool = True, max_dt_s: float = 1e-3
+        cls, vehicle: VehicleDict, road: RoadDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True, max_dt_s: float = 1e-3
     ) -> VehiclePlant: ...
     @property
     def corner_count(self) -> int: ...

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl import _core
+from hpctl._coretypes import SuspensionDict
 from hpctl.control.controller import DriveMode
 from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
 from hpctl.errors import HpctlError, ParameterError
@@ -54,7 +55,7 @@ class Setting:
     #: Controller configuration (semi-active; None: the vehicle's default).
     config: Mapping[str, Any] | None = None
 
-    def to_core(self, vehicle: VehicleSpec) -> dict[str, Any]:
+    def to_core(self, vehicle: VehicleSpec) -> SuspensionDict:
         if self.semi_active:
             return {"kind": "semi_active", "config": dict(self.config) if self.config is not None else vehicle.controller_config()}
         return {"kind": "passive", "spring_hard": self.spring_hard, "damper_on": self.damper_on}

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl import _core
+from hpctl._coretypes import VehicleDict
 from hpctl.errors import ParameterError
 from hpctl.model.unit import Unit
 
@@ -91,13 +92,34 @@ class VehicleSpec:
         """``axle1_left``, ``axle1_right``, ... in the core's corner order."""
         return [f"axle{k + 1}_{side}" for k in range(len(self.axles)) for side in ("left", "right")]
 
-    def to_core(self) -> dict[str, Any]:
+    def to_core(self) -> VehicleDict:
         """The dict the Rust core reads."""
+        b, s = self.body, self.seat
         return {
-            "body": dataclasses.asdict(self.body),
-            "axles": [{**{f.name: getattr(a, f.name) for f in dataclasses.fields(a) if f.name != "unit"}, "unit": a.unit.to_dict()} for a in self.axles],
+            "body": {
+                "mass_kg": b.mass_kg,
+                "roll_inertia_kg_m2": b.roll_inertia_kg_m2,
+                "pitch_inertia_kg_m2": b.pitch_inertia_kg_m2,
+                "yaw_inertia_kg_m2": b.yaw_inertia_kg_m2,
+                "cg_height_m": b.cg_height_m,
+                "roll_centre_height_m": b.roll_centre_height_m,
+            },
+            "axles": [
+                {
+                    "x_m": a.x_m,
+                    "track_m": a.track_m,
+                    "unsprung_mass_kg": a.unsprung_mass_kg,
+                    "wheel_radius_m": a.wheel_radius_m,
+                    "tyre_stiffness_n_per_m": a.tyre_stiffness_n_per_m,
+                    "tyre_damping_n_s_per_m": a.tyre_damping_n_s_per_m,
+                    "cornering_stiffness_n_per_rad": a.cornering_stiffness_n_per_rad,
+                    "steer_ratio": a.steer_ratio,
+                    "unit": a.unit.to_dict(),
+                }
+                for a in self.axles
+            ],
             "steering_ratio": self.steering_ratio,
-            "seat": dataclasses.asdict(self.seat),
+            "seat": {"x_m": s.x_m, "y_m": s.y_m, "height_m": s.height_m},
         }
 
     @classmethod

@@ -38,6 +38,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from hpctl._coretypes import RoadDict
 from hpctl.control import road
 from hpctl.control.controller import DriverMode
 from hpctl.errors import ParameterError
@@ -172,7 +173,7 @@ class Route:
     def length_m(self) -> float:
         return self.sections[-1].end_m
 
-    def to_core(self) -> dict[str, object]:
+    def to_core(self) -> RoadDict:
         return {"start_m": self.start_m, "dx_m": self.dx_m, "left_m": self.left_m, "right_m": self.right_m}
 
 
