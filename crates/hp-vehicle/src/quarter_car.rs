@@ -152,7 +152,7 @@ impl<'a> QuarterCar<'a> {
         );
         let p = &self.params;
         let body_acc = c.unit.force_true_n / p.sprung_mass_kg - STANDARD_GRAVITY_M_S2;
-        let wheel_acc = (c.tyre_force_n - c.unit.force_n) / p.unsprung_mass_kg - STANDARD_GRAVITY_M_S2;
+        let wheel_acc = (c.tyre_force_n - c.unit.force_true_n) / p.unsprung_mass_kg - STANDARD_GRAVITY_M_S2;
         let rate = QuarterCarState {
             unit: unit_rate,
             body_disp_m: s.body_vel_m_s,
