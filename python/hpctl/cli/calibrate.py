@@ -252,11 +252,16 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
     out = []
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
-    if diag.verdict == "unexplained_structure":
+    j = diag.judgement
+    if j is not None and j.structure_remains:
+        found = f"after adding {', '.join(diag.found)} " if diag.found else "and no effect in the library explains it: "
         out.append(Caveat(
             Code.RESIDUAL_STRUCTURED,
-            f"structured residual remains that no effect in the library explains (RMS / noise {diag.final.rms_ratio:.3g})",
-            {"rms_ratio": diag.final.rms_ratio, "verdict": diag.verdict},
+            f"structure remains {found}(RMS / noise {j.rms_ratio:.3g}, worst channel {j.worst_rms_ratio:.3g}; "
+            f"'nothing left' needs at most {diagnose.NOISE_CEILING:g}): " + "; ".join(pl.describe() for pl in j.places[:3]),
+            {"rms_ratio": j.rms_ratio, "worst_rms_ratio": j.worst_rms_ratio, "verdict": diag.verdict, "found": list(diag.found),
+             "structured": [f"{pl.record}/{pl.channel}" for pl in j.places],
+             "regimes": [",".join(pl.worst_regimes.values()) for pl in j.places]},
         ))
     return out
 
@@ -272,6 +277,8 @@ def _print_diagnosis(rep: Reporter, diag: diagnose.Diagnosis, path: Path) -> Non
                   "-" if c is None else c.effect, "-" if c is None else f"{c.delta_bic:.0f}", params)
     t.add_row("final", ", ".join(diag.final.model.effects) or "classical", f"{diag.final.rms_ratio:.3g}", f"{diag.final.bic:.0f}", "", "", "")
     rep.out.print(t)
+    if diag.judgement is not None:
+        rep.say(diag.judgement.describe())
     rep.say(f"Report: {path}")
 
 

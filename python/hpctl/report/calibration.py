@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir  # noqa: E402
-from hpctl.identify.diagnose import Diagnosis, loop_areas  # noqa: E402
+from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
 from hpctl.report.plots import save  # noqa: E402
@@ -140,6 +140,13 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
     return out.final("fit.md")
 
 
+def _after(rnd: Round) -> str:
+    j = rnd.judgement
+    if j is None:
+        return "-"
+    return f"{j.rms_ratio:.3g} ({j.worst_rms_ratio:.3g}): {'at the noise' if j.at_noise else 'structure remains'}"
+
+
 def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
     """report.md: the story from the declared model to the verdict, and the
     warnings."""
@@ -157,23 +164,36 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         lines.append("The residual of the declared model is indistinguishable from the measurement noise: nothing is left to explain.")
     else:
         lines.append("Structured residual remains that no effect in the library explains (see the residual analysis below).")
+    j = diag.judgement
+    if j is not None:
+        lines += ["", f"What is left: {j.describe(0)}."]
+        if j.places:
+            lines += ["", "## Remaining structure", "",
+                      "Where the final residual is more than noise ('nothing left' needs every record's channel and the pooled residual "
+                      "at most 1.3x its noise level), the regimes that hold most of it and what it correlates with:", "",
+                      "| record | channel | RMS / noise | lag-1 autocorrelation | most in | correlates with |", "|---|---|---|---|---|---|"]
+            for pl in j.places:
+                most = ", ".join(f"{r} ({pl.regimes[r]:.2g}x)" for r in pl.worst_regimes.values()) or "evenly spread"
+                corr = ", ".join(f"{q} ({c:+.2f})" for q, c in pl.correlates_with) or "-"
+                lines.append(f"| {pl.record} | {pl.channel} | {pl.rms_ratio:.3g} | {pl.autocorr:.2f} | {most} | {corr} |")
     lines += ["", *warnings_section(caveats)]
     lines += ["## Records", "", "| record | kind | excitation | frequency [Hz] | amplitude [m] | samples |", "|---|---|---|---|---|---|"]
     for d in final.datasets:
         t = d.record.test
         lines.append(f"| {d.name} | {d.record.kind} | {t.excitation} | {_fmt(t.frequency_hz)} | {_fmt(t.amplitude_m)} | {len(d.times_s)} |")
     lines += ["", "## Steps", "",
-              "| step | model | residual RMS / noise | BIC | added effect | BIC gain | per parameter | CV error before | CV error after |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "| step | model | residual RMS / noise | BIC | added effect | BIC gain | per parameter | CV error before | CV error after | "
+              "after: RMS / noise (worst channel) |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for k, rnd in enumerate(diag.rounds):
         c = rnd.accepted
         model = ", ".join(rnd.before.model.effects) or "classical"
         if c is None:
-            lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | - | - | - | - | - |")
+            lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | - | - | - | - | - | - |")
         else:
             lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | `{c.effect}` | {c.delta_bic:.1f} | "
-                         f"{c.score:.1f} | {_fmt(c.cv_before, 4)} | {_fmt(c.cv_after, 4)} |")
-    lines.append(f"| final | {', '.join(final.model.effects) or 'classical'} | {final.rms_ratio:.3g} | {final.bic:.1f} | | | | | |")
+                         f"{c.score:.1f} | {_fmt(c.cv_before, 4)} | {_fmt(c.cv_after, 4)} | {_after(rnd)} |")
+    lines.append(f"| final | {', '.join(final.model.effects) or 'classical'} | {final.rms_ratio:.3g} | {final.bic:.1f} | | | | | | |")
     for k, rnd in enumerate(diag.rounds):
         if not rnd.candidates:
             continue
