@@ -188,7 +188,7 @@ def _regime_masks(d: Dataset) -> dict[str, dict[str, NDArray[np.bool_]]]:
     return out
 
 
-def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int = 6) -> Judgement:
+def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int = 12) -> Judgement:
     """Judges what ``result`` leaves against the noise: at the noise only
     when nothing is structured and the pooled residual and every record's
     channel are within :data:`NOISE_CEILING` of their noise; otherwise the
