@@ -104,6 +104,8 @@ def main() -> int:
                 row["diagnose_error"] = err
             else:
                 row["verdict"] = d["verdict"]
+                row["structure_remains"] = d.get("structure_remains")
+                row["remaining_structure"] = d.get("remaining_structure", {}).get("text")
                 row["found"] = [e["effect"] for e in d["effects"]]
                 row["rms_ratio_before"] = d["error_before"]["rms_ratio"]
                 row["rms_ratio_after"] = d["error_after"]["rms_ratio"]
