@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 import time
@@ -132,9 +133,17 @@ def main() -> int:
     return 0
 
 
+def _worst(r: dict[str, Any]) -> str:
+    """The first place of the remaining-structure text (or at the noise)."""
+    text = r.get("remaining_structure") or "-"
+    head, _, places = text.partition(": ")
+    # Places are joined by "; " before the next "record/channel".
+    return (re.split(r"; (?=[\w.]+/)", places)[0] if places else head).replace("|", "/")
+
+
 def markdown(results: list[dict[str, Any]]) -> str:
-    lines = ["| effect | seed | rig data | diagnose | verdict | found (rms ratio before -> after) | after / true noise (pooled, worst) | fit seed+effect: rms ratio, params vs truth | fit time |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| effect | seed | rig data | diagnose | verdict | found (rms ratio before -> after) | after / true noise (pooled, worst) | fit seed+effect: rms ratio, params vs truth | fit time | where structure remains (worst place) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         steps = ", ".join(f"{e} ({b} -> {a_})" for e, b, a_ in r.get("steps", [])) or "-"
         tn = r.get("true_noise_after", {})
@@ -143,7 +152,7 @@ def markdown(results: list[dict[str, Any]]) -> str:
         verdict = r.get("verdict", r.get("diagnose_error", ""))
         before = f"{r['rms_ratio_before']:.1f} -> " if "rms_ratio_before" in r else ""
         lines.append(f"| {r['effect']} | {r['seed']} | {len(r['records'])} rec, {r['record_seconds']:.0f} s | {r['diagnose_s']:.0f} s | {verdict} | {before}{steps} | "
-                     f"{tn.get('pooled', float('nan')):.1f}, {tn.get('max', float('nan')):.1f} | {fit} | {r.get('fit_s', '-')} |")
+                     f"{tn.get('pooled', float('nan')):.1f}, {tn.get('max', float('nan')):.1f} | {fit} | {r.get('fit_s', '-')} | {_worst(r)} |")
     return "\n".join(lines) + "\n"
 
 
