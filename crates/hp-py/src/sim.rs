@@ -337,5 +337,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(seed_sprung_mass_kg, m)?)?;
     m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
+    // The gas models by name, the default (the reference equation of state) first.
+    m.add("GAS_MODELS", hp_core::gas::Gas::ALL.map(|g| g.name()).to_vec())?;
+    m.add("DEFAULT_GAS", hp_core::gas::Gas::default().name())?;
     Ok(())
 }
