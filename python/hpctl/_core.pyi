@@ -23,6 +23,8 @@ __all__ = [
     "seed_sprung_mass_kg",
     "seed_oil_node",
     "CHANNELS",
+    "GAS_MODELS",
+    "DEFAULT_GAS",
     "Plant",
     "__version__",
     "Controller",
@@ -44,6 +46,8 @@ __all__ = [
     "Ecu",
 ]
 CHANNELS: list[str]
+GAS_MODELS: list[str]
+DEFAULT_GAS: str
 
 class HpctlError(ValueError): ...
 class ParameterError(HpctlError): ...

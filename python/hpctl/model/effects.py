@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 from hpctl.model.unit import (
+    DEFAULT_GAS,
     Friction,
     Leakage,
     OilCompliance,
@@ -74,7 +75,7 @@ def _heat_transfer(u: Unit, p: Mapping[str, float]) -> Unit:
 
 
 def _real_gas(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.replace(gas="bwr-textbook")
+    return u.replace(gas=DEFAULT_GAS)
 
 
 def _friction(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -121,7 +122,7 @@ LIBRARY: dict[str, Effect] = {
     for e in (
         Effect("heat_transfer", "gas-wall heat transfer with a thermal time constant (the seed's Eq. 1) instead of a polytropic law",
                (Param("tau_s", 0.05, 500.0, 2.0, log=True),), _heat_transfer, "sine records over a range of frequencies"),
-        Effect("real_gas", "Benedict-Webb-Rubin real nitrogen instead of the ideal gas", (), _real_gas, "large compressions / high pressure"),
+        Effect("real_gas", "real nitrogen (the reference equation of state, Span et al. 2000) instead of the ideal gas", (), _real_gas, "large compressions / high pressure"),
         Effect("friction", "seal friction: Coulomb plus viscous",
                (Param("friction_coulomb_n", 0.0, 5000.0, 200.0), Param("friction_viscous_n_s_per_m", 0.0, 20000.0, 100.0)), _friction,
                "any motion; independent of frequency"),

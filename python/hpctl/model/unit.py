@@ -20,7 +20,10 @@ import tomli_w
 from hpctl import _core
 from hpctl.errors import ParameterError
 
-GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
+# The gas models by name, from the Rust core: the default (the reference
+# equation of state of Span et al. 2000) first.
+GAS_MODELS: tuple[str, ...] = tuple(_core.GAS_MODELS)
+DEFAULT_GAS: str = _core.DEFAULT_GAS
 
 
 @dataclass(frozen=True)
