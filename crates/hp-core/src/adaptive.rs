@@ -289,6 +289,15 @@ impl<const N: usize> Integrator<N> {
         self.h
     }
 
+    /// Caps the next step at `h_max_s` (e.g. where the input starts to
+    /// change, which the error estimate of a step that jumps over it
+    /// cannot see).
+    pub fn limit_step(&mut self, h_max_s: f64) {
+        if h_max_s < self.h {
+            self.h = h_max_s.max(self.control.min_step_s);
+        }
+    }
+
     /// The solution at `t_s` within the last accepted step (from its
     /// dense output; the current state at its end).
     pub fn dense(&self, t_s: f64) -> [f64; N] {

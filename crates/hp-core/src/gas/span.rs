@@ -135,7 +135,7 @@ const GAUSSIAN_NEGLIGIBLE_EXPONENT: f64 = -100.0;
 /// Sums over a group of terms that share one exponential factor, each
 /// term `n delta^d tau^t` weighted by the exponent factors that its
 /// derivatives bring down.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct Sums {
     /// `sum n delta^d tau^t`
     a: f64,
@@ -149,6 +149,14 @@ struct Sums {
     tt: f64,
     /// `sum d t n delta^d tau^t`
     dt: f64,
+}
+
+impl Default for Sums {
+    /// Empty sums start at -0.0, the identity of addition (0.0 is not:
+    /// -0.0 + 0.0 = 0.0), so the first addition folds away.
+    fn default() -> Self {
+        Sums { a: -0.0, d: -0.0, dd: -0.0, t: -0.0, tt: -0.0, dt: -0.0 }
+    }
 }
 
 impl Sums {
