@@ -94,15 +94,15 @@ pub struct Control {
     /// Relative error tolerance per step.
     pub rtol: f64,
     /// Largest step, s.
-    pub max_step_s: f64,
+    pub max_dt_s: f64,
     /// Smallest step before giving up, s.
     pub min_step_s: f64,
 }
 
 impl Control {
-    /// With relative tolerance `rtol` and steps of at most `max_step_s`.
-    pub fn new(rtol: f64, max_step_s: f64) -> Self {
-        Control { rtol, max_step_s, min_step_s: 1e-12 }
+    /// With relative tolerance `rtol` and steps of at most `max_dt_s`.
+    pub fn new(rtol: f64, max_dt_s: f64) -> Self {
+        Control { rtol, max_dt_s, min_step_s: 1e-12 }
     }
 }
 
@@ -241,7 +241,8 @@ impl<const N: usize> Integrator<N> {
             y,
             f,
             coupling,
-            h: h_s.clamp(control.min_step_s, control.max_step_s),
+            // max then min rather than clamp: no panic on a bad bound.
+            h: h_s.max(control.min_step_s).min(control.max_dt_s),
             control,
             atol: system.abs_tolerance(),
             t_prev: t_s,
@@ -342,7 +343,7 @@ impl<const N: usize> Integrator<N> {
         let mut last_error = Error::NoConvergence { what: "adaptive step (step size below the minimum)", target: self.t };
         loop {
             let remaining = t_end_s - self.t;
-            let mut h = self.h.min(self.control.max_step_s);
+            let mut h = self.h.min(self.control.max_dt_s);
             // Land on the end exactly, without leaving a sliver.
             if h >= remaining * (1.0 - 1e-12) {
                 h = remaining;

@@ -151,7 +151,7 @@ impl<'a> Motion<'a> {
     /// The largest step that resolves the motion at `t_s`, s: a quarter of
     /// a ramp while one runs, an eighth of a sine's period, four sample
     /// intervals of sampled data; unlimited where the motion is at rest.
-    pub fn max_step_s(&self, t_s: f64) -> f64 {
+    pub fn max_dt_s(&self, t_s: f64) -> f64 {
         match *self {
             Motion::Hold { .. } => f64::INFINITY,
             Motion::Sine { frequency_hz, .. } => {

@@ -4,7 +4,7 @@ use crate::errors::{guard, parameter, to_py};
 use crate::exec::{detached_with_progress, run_parallel};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
-use hp_core::rig::{run, Rig, RigKind, RigSample};
+use hp_core::rig::{run, run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail};
 use hp_core::unit::{Unit, UnitParams, Valves};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -42,6 +42,24 @@ pub const CHANNELS: [&str; 31] = [
     "body_acc_m_s2",
     "base_disp_m",
     "cavitating",
+    "spring_hard",
+    "damper_on",
+];
+
+/// The channels a sample gives from the integrated state alone, without
+/// evaluating the unit (see [`SampleDetail::States`]).
+const STATE_CHANNELS: [&str; 13] = [
+    "time_s",
+    "disp_m",
+    "vel_m_s",
+    "v_gas_m3",
+    "v_gas2_m3",
+    "e_damper_j",
+    "e_friction_j",
+    "e_valve6_j",
+    "body_disp_m",
+    "body_vel_m_s",
+    "base_disp_m",
     "spring_hard",
     "damper_on",
 ];
@@ -95,6 +113,10 @@ struct Case {
     spring_hard: Vec<bool>,
     damper_on: Vec<bool>,
     channels: Vec<usize>,
+    /// Relative tolerance of the adaptive integrator; `None`: fixed-step
+    /// RK4 with steps of at most `dt_s` (with a tolerance, `dt_s` caps the
+    /// adaptive step).
+    rtol: Option<f64>,
 }
 
 fn bools(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<bool>> {
@@ -135,12 +157,14 @@ impl Case {
         spring_hard: &Bound<'_, PyAny>,
         damper_on: &Bound<'_, PyAny>,
         channels: Option<Vec<String>>,
+        rtol: Option<f64>,
     ) -> PyResult<Case> {
         if times_s.is_empty() {
             return Err(parameter("times_s is empty; expected at least one output time"));
         }
         let n = times_s.len();
         Ok(Case {
+            rtol,
             unit: params::unit(unit)?,
             rig: params::rig(rig)?,
             times_s,
@@ -164,13 +188,23 @@ impl Case {
         let valves_at = |i: usize| Valves::from_modes(at(&self.spring_hard, i), at(&self.damper_on, i));
         let rig = Rig::new(&unit, kind, self.ambient_k, valves_at(0))?;
         let mut out: Vec<Vec<f64>> = self.channels.iter().map(|_| Vec::with_capacity(self.times_s.len())).collect();
-        run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), |i, s| {
+        let on_sample = |i: usize, s: &RigSample| {
             let values = channel_values(s);
             for (column, &c) in out.iter_mut().zip(&self.channels) {
                 column.push(values.get(c).copied().unwrap_or(f64::NAN));
             }
             tick(i)
-        })?;
+        };
+        match self.rtol {
+            None => run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), on_sample)?,
+            Some(rtol) => {
+                let states_only =
+                    self.channels.iter().all(|&c| CHANNELS.get(c).is_some_and(|name| STATE_CHANNELS.contains(name)));
+                let detail = if states_only { SampleDetail::States } else { SampleDetail::Full };
+                let settings = Adaptive { rtol, max_dt_s: self.dt_s };
+                run_adaptive(&rig, &self.times_s, settings, detail, |i, _| valves_at(i), on_sample)?;
+            }
+        }
         Ok(out)
     }
 
@@ -185,10 +219,15 @@ impl Case {
 
 /// Runs one rig simulation and returns its channels as numpy arrays.
 ///
+/// With `rtol` the steps are error-controlled (relative tolerance `rtol`,
+/// at most `dt_s` long, which may be infinite) and the samples come from
+/// the dense output; without, fixed RK4 steps of at most `dt_s` land on
+/// every output time.
+///
 /// `progress(done, total)` is called about ten times a second from the
 /// simulation thread; the GIL is released otherwise. Ctrl-C stops the run.
 #[pyfunction]
-#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None))]
+#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None, rtol=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -201,10 +240,11 @@ pub fn simulate<'py>(
     damper_on: &Bound<'py, PyAny>,
     channels: Option<Vec<String>>,
     progress: Option<Py<PyAny>>,
+    rtol: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let times = times_s.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| times_s.as_array().to_vec());
-        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels)?;
+        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels, rtol)?;
         let total = case.times_s.len();
         let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         let columns = result.map_err(to_py)?;
@@ -229,7 +269,11 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: 
                 Some(v) => Some(v.extract::<Vec<String>>().map_err(|_| parameter(format!("cases[{i}].channels must be a list of names")))?),
                 None => None,
             };
-            let case = Case::from_py(&r.get("unit")?, &r.get("rig")?, r.vec("times_s")?, r.f64("dt_s")?, r.f64("ambient_k")?, &spring_hard, &damper_on, channels)?;
+            let rtol = match r.get_opt("rtol")? {
+                Some(v) => Some(v.extract::<f64>().map_err(|_| parameter(format!("cases[{i}].rtol must be a number or None")))?),
+                None => None,
+            };
+            let case = Case::from_py(&r.get("unit")?, &r.get("rig")?, r.vec("times_s")?, r.f64("dt_s")?, r.f64("ambient_k")?, &spring_hard, &damper_on, channels, rtol)?;
             r.finish()?;
             specs.push(case);
         }
@@ -340,5 +384,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // The gas models by name, the default (the reference equation of state) first.
     m.add("GAS_MODELS", hp_core::gas::Gas::ALL.map(|g| g.name()).to_vec())?;
     m.add("DEFAULT_GAS", hp_core::gas::Gas::default().name())?;
+    // The adaptive integrator's relative tolerance unless a caller asks for another.
+    m.add("DEFAULT_RTOL", hp_core::rig::DEFAULT_RTOL)?;
     Ok(())
 }

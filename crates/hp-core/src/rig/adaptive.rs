@@ -27,12 +27,12 @@ pub struct Adaptive {
     /// pressure, 1 K, the stroke, ...).
     pub rtol: f64,
     /// Largest step, s (`f64::INFINITY`: none).
-    pub max_step_s: f64,
+    pub max_dt_s: f64,
 }
 
 impl Default for Adaptive {
     fn default() -> Self {
-        Adaptive { rtol: DEFAULT_RTOL, max_step_s: f64::INFINITY }
+        Adaptive { rtol: DEFAULT_RTOL, max_dt_s: f64::INFINITY }
     }
 }
 
@@ -227,8 +227,8 @@ pub fn run_adaptive<'a>(
     mut on_sample: impl FnMut(usize, &RigSample) -> bool,
 ) -> Result<Stats> {
     check_range("rtol", settings.rtol, 1e-14, 1e-2)?;
-    if !(settings.max_step_s > 1e-9) {
-        return Err(Error::OutOfRange { name: "max_step_s", value: settings.max_step_s, min: 1e-9, max: f64::INFINITY });
+    if !(settings.max_dt_s >= 1e-9) {
+        return Err(Error::OutOfRange { name: "dt_s (largest step)", value: settings.max_dt_s, min: 1e-9, max: f64::INFINITY });
     }
     let Some(&t0) = times_s.first() else { return Ok(Stats::default()) };
     check_range("time_s", t0, 0.0, 1e9)?;
@@ -252,8 +252,8 @@ pub fn run_adaptive<'a>(
         *a *= settings.rtol;
     }
     let mut system = System { rig, layout: &layout, base, atol };
-    let control = Control::new(settings.rtol, settings.max_step_s);
-    let first_step = settings.max_step_s.min(1e-4);
+    let control = Control::new(settings.rtol, settings.max_dt_s);
+    let first_step = settings.max_dt_s.min(1e-4);
     let mut integrator = Integrator::new(&system, 0.0, layout.compress(&base), first_step, control)?;
     // Settle from rest at t = 0 to the first output time.
     advance(&mut integrator, &system, t0, t0)?;
@@ -311,7 +311,7 @@ fn advance(integrator: &mut Integrator<RIG_STATES>, system: &System<'_, '_>, t_s
             Some(b) if b < t_stop => b,
             _ => t_stop,
         };
-        integrator.limit_step(motion.max_step_s(t));
+        integrator.limit_step(motion.max_dt_s(t));
         integrator.step(system, end)?;
         steps += 1;
         if steps > MAX_STEPS_PER_SAMPLE {
