@@ -336,6 +336,44 @@ impl<const N: usize> Integrator<N> {
         libm::sqrt(sum / self.n.max(1) as f64)
     }
 
+    /// Takes one step to exactly `t_end_s` and accepts it whatever its error
+    /// estimate: for replaying the steps of an error-controlled run (a
+    /// finite-difference derivative of the solution with respect to a
+    /// parameter must not see the step-size selection switch).
+    pub fn step_exact<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, t_end_s: f64) -> Result<Method> {
+        let h = t_end_s - self.t;
+        if !(h > 0.0) {
+            return Err(Error::OutOfRange { name: "step end (replayed)", value: t_end_s, min: self.t, max: f64::MAX });
+        }
+        let method = if self.coupling.is_some() { Method::Rosenbrock } else { Method::DormandPrince };
+        let a = match method {
+            Method::DormandPrince => self.try_dormand_prince(system, h)?,
+            Method::Rosenbrock => self.try_rosenbrock(system, h)?,
+        };
+        let mut y1 = a.y1;
+        let projected = system.project(t_end_s, &mut y1);
+        system.check(t_end_s, &y1)?;
+        let (f1, coupling) = match a.next {
+            Some(next) if !projected => next,
+            _ => {
+                self.stats.evaluations += 1;
+                system.derivatives_with_coupling(t_end_s, &y1)?
+            }
+        };
+        self.t_prev = self.t;
+        self.h_prev = h;
+        self.t = t_end_s;
+        self.y = y1;
+        self.f = f1;
+        self.coupling = coupling;
+        self.dense = a.dense;
+        self.stats.accepted += 1;
+        if method == Method::Rosenbrock {
+            self.stats.rosenbrock += 1;
+        }
+        Ok(method)
+    }
+
     /// Takes one accepted step that ends at or before `t_end_s`; returns the
     /// method that took it. Fails if the step size fell below the minimum
     /// (the error names what went wrong at the last attempt).
@@ -353,6 +391,10 @@ impl<const N: usize> Integrator<N> {
             if !(h >= self.control.min_step_s) {
                 return Err(last_error);
             }
+            // The step is the difference of its end and start as stored, so
+            // that a replay (Integrator::step_exact) takes the very same one.
+            let t1 = if h == remaining { t_end_s } else { self.t + h };
+            let h = t1 - self.t;
             let method = if self.coupling.is_some() { Method::Rosenbrock } else { Method::DormandPrince };
             let attempt = match method {
                 Method::DormandPrince => self.try_dormand_prince(system, h),
@@ -365,7 +407,6 @@ impl<const N: usize> Integrator<N> {
             };
             match attempt {
                 Ok(a) if a.err <= 1.0 => {
-                    let t1 = if h == remaining { t_end_s } else { self.t + h };
                     let mut y1 = a.y1;
                     let projected = system.project(t1, &mut y1);
                     if let Err(e) = system.check(t1, &y1) {

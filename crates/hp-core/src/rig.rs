@@ -15,7 +15,7 @@ use crate::ode::{rk4_step, rk4_step_from, OdeSystem};
 use crate::unit::{Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 mod adaptive;
-pub use adaptive::{run_adaptive, Adaptive, SampleDetail, DEFAULT_RTOL};
+pub use adaptive::{run_adaptive, Adaptive, SampleDetail, Steps, DEFAULT_RTOL};
 
 /// Number of states of a rig: the unit's plus body position and velocity.
 pub const RIG_STATES: usize = UNIT_STATES + 2;

@@ -9,14 +9,14 @@
 mod common;
 use common::{run_uniform, unit_with};
 use hp_core::motion::Motion;
-use hp_core::rig::{run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail, DEFAULT_RTOL};
+use hp_core::rig::{run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail, Steps, DEFAULT_RTOL};
 use hp_core::thermal::HeatTransfer;
 use hp_core::unit::{Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag, Valves};
 
 fn adaptive(unit: &Unit, kind: RigKind<'_>, valves: impl Fn(usize, f64) -> Valves, times: &[f64], rtol: f64) -> (Vec<RigSample>, hp_core::adaptive::Stats) {
     let rig = Rig::new(unit, kind, unit.params().static_temperature_k, valves(0, times[0])).unwrap();
     let mut out = Vec::with_capacity(times.len());
-    let stats = run_adaptive(&rig, times, Adaptive { rtol, max_dt_s: f64::INFINITY }, SampleDetail::Full, valves, |_, s| {
+    let stats = run_adaptive(&rig, times, Adaptive { rtol, max_dt_s: f64::INFINITY }, SampleDetail::Full, Steps::Controlled, valves, |_, s| {
         out.push(*s);
         true
     })
@@ -146,8 +146,14 @@ fn cavitation_is_followed() {
         e.unit.force_true_n = f.unit.force_true_n + (f.unit.force_true_n - c.unit.force_true_n) / 4.0;
     }
     let (a, _) = adaptive(&unit, kind, on, &t, DEFAULT_RTOL);
-    let p_err = a.iter().zip(&extrapolated).map(|(x, y)| (x.unit.p_gas_true_pa - y.unit.p_gas_true_pa).abs()).fold(0.0, f64::max);
-    let f_err = a.iter().zip(&extrapolated).map(|(x, y)| (x.unit.force_true_n - y.unit.force_true_n).abs()).fold(0.0, f64::max);
+    // Where a void opens or closes within a fraction of a millisecond of a
+    // sample, the two may disagree about that one sample (the force then
+    // differs by the damper's share, tens of N): at most one sample per
+    // event (four cycles, eight events), and the rest compared.
+    let agree: Vec<_> = a.iter().zip(&extrapolated).filter(|(x, y)| x.unit.cavitating == y.unit.cavitating).collect();
+    assert!(agree.len() + 8 >= a.len(), "{} of {} samples agree on cavitation", agree.len(), a.len());
+    let p_err = agree.iter().map(|(x, y)| (x.unit.p_gas_true_pa - y.unit.p_gas_true_pa).abs()).fold(0.0, f64::max);
+    let f_err = agree.iter().map(|(x, y)| (x.unit.force_true_n - y.unit.force_true_n).abs()).fold(0.0, f64::max);
     // Measured: 320 Pa and 0.64 N (2e-5 of the pressure swing).
     assert!(p_err < 1000.0 && f_err < 2.0, "{p_err} {f_err}");
 }
@@ -216,7 +222,7 @@ fn states_only_samples_skip_the_unit() {
     let rig = Rig::new(&unit, step(0.043), 293.15, soft(0, 0.0)).unwrap();
     let (full, _) = adaptive(&unit, step(0.043), soft, &t, DEFAULT_RTOL);
     let mut states = vec![];
-    run_adaptive(&rig, &t, Adaptive::default(), SampleDetail::States, soft, |_, s| {
+    run_adaptive(&rig, &t, Adaptive::default(), SampleDetail::States, Steps::Controlled, soft, |_, s| {
         states.push(*s);
         true
     })
@@ -228,3 +234,43 @@ fn states_only_samples_skip_the_unit() {
     }
 }
 
+
+/// Final gas pressure of a 900 s hold with gas leakage of time constant
+/// `tau_s`, with the given step choice.
+fn leaky_hold(tau_s: f64, steps: Steps<'_>) -> f64 {
+    let unit = unit_with(|p| p.effects.leakage = Some(Leakage { time_constant_s: tau_s }));
+    let kind = RigKind::Characterisation { strut: Motion::Step { height_m: 0.05, start_s: 1.0, rise_s: 1.0 } };
+    let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
+    let t = times(900.0, 1.0);
+    let mut last = 0.0;
+    run_adaptive(&rig, &t, Adaptive::default(), SampleDetail::Full, steps, |_, _| Valves::from_modes(true, true), |_, s| {
+        last = s.unit.p_gas_true_pa;
+        true
+    })
+    .unwrap();
+    last
+}
+
+#[test]
+fn replayed_steps_reproduce_the_run_and_give_smooth_parameter_derivatives() {
+    // A slow leak barely moves the pressure (1e6 s over 900 s: 0.1 %),
+    // so its finite-difference derivative is small against what the error
+    // control's step choice changes between two parameter values; with the
+    // steps of the unperturbed run replayed, it converges as the
+    // perturbation shrinks.
+    let tau = 1e6;
+    let mut ends = Vec::new();
+    let base = leaky_hold(tau, Steps::Record(&mut |t| ends.push(t)));
+    assert_eq!(leaky_hold(tau, Steps::Replay(&ends)), base);
+    let derivative = |eps: f64, replay: bool| {
+        let p = if replay { leaky_hold(tau * (1.0 + eps), Steps::Replay(&ends)) } else { leaky_hold(tau * (1.0 + eps), Steps::Controlled) };
+        (p - base) / eps
+    };
+    let (d3, d4, d5) = (derivative(1e-3, true), derivative(1e-4, true), derivative(1e-5, true));
+    // The mass decays as exp(-t / tau), so dp/d(ln tau) = (rho dp/drho) t / tau
+    // at the wall temperature: 23.5 MPa x 1.2 x 900 s / 1e6 s = 25 kPa.
+    assert!((20e3..30e3).contains(&d3), "{d3}");
+    assert!((d4 / d3 - 1.0).abs() < 2e-3 && (d5 / d3 - 1.0).abs() < 2e-3, "{d3} {d4} {d5}");
+    // Without replay the step choice shows at the small perturbation.
+    let _ = derivative(1e-5, false);
+}

@@ -4,7 +4,7 @@ use crate::errors::{guard, parameter, to_py};
 use crate::exec::{detached_with_progress, run_parallel};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
-use hp_core::rig::{run, run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail};
+use hp_core::rig::{run, run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail, Steps};
 use hp_core::unit::{Unit, UnitParams, Valves};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -117,7 +117,15 @@ struct Case {
     /// RK4 with steps of at most `dt_s` (with a tolerance, `dt_s` caps the
     /// adaptive step).
     rtol: Option<f64>,
+    /// Adaptive only: replay these step ends (from a recorded run) instead
+    /// of choosing steps.
+    replay_steps_s: Option<Vec<f64>>,
+    /// Adaptive only: return the step ends as `step_end_s`.
+    record_steps: bool,
 }
+
+/// What a run returns: the channels' columns and, when recorded, the step ends.
+type RunOutput = (Vec<Vec<f64>>, Option<Vec<f64>>);
 
 fn bools(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<bool>> {
     let v: Vec<bool> = if let Ok(b) = obj.extract::<bool>() {
@@ -158,13 +166,20 @@ impl Case {
         damper_on: &Bound<'_, PyAny>,
         channels: Option<Vec<String>>,
         rtol: Option<f64>,
+        replay_steps_s: Option<Vec<f64>>,
+        record_steps: bool,
     ) -> PyResult<Case> {
         if times_s.is_empty() {
             return Err(parameter("times_s is empty; expected at least one output time"));
         }
+        if rtol.is_none() && (replay_steps_s.is_some() || record_steps) {
+            return Err(parameter("steps_s and record_steps need the adaptive integrator (rtol given)"));
+        }
         let n = times_s.len();
         Ok(Case {
             rtol,
+            replay_steps_s,
+            record_steps,
             unit: params::unit(unit)?,
             rig: params::rig(rig)?,
             times_s,
@@ -178,7 +193,7 @@ impl Case {
 
     /// Runs the case; `tick(index)` is called for every sample and may
     /// stop the run by returning false.
-    fn run(&self, mut tick: impl FnMut(usize) -> bool) -> Result<Vec<Vec<f64>>, hp_core::Error> {
+    fn run(&self, mut tick: impl FnMut(usize) -> bool) -> Result<RunOutput, hp_core::Error> {
         let unit = Unit::new(self.unit)?;
         let kind = match &self.rig {
             RigSpec::Characterisation { strut } => RigKind::Characterisation { strut: strut.motion() },
@@ -195,6 +210,7 @@ impl Case {
             }
             tick(i)
         };
+        let mut ends: Vec<f64> = Vec::new();
         match self.rtol {
             None => run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), on_sample)?,
             Some(rtol) => {
@@ -202,16 +218,25 @@ impl Case {
                     self.channels.iter().all(|&c| CHANNELS.get(c).is_some_and(|name| STATE_CHANNELS.contains(name)));
                 let detail = if states_only { SampleDetail::States } else { SampleDetail::Full };
                 let settings = Adaptive { rtol, max_dt_s: self.dt_s };
-                run_adaptive(&rig, &self.times_s, settings, detail, |i, _| valves_at(i), on_sample)?;
+                let mut record = |t: f64| ends.push(t);
+                let steps = match (&self.replay_steps_s, self.record_steps) {
+                    (Some(replay), _) => Steps::Replay(replay),
+                    (None, true) => Steps::Record(&mut record),
+                    (None, false) => Steps::Controlled,
+                };
+                run_adaptive(&rig, &self.times_s, settings, detail, steps, |i, _| valves_at(i), on_sample)?;
             }
         }
-        Ok(out)
+        Ok((out, if self.record_steps { Some(ends) } else { None }))
     }
 
-    fn to_dict<'py>(&self, py: Python<'py>, columns: Vec<Vec<f64>>) -> PyResult<Bound<'py, PyDict>> {
+    fn to_dict<'py>(&self, py: Python<'py>, (columns, ends): RunOutput) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (column, &c) in columns.into_iter().zip(&self.channels) {
             d.set_item(CHANNELS.get(c).copied().unwrap_or("?"), column.into_pyarray(py))?;
+        }
+        if let Some(ends) = ends {
+            d.set_item("step_end_s", ends.into_pyarray(py))?;
         }
         Ok(d)
     }
@@ -222,12 +247,15 @@ impl Case {
 /// With `rtol` the steps are error-controlled (relative tolerance `rtol`,
 /// at most `dt_s` long, which may be infinite) and the samples come from
 /// the dense output; without, fixed RK4 steps of at most `dt_s` land on
-/// every output time.
+/// every output time. `record_steps` adds the adaptive steps' end times as
+/// `step_end_s`; `steps_s` replays such a list without error control (a
+/// run whose steps do not move when a parameter does, for
+/// finite-difference derivatives).
 ///
 /// `progress(done, total)` is called about ten times a second from the
 /// simulation thread; the GIL is released otherwise. Ctrl-C stops the run.
 #[pyfunction]
-#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None, rtol=None))]
+#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None, rtol=None, steps_s=None, record_steps=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -241,10 +269,12 @@ pub fn simulate<'py>(
     channels: Option<Vec<String>>,
     progress: Option<Py<PyAny>>,
     rtol: Option<f64>,
+    steps_s: Option<Vec<f64>>,
+    record_steps: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let times = times_s.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| times_s.as_array().to_vec());
-        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels, rtol)?;
+        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels, rtol, steps_s, record_steps)?;
         let total = case.times_s.len();
         let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         let columns = result.map_err(to_py)?;
@@ -273,7 +303,24 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: 
                 Some(v) => Some(v.extract::<f64>().map_err(|_| parameter(format!("cases[{i}].rtol must be a number or None")))?),
                 None => None,
             };
-            let case = Case::from_py(&r.get("unit")?, &r.get("rig")?, r.vec("times_s")?, r.f64("dt_s")?, r.f64("ambient_k")?, &spring_hard, &damper_on, channels, rtol)?;
+            let steps = if r.get_opt("steps_s")?.is_some() { Some(r.vec("steps_s")?) } else { None };
+            let record = match r.get_opt("record_steps")? {
+                Some(v) => v.extract::<bool>().map_err(|_| parameter(format!("cases[{i}].record_steps must be a bool")))?,
+                None => false,
+            };
+            let case = Case::from_py(
+                &r.get("unit")?,
+                &r.get("rig")?,
+                r.vec("times_s")?,
+                r.f64("dt_s")?,
+                r.f64("ambient_k")?,
+                &spring_hard,
+                &damper_on,
+                channels,
+                rtol,
+                steps,
+                record,
+            )?;
             r.finish()?;
             specs.push(case);
         }

@@ -47,6 +47,22 @@ pub enum SampleDetail {
     States,
 }
 
+/// How the steps are chosen.
+pub enum Steps<'s> {
+    /// By the error control.
+    Controlled,
+    /// By the error control, each accepted step's end time handed to the
+    /// callback (to replay them).
+    Record(&'s mut dyn FnMut(f64)),
+    /// Exactly these step ends, recorded from a run with the same output
+    /// times, valves and motion, without error control: the solution then
+    /// depends smoothly on the unit's parameters, as a finite-difference
+    /// derivative with respect to them needs (the error control's
+    /// accept/reject decisions and step sizes would otherwise change with
+    /// the parameter and swamp a small sensitivity).
+    Replay(&'s [f64]),
+}
+
 /// Largest number of steps between two output samples.
 const MAX_STEPS_PER_SAMPLE: u64 = 10_000_000;
 
@@ -200,12 +216,12 @@ impl AdaptiveSystem<RIG_STATES> for System<'_, '_> {
 /// follows it are `valves_at(i, t_i)` (which must not depend on the
 /// samples: it is asked ahead, to find where the valves switch);
 /// `valves_at(0, t_0)` also holds before the first output. Each sample is
-/// handed to `on_sample` (return `false` to stop). Returns the
-/// integrator's work counts.
+/// handed to `on_sample` (return `false` to stop). `steps` chooses, records
+/// or replays the steps. Returns the integrator's work counts.
 ///
 /// ```
 /// use hp_core::{presets, motion::Motion, unit::{Unit, Valves}};
-/// use hp_core::rig::{run_adaptive, Adaptive, Rig, RigKind, SampleDetail};
+/// use hp_core::rig::{run_adaptive, Adaptive, Rig, RigKind, SampleDetail, Steps};
 /// let unit = Unit::new(presets::seed_unit()).unwrap();
 /// let kind = RigKind::Sdof { sprung_mass_kg: presets::SEED_SPRUNG_MASS_KG,
 ///     base: Motion::Step { height_m: 0.043, start_s: 0.1, rise_s: 0.05 } };
@@ -213,7 +229,7 @@ impl AdaptiveSystem<RIG_STATES> for System<'_, '_> {
 /// let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(false, true)).unwrap();
 /// let times: Vec<f64> = (0..=3000).map(|i| i as f64 * 1e-3).collect();
 /// let mut last = 0.0;
-/// let stats = run_adaptive(&rig, &times, Adaptive::default(), SampleDetail::Full,
+/// let stats = run_adaptive(&rig, &times, Adaptive::default(), SampleDetail::Full, Steps::Controlled,
 ///     |_, _| Valves::from_modes(false, true), |_, s| { last = s.body_disp_m; true }).unwrap();
 /// assert!((last - 0.043).abs() < 0.005); // settled on the new base level
 /// assert!(stats.accepted < 1000); // far fewer steps than samples
@@ -223,6 +239,7 @@ pub fn run_adaptive<'a>(
     times_s: &[f64],
     settings: Adaptive,
     detail: SampleDetail,
+    steps: Steps<'_>,
     valves_at: impl Fn(usize, f64) -> Valves,
     mut on_sample: impl FnMut(usize, &RigSample) -> bool,
 ) -> Result<Stats> {
@@ -255,8 +272,9 @@ pub fn run_adaptive<'a>(
     let control = Control::new(settings.rtol, settings.max_dt_s);
     let first_step = settings.max_dt_s.min(1e-4);
     let mut integrator = Integrator::new(&system, 0.0, layout.compress(&base), first_step, control)?;
+    let mut stepper = Stepper { steps, cursor: 0 };
     // Settle from rest at t = 0 to the first output time.
-    advance(&mut integrator, &system, t0, t0)?;
+    stepper.advance(&mut integrator, &system, t0, t0)?;
 
     let mut index = 0usize;
     loop {
@@ -275,7 +293,7 @@ pub fn run_adaptive<'a>(
         let t_stop = if end < n { time(end) } else { last };
         for i in index..end {
             let t = time(i);
-            advance(&mut integrator, &system, t, t_stop)?;
+            stepper.advance(&mut integrator, &system, t, t_stop)?;
             let y = integrator.dense(t);
             let state = system.state(&y);
             let sample = match detail {
@@ -289,36 +307,57 @@ pub fn run_adaptive<'a>(
         if end >= n {
             return Ok(integrator.stats());
         }
-        advance(&mut integrator, &system, t_stop, t_stop)?;
+        stepper.advance(&mut integrator, &system, t_stop, t_stop)?;
         system.rig.valves = next_valves;
         integrator.restart(&system)?;
         index = end;
     }
 }
 
-/// Steps until the integrator's last step covers `t_s`; steps may go past
-/// it, but not past `t_stop` (where the valves switch, or the last output),
-/// nor past a breakpoint of the motion, and no longer than it resolves.
-fn advance(integrator: &mut Integrator<RIG_STATES>, system: &System<'_, '_>, t_s: f64, t_stop: f64) -> Result<()> {
-    let motion = match system.rig.kind {
-        RigKind::Characterisation { strut } => strut,
-        RigKind::Sdof { base, .. } => base,
-    };
-    let mut steps = 0u64;
-    while integrator.t() < t_s {
-        let t = integrator.t();
-        let end = match motion.next_breakpoint_s(t) {
-            Some(b) if b < t_stop => b,
-            _ => t_stop,
+/// The step choice of one run, with its place in a replayed sequence.
+struct Stepper<'s> {
+    steps: Steps<'s>,
+    cursor: usize,
+}
+
+impl Stepper<'_> {
+    /// Steps until the integrator's last step covers `t_s`; steps may go
+    /// past it, but not past `t_stop` (where the valves switch, or the last
+    /// output), nor past a breakpoint of the motion, and no longer than it
+    /// resolves.
+    fn advance(&mut self, integrator: &mut Integrator<RIG_STATES>, system: &System<'_, '_>, t_s: f64, t_stop: f64) -> Result<()> {
+        let motion = match system.rig.kind {
+            RigKind::Characterisation { strut } => strut,
+            RigKind::Sdof { base, .. } => base,
         };
-        integrator.limit_step(motion.max_dt_s(t));
-        integrator.step(system, end)?;
-        steps += 1;
-        if steps > MAX_STEPS_PER_SAMPLE {
-            return Err(Error::NoConvergence { what: "adaptive integration (more than 1e7 steps between two outputs)", target: t_s });
+        let mut taken = 0u64;
+        while integrator.t() < t_s {
+            if let Steps::Replay(ends) = self.steps {
+                let end = ends.get(self.cursor).copied().unwrap_or(f64::NAN);
+                if !(end <= t_stop) {
+                    return Err(Error::OutOfRange { name: "replayed step end", value: end, min: integrator.t(), max: t_stop });
+                }
+                integrator.step_exact(system, end)?;
+                self.cursor += 1;
+            } else {
+                let t = integrator.t();
+                let end = match motion.next_breakpoint_s(t) {
+                    Some(b) if b < t_stop => b,
+                    _ => t_stop,
+                };
+                integrator.limit_step(motion.max_dt_s(t));
+                integrator.step(system, end)?;
+                if let Steps::Record(record) = &mut self.steps {
+                    record(integrator.t());
+                }
+            }
+            taken += 1;
+            if taken > MAX_STEPS_PER_SAMPLE {
+                return Err(Error::NoConvergence { what: "adaptive integration (more than 1e7 steps between two outputs)", target: t_s });
+            }
         }
+        Ok(())
     }
-    Ok(())
 }
 
 /// A sample with what the state gives alone (see [`SampleDetail::States`]).
