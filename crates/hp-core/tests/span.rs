@@ -135,3 +135,28 @@ fn vapour_pressure_separates_the_liquid_and_vapour_roots() {
     }
     assert!(span::saturation_pressure_pa(200.0).is_none());
 }
+
+#[test]
+fn single_precision_model_is_within_a_few_1e6_of_the_double_precision_one() {
+    // What the ECU builds its gas table with: the dense envelope grid and
+    // the gas and supercritical states beyond it. The terms partly cancel,
+    // so a few single-precision roundings show at the highest densities.
+    let mut worst = [[0.0_f64; 3]; 2]; // [envelope, beyond] x [p, slope, rho]
+    for row in fixture("n2_span_golden.csv") {
+        let (p, t, rho) = (row["p_pa"], row["t_k"], row["rho_kg_m3"]);
+        if rho > span::RHO_C_KG_M3 && t < span::T_C_K {
+            continue; // liquid: the single-precision solve covers gas states only
+        }
+        let (p32, slope32) = span::single::pressure_and_slope(rho as f32, t as f32);
+        let (p64, slope64) = Span.pressure_and_slope(f64::from(rho as f32), f64::from(t as f32));
+        let rho32 = span::single::density_kg_m3(p as f32, t as f32).unwrap();
+        let w = &mut worst[row["region"] as usize];
+        w[0] = w[0].max(rel(f64::from(p32), p64));
+        w[1] = w[1].max(rel(f64::from(slope32), slope64));
+        w[2] = w[2].max(rel(f64::from(rho32), rho));
+    }
+    // Measured: envelope 1.2e-6, 1.4e-6, 5.3e-7; beyond 2.0e-6, 4.8e-6, 1.4e-6.
+    let [envelope, beyond] = worst;
+    assert!(envelope[0] < 2e-6 && envelope[1] < 3e-6 && envelope[2] < 1e-6, "{envelope:?}");
+    assert!(beyond.iter().all(|&e| e < 1e-5), "{beyond:?}");
+}

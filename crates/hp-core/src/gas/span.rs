@@ -32,7 +32,8 @@
 //! that share an exponential are summed before multiplying by it. The
 //! Gaussian terms only matter near the critical temperature (their
 //! exponent is below -100 above 190 K) and are skipped when they cannot
-//! change the result.
+//! change the result. On a bare-metal target the evaluation is one shared
+//! function instead of being inlined into every caller (flash).
 
 /// Critical (reducing) temperature, K.
 pub const T_C_K: f64 = 126.192;
@@ -280,7 +281,7 @@ impl Powers {
 }
 
 /// The residual part's reduced derivatives at `(delta, tau)`.
-#[inline(always)]
+#[cfg_attr(not(target_os = "none"), inline(always))]
 pub fn residual(delta: f64, tau: f64) -> Residual {
     let w = Powers::new(delta, tau);
     let mut r = Residual::default();
@@ -383,7 +384,7 @@ fn pow_small_int(x: f64, n: f64) -> f64 {
 /// `delta ar_d` and `delta^2 ar_dd` only: what the pressure and its
 /// density derivative need (the density solve, and outputs that are only
 /// a pressure).
-#[inline(always)]
+#[cfg_attr(not(target_os = "none"), inline(always))]
 pub fn residual_density_derivatives(delta: f64, tau: f64) -> (f64, f64) {
     // The full evaluation costs little more than a pressure-only one would
     // (the exponentials and powers dominate) and keeps one place for the
@@ -415,7 +416,7 @@ fn reduced(rho_kg_m3: f64, t_k: f64) -> (f64, f64) {
 
 /// Pressure, its derivatives and `c_v` at density `rho_kg_m3` and
 /// temperature `t_k` (per unit mass, SI).
-#[inline(always)]
+#[cfg_attr(not(target_os = "none"), inline(always))]
 pub fn props(rho_kg_m3: f64, t_k: f64) -> super::GasProps {
     let (delta, tau) = reduced(rho_kg_m3, t_k);
     let r = residual(delta, tau);
@@ -430,7 +431,7 @@ pub fn props(rho_kg_m3: f64, t_k: f64) -> super::GasProps {
 }
 
 /// Pressure and `(dp/drho)_T` at density `rho_kg_m3` and temperature `t_k`.
-#[inline(always)]
+#[cfg_attr(not(target_os = "none"), inline(always))]
 pub fn pressure_and_slope(rho_kg_m3: f64, t_k: f64) -> (f64, f64) {
     let (delta, tau) = reduced(rho_kg_m3, t_k);
     let (d, dd) = residual_density_derivatives(delta, tau);
@@ -467,5 +468,105 @@ pub fn density_start_kg_m3(p_pa: f64, t_k: f64) -> Option<f64> {
     match saturation_pressure_pa(t_k) {
         Some(p_sat) if p_pa > p_sat => Some(LIQUID_START_KG_M3),
         _ => None,
+    }
+}
+
+/// The reference equation of state in single precision, for a target whose
+/// FPU has no double precision (the ECU builds its gas table with it; see
+/// `hp_ctrl::gas_table`): pressure and `(dp/drho)_T` only, from the same
+/// coefficient tables, summed term by term in a loop (compact code rather
+/// than speed: the ECU evaluates it a few hundred times at start-up). Its
+/// relative error against the double-precision model is about 1e-6 over
+/// the unit's envelope, where terms that partly cancel are rounded to
+/// single precision (`tests/span.rs`). The density solve covers the gas
+/// and supercritical states (it starts from the ideal gas).
+pub mod single {
+    use super::{GAUSSIAN, GAUSSIAN_NEGLIGIBLE_EXPONENT, GAS_CONSTANT_J_PER_KG_K, RESIDUAL_D, RESIDUAL_L, RESIDUAL_N, RESIDUAL_T, RHO_C_KG_M3, T_C_K};
+
+    /// `x^n` by repeated squaring.
+    fn powi(x: f32, n: u32) -> f32 {
+        let (mut base, mut n, mut out) = (x, n, 1.0_f32);
+        while n > 0 {
+            if n & 1 == 1 {
+                out *= base;
+            }
+            base *= base;
+            n >>= 1;
+        }
+        out
+    }
+
+    /// `delta ar_d` and `delta^2 ar_dd`.
+    fn residual(delta: f32, tau: f32) -> (f32, f32) {
+        // Every t is a multiple of 1/8: tau^t = (tau^(1/8))^(8 t).
+        let tau_eighth = libm::sqrtf(libm::sqrtf(libm::sqrtf(tau)));
+        let exps = [1.0, libm::expf(-delta), libm::expf(-delta * delta), libm::expf(-powi(delta, 3)), libm::expf(-powi(delta, 4))];
+        let (mut r_d, mut r_dd) = (0.0_f32, 0.0_f32);
+        for (((&n, &d), &t), &l) in RESIDUAL_N.iter().zip(&RESIDUAL_D).zip(&RESIDUAL_T).zip(&RESIDUAL_L) {
+            let (d, l_u) = (d as f32, l as u32);
+            let e = exps.get(l as usize).copied().unwrap_or(0.0);
+            let term = n as f32 * powi(delta, d as u32) * powi(tau_eighth, (8.0 * t) as u32) * e;
+            let u = l as f32 * powi(delta, l_u);
+            r_d += term * (d - u);
+            r_dd += term * ((d - u) * (d - 1.0 - u) - l as f32 * u);
+        }
+        for g in GAUSSIAN {
+            let (x, y) = (f64::from(delta) - 1.0, f64::from(tau) - g.gamma);
+            let exponent = -g.eta * x * x - g.beta * y * y;
+            if exponent < GAUSSIAN_NEGLIGIBLE_EXPONENT {
+                continue;
+            }
+            let gd = g.d as f32;
+            let term = g.n as f32 * powi(delta, g.d as u32) * powi(tau, g.t as u32) * libm::expf(exponent as f32);
+            let fd = gd - 2.0 * g.eta as f32 * delta * (delta - 1.0);
+            r_d += term * fd;
+            r_dd += term * (fd * fd - gd - 2.0 * g.eta as f32 * delta * delta);
+        }
+        (r_d, r_dd)
+    }
+
+    /// Pressure, Pa, and `(dp/drho)_T`, Pa m^3/kg, at density `rho_kg_m3`
+    /// and temperature `t_k`.
+    pub fn pressure_and_slope(rho_kg_m3: f32, t_k: f32) -> (f32, f32) {
+        let delta = rho_kg_m3 * (1.0 / RHO_C_KG_M3) as f32;
+        let (d, dd) = residual(delta, T_C_K as f32 / t_k);
+        let rt = GAS_CONSTANT_J_PER_KG_K as f32 * t_k;
+        (rho_kg_m3 * rt * (1.0 + d), rt * (1.0 + 2.0 * d + dd))
+    }
+
+    /// Density at pressure `p_pa` and temperature `t_k`, kg/m^3, by a
+    /// Newton iteration from the ideal gas kept inside a bracket that holds
+    /// the root (bisecting where a Newton step would leave it); `None` if
+    /// it does not converge to single precision in 60 iterations.
+    pub fn density_kg_m3(p_pa: f32, t_k: f32) -> Option<f32> {
+        let (mut lo, mut hi) = (0.0_f32, 3000.0_f32);
+        if !(p_pa > 0.0 && t_k > 0.0 && pressure_and_slope(hi, t_k).0 > p_pa) {
+            return None;
+        }
+        let mut rho = (p_pa / (GAS_CONSTANT_J_PER_KG_K as f32 * t_k)).min(hi);
+        for _ in 0..60 {
+            let (p, slope) = pressure_and_slope(rho, t_k);
+            let residual = p - p_pa;
+            if !residual.is_finite() {
+                return None;
+            }
+            // At the root to single precision (a zero residual would also
+            // leave the Newton step on the bracket's edge).
+            if libm::fabsf(residual) <= 4.0 * f32::EPSILON * p_pa {
+                return Some(rho);
+            }
+            if residual > 0.0 {
+                hi = rho;
+            } else {
+                lo = rho;
+            }
+            let newton = rho - residual / slope;
+            let next = if slope > 0.0 && newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+            if libm::fabsf(next - rho) <= 2.0 * f32::EPSILON * rho {
+                return Some(next);
+            }
+            rho = next;
+        }
+        None
     }
 }
