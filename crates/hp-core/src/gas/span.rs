@@ -511,13 +511,13 @@ pub mod single {
             r_dd += term * ((d - u) * (d - 1.0 - u) - l as f32 * u);
         }
         for g in GAUSSIAN {
-            let (x, y) = (f64::from(delta) - 1.0, f64::from(tau) - g.gamma);
-            let exponent = -g.eta * x * x - g.beta * y * y;
-            if exponent < GAUSSIAN_NEGLIGIBLE_EXPONENT {
+            let (x, y) = (delta - 1.0, tau - g.gamma as f32);
+            let exponent = -(g.eta as f32) * x * x - g.beta as f32 * y * y;
+            if exponent < GAUSSIAN_NEGLIGIBLE_EXPONENT as f32 {
                 continue;
             }
             let gd = g.d as f32;
-            let term = g.n as f32 * powi(delta, g.d as u32) * powi(tau, g.t as u32) * libm::expf(exponent as f32);
+            let term = g.n as f32 * powi(delta, g.d as u32) * powi(tau, g.t as u32) * libm::expf(exponent);
             let fd = gd - 2.0 * g.eta as f32 * delta * (delta - 1.0);
             r_d += term * fd;
             r_dd += term * (fd * fd - gd - 2.0 * g.eta as f32 * delta * delta);
