@@ -188,7 +188,7 @@ impl<'a> Rig<'a> {
     /// step's result catches; the arithmetic cannot panic).
     #[inline]
     fn rate(&self, t_s: f64, s: &RigState) -> (RigState, StrutMotion, f64, f64, UnitOutputs) {
-        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false });
+        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: true });
         (rate, motion, base, body_acc, out)
     }
 
@@ -222,7 +222,19 @@ impl<'a> Rig<'a> {
     /// returns was).
     fn evaluate_checked(&self, t_s: f64, s: &RigState) -> (RigState, RigSample) {
         let (rate, motion, base, body_acc, out) = self.rate(t_s, s);
-        let sample = RigSample {
+        (rate, self.sample_from(t_s, s, motion, base, body_acc, out))
+    }
+
+    /// The observed quantities at `(t_s, state)` without the state rate
+    /// (the gas evaluated for its pressure alone).
+    fn sample_outputs(&self, t_s: f64, s: &RigState) -> Result<RigSample> {
+        self.check(t_s, s)?;
+        let (_, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: false });
+        Ok(self.sample_from(t_s, s, motion, base, body_acc, out))
+    }
+
+    fn sample_from(&self, t_s: f64, s: &RigState, motion: StrutMotion, base: f64, body_acc: f64, out: UnitOutputs) -> RigSample {
+        RigSample {
             time_s: t_s,
             disp_m: motion.disp_m,
             vel_m_s: motion.vel_m_s,
@@ -237,8 +249,7 @@ impl<'a> Rig<'a> {
             e_friction_j: s.unit.e_friction_j,
             e_valve6_j: s.unit.e_valve6_j,
             unit: out,
-        };
-        (rate, sample)
+        }
     }
 
     /// The initial state: at rest, gas at ambient temperature. On the

@@ -319,6 +319,9 @@ pub struct Needs {
     pub outputs: bool,
     /// The valve-6 coupling (when valve 6 is open).
     pub coupling: bool,
+    /// The state rate (else only the outputs are meaningful, and the gas is
+    /// evaluated for its pressure alone: an output sample).
+    pub rates: bool,
 }
 
 /// Placeholder properties for a gas whose properties nothing reads:
@@ -567,7 +570,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
     ) -> (UnitState, UnitOutputs) {
-        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false });
+        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false, rates: true });
         (rate, outputs)
     }
 
@@ -608,10 +611,18 @@ impl Unit {
         let t_s = gas_temperature_k(p.heat, state.t_gas_k, t_wall);
         let t_l = gas_temperature_k(p.heat, state.t_gas2_k, t_wall);
         let (rho_s, rho_l) = (state.m_small_kg / state.v_gas_m3, state.m_large_kg / state.v_gas2_m3);
-        let props_s = p.gas.props(rho_s, t_s);
+        let gas = |rho: f64, t: f64| {
+            if needs.rates {
+                p.gas.props(rho, t)
+            } else {
+                let (p_pa, dp_drho_pa_m3_per_kg) = p.gas.pressure_and_slope(rho, t);
+                GasProps { p_pa, dp_drho_pa_m3_per_kg, ..UNUSED_PROPS }
+            }
+        };
+        let props_s = gas(rho_s, t_s);
         let lagging_sensor = matches!(e.sensor, Some(s) if s.time_constant_s > 0.0);
         let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor;
-        let props_l = if large_needed { p.gas.props(rho_l, t_l) } else { UNUSED_PROPS };
+        let props_l = if large_needed { gas(rho_l, t_l) } else { UNUSED_PROPS };
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
         // Valve 6.

@@ -162,7 +162,7 @@ impl System<'_, '_> {
 
     fn rate(&self, t_s: f64, y: &[f64; RIG_STATES], coupling: bool) -> ([f64; RIG_STATES], Option<RankOne<RIG_STATES>>) {
         let s = self.state(y);
-        let (rate, _, _, _, _, c) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling });
+        let (rate, _, _, _, _, c) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, rates: true });
         let f = self.layout.compress(&rate.to_array());
         let c = c.map(|c| {
             let full = |unit: UnitState| RigState { unit, body_disp_m: 0.0, body_vel_m_s: 0.0 }.to_array();
@@ -297,7 +297,7 @@ pub fn run_adaptive<'a>(
             let y = integrator.dense(t);
             let state = system.state(&y);
             let sample = match detail {
-                SampleDetail::Full => system.rig.sample(t, &state)?,
+                SampleDetail::Full => system.rig.sample_outputs(t, &state)?,
                 SampleDetail::States => states_sample(&system.rig, t, &state),
             };
             if !on_sample(i, &sample) {
