@@ -25,6 +25,7 @@ __all__ = [
     "CHANNELS",
     "GAS_MODELS",
     "DEFAULT_GAS",
+    "DEFAULT_RTOL",
     "Plant",
     "__version__",
     "Controller",
@@ -48,6 +49,7 @@ __all__ = [
 CHANNELS: list[str]
 GAS_MODELS: list[str]
 DEFAULT_GAS: str
+DEFAULT_RTOL: float
 
 class HpctlError(ValueError): ...
 class ParameterError(HpctlError): ...
@@ -65,6 +67,9 @@ def simulate(
     damper_on: bool | Sequence[bool],
     channels: Sequence[str] | None = None,
     progress: Callable[[int, int], object] | None = None,
+    rtol: float | None = None,
+    steps_s: Sequence[float] | NDArray[np.float64] | None = None,
+    record_steps: bool = False,
 ) -> dict[str, NDArray[np.float64]]: ...
 def simulate_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[dict[str, NDArray[np.float64]] | HpctlError]: ...
 def static_force_n(unit: dict[str, Any], disp_m: float, t_k: float, spring_hard: bool) -> float: ...

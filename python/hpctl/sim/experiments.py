@@ -95,7 +95,7 @@ def characterisation(
     *,
     spring_hard: bool,
     damper_on: bool,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
     sample_dt_s: float = 1e-2,
     ambient_k: float | None = None,
     progress: Progress | None = None,
@@ -136,7 +136,7 @@ def characterisation(
 
 def spring_characterisation(
     unit: Unit, *, spring_hard: bool, amplitude_m: float = SEED_AMPLITUDE_M, speed_m_s: float = SEED_SPEED_M_S,
-    cycles: float = 2.0, dt_s: float = 1e-3, progress: Progress | None = None,
+    cycles: float = 2.0, dt_s: float | None = None, progress: Progress | None = None,
 ) -> Experiment:
     """The seed's spring characterisation: a slow sine (damper bypassed)."""
     motion = Sine.with_speed(amplitude_m, speed_m_s)
@@ -153,7 +153,7 @@ def sdof_step(
     height_m: float = SEED_STEP_M,
     duration_s: float = 6.0,
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
     start_s: float = 0.5,
     rise_s: float = 0.05,
     progress: Progress | None = None,
@@ -201,7 +201,7 @@ def headline(experiments: list[Experiment]) -> dict[str, Any]:
 def slow_steps(unit: Unit, *, spring_hard: bool, increment_m: float = 0.02, count: int = 4, dwell_s: float = 30.0, progress: Progress | None = None) -> Experiment:
     """Slow increments with dwells: the isothermal characteristic."""
     motion = Steps(increment_m, count, ramp_s=2.0, dwell_s=dwell_s)
-    return characterisation(unit, motion, motion.duration_s, spring_hard=spring_hard, damper_on=False, dt_s=1e-3, sample_dt_s=0.1, progress=progress)
+    return characterisation(unit, motion, motion.duration_s, spring_hard=spring_hard, damper_on=False, sample_dt_s=0.1, progress=progress)
 
 
 
@@ -230,7 +230,7 @@ def heat_buildup(
     spring_hard: bool = True,
     ambient_k: float = 296.15,
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
-    dt_s: float = 2e-3,
+    dt_s: float | None = None,
     progress: Progress | None = None,
 ) -> Experiment:
     """The seed's damper heat build-up run: a long sine with the damper on,

@@ -10,6 +10,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, Union
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -18,6 +20,10 @@ from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
 CHANNELS: tuple[str, ...] = tuple(_core.CHANNELS)
+# The plant's relative tolerance, the core's one rule for step sizes: the
+# steps follow the dynamics (stiff terms such as valve 6, oil compliance and
+# valve or transducer lags included), so callers do not pick a step.
+DEFAULT_RTOL: float = _core.DEFAULT_RTOL
 
 
 @dataclass(frozen=True)
@@ -92,9 +98,16 @@ def _motion_dict(m: Motion) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class Result:
-    """The channels of one run (see :data:`CHANNELS`), as numpy arrays."""
+    """The channels of one run (see :data:`CHANNELS`), as numpy arrays;
+    with ``record_steps``, the adaptive steps' end times."""
 
     channels: dict[str, FloatArray]
+    step_end_s: FloatArray | None = None
+
+    @classmethod
+    def from_core(cls, out: dict[str, FloatArray]) -> Result:
+        d = dict(out)
+        return cls(d, d.pop("step_end_s", None))
 
     def __getitem__(self, name: str) -> FloatArray:
         return self.channels[name]
@@ -114,18 +127,26 @@ def _case(
     *,
     spring_hard: bool | ArrayLike,
     damper_on: bool | ArrayLike,
-    dt_s: float,
+    dt_s: float | None,
+    rtol: float | None,
     ambient_k: float | None,
     channels: Sequence[str] | None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> dict[str, Any]:
     def flags(v: bool | ArrayLike) -> bool | list[bool]:
         return bool(v) if np.ndim(v) == 0 else [bool(x) for x in np.asarray(v).ravel()]
 
+    # Error-controlled steps capped at dt_s, or fixed RK4 steps of dt_s.
+    step = (math.inf if rtol is not None else 1e-3) if dt_s is None else float(dt_s)
     return {
         "unit": unit.to_dict(),
         "rig": rig,
         "times_s": np.ascontiguousarray(times_s, dtype=float),
-        "dt_s": float(dt_s),
+        "dt_s": step,
+        "rtol": None if rtol is None else float(rtol),
+        "steps_s": None if steps_s is None else np.ascontiguousarray(steps_s, dtype=float),
+        "record_steps": bool(record_steps),
         "ambient_k": unit.static_temperature_k if ambient_k is None else float(ambient_k),
         "spring_hard": flags(spring_hard),
         "damper_on": flags(damper_on),
@@ -156,17 +177,34 @@ def run(
     *,
     spring_hard: bool | ArrayLike = True,
     damper_on: bool | ArrayLike = True,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     ambient_k: float | None = None,
     channels: Sequence[str] | None = None,
     progress: Progress | None = None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> Result:
     """Runs ``rig`` (see :func:`characterisation_rig`, :func:`sdof_rig`)
     with outputs at ``times_s``; ``spring_hard`` / ``damper_on`` are one
-    value or one per output time (holding until the next)."""
-    c = _case(unit, rig, times_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels)
-    out = _core.simulate(c["unit"], c["rig"], c["times_s"], c["dt_s"], c["ambient_k"], c["spring_hard"], c["damper_on"], c["channels"], progress)
-    return Result(dict(out))
+    value or one per output time (holding until the next).
+
+    The steps are error-controlled to the relative tolerance ``rtol`` (and
+    at most ``dt_s`` long, if given), the outputs taken from the dense
+    output; ``rtol=None`` integrates with fixed RK4 steps of at most
+    ``dt_s`` (default 1 ms) that land on every output time.
+
+    ``record_steps`` keeps the adaptive steps' end times
+    (:attr:`Result.step_end_s`); ``steps_s`` replays such a list without
+    error control, so that a finite-difference derivative with respect to
+    a unit parameter does not see the step-size selection change."""
+    c = _case(unit, rig, times_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
+              steps_s=steps_s, record_steps=record_steps)
+    out = _core.simulate(
+        c["unit"], c["rig"], c["times_s"], c["dt_s"], c["ambient_k"], c["spring_hard"], c["damper_on"], c["channels"], progress, c["rtol"],
+        c["steps_s"], c["record_steps"],
+    )
+    return Result.from_core(out)
 
 
 def run_characterisation(
@@ -203,9 +241,12 @@ class Case:
     times_s: FloatArray
     spring_hard: bool | ArrayLike = True
     damper_on: bool | ArrayLike = True
-    dt_s: float = 1e-3
+    dt_s: float | None = None
+    rtol: float | None = DEFAULT_RTOL
     ambient_k: float | None = None
     channels: Sequence[str] | None = None
+    steps_s: FloatArray | None = None
+    record_steps: bool = False
 
 
 def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result | Exception]:
@@ -213,5 +254,6 @@ def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result |
     that fails yields its exception in place of a result."""
     dicts = []
     for c in cases:
-        dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels))
-    return [r if isinstance(r, Exception) else Result(dict(r)) for r in _core.simulate_many(dicts, threads)]
+        dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, rtol=c.rtol, ambient_k=c.ambient_k,
+                           channels=c.channels, steps_s=c.steps_s, record_steps=c.record_steps))
+    return [r if isinstance(r, Exception) else Result.from_core(r) for r in _core.simulate_many(dicts, threads)]

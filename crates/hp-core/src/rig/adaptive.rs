@@ -245,7 +245,7 @@ pub fn run_adaptive<'a>(
 ) -> Result<Stats> {
     check_range("rtol", settings.rtol, 1e-14, 1e-2)?;
     if !(settings.max_dt_s >= 1e-9) {
-        return Err(Error::OutOfRange { name: "dt_s (largest step)", value: settings.max_dt_s, min: 1e-9, max: f64::INFINITY });
+        return Err(Error::OutOfRange { name: "dt_s", value: settings.max_dt_s, min: 1e-9, max: f64::INFINITY });
     }
     let Some(&t0) = times_s.first() else { return Ok(Stats::default()) };
     check_range("time_s", t0, 0.0, 1e9)?;
