@@ -221,7 +221,7 @@ def test_processor_in_the_loop_lowers_the_plant_and_fails_safe(firmware):
     time_s = np.arange(periods + 1) * dt_s
     profile = road.profile("C", speed_m_s * time_s[-1] + 1.0, seed=1, dx_m=0.01)
     base = road.base_motion(profile, speed_m_s * time_s, time_s)
-    plant = _core.Plant(unit, sim.sdof_rig(base, SEED_SPRUNG_MASS_KG), unit["static_temperature_k"], True, True)
+    plant = _core.Plant(unit, sim.sdof_rig(base, SEED_SPRUNG_MASS_KG).to_core(), unit["static_temperature_k"], True, True)
     p_load_true_pa = unit["ambient_pressure_pa"] + SEED_SPRUNG_MASS_KG * 9.80665 / unit["piston_area_m2"]
     static_disp_m = plant.static_disp_m
     t_weight = 1.0 - math.exp(-dt_s / 1.0)  # the temperature sensor's 1 s lag

@@ -12,6 +12,7 @@
 //!   (Dormand-Prince 5(4), and Rosenbrock-W for the stiff valve-6 exchange)
 //!   with dense output.
 //! - [`presets`]: the seed's unit.
+//! - [`ranges`]: the valid range of every unit parameter.
 #![no_std]
 // `!(x > y)` is how NaN is rejected together with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -23,6 +24,7 @@ pub mod gas;
 pub mod motion;
 pub mod ode;
 pub mod presets;
+pub mod ranges;
 pub mod rig;
 pub mod thermal;
 pub mod unit;
