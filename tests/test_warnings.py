@@ -129,7 +129,7 @@ def test_a_50_hz_sine_says_why_its_gas_loop_is_negative(tmp_path: Path) -> None:
 
 
 def test_strict_exits_3_and_still_writes_everything(tmp_path: Path) -> None:
-    code, stdout, err = run("simulate", "--test", "sdof-step", "--dt-s", "0.1", "--duration-s", "1", "--spring", "hard", "--damper", "on",
+    code, stdout, err = run("simulate", "--test", "sdof-step", "--fixed-steps", "--dt-s", "0.1", "--duration-s", "1", "--spring", "hard", "--damper", "on",
                             "--out", str(tmp_path), "--strict", "--json")
     assert code == 3 and "--strict: exit code 3" in err
     s = json.loads(stdout)

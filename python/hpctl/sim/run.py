@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from hpctl import _core
 from hpctl._coretypes import CaseDict, CharacterisationRigDict, MotionDict, SampledDict, SdofRigDict
 from hpctl.errors import bad_argument, check_flags, check_float_array, check_number
+from hpctl.model.effects import max_step_s
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
@@ -25,6 +26,9 @@ CHANNELS: tuple[str, ...] = tuple(_core.CHANNELS)
 # steps follow the dynamics (stiff terms such as valve 6, oil compliance and
 # valve or transducer lags included), so callers do not pick a step.
 DEFAULT_RTOL: float = _core.DEFAULT_RTOL
+#: The fixed step (``rtol=None``) unless a caller or an effect asks for a
+#: shorter one: about valve 6's orifice time constant, s.
+FIXED_STEP_S = 1e-3
 
 
 @dataclass(frozen=True)
@@ -144,9 +148,13 @@ def _case(
         raise bad_argument("channels", channels, f"a sequence of channel names ({', '.join(CHANNELS)})")
     if not isinstance(rig, (CharacterisationRig, SdofRig)):
         raise bad_argument("rig", rig, "a rig (hpctl.sim.run.characterisation_rig or sdof_rig)")
-    # Error-controlled steps capped at dt_s (which may be infinite), or
-    # fixed RK4 steps of dt_s; the core checks the ranges.
-    step = (math.inf if rtol is not None else 1e-3) if dt_s is None else check_number(dt_s, "dt_s")
+    # Error-controlled steps capped at dt_s, or fixed RK4 steps of dt_s
+    # (default: 1 ms or the fastest dynamics the unit's effects add); the
+    # core checks the ranges.
+    if dt_s is not None:
+        step = check_number(dt_s, "dt_s")
+    else:
+        step = math.inf if rtol is not None else min(FIXED_STEP_S, max_step_s(unit))
     return {
         "unit": unit.to_dict(),
         "rig": rig.to_core(),
