@@ -400,16 +400,18 @@ impl Instance {
     }
 }
 
-/// Sends one message to `logger`, passing it as the argument of a `%s`
-/// format so that a `%` in it is never interpreted.
+/// Sends one message to `logger`. The message is the format string with
+/// every `%` doubled and no arguments, so a `printf`-style logger prints it
+/// as is and a logger that does not format (many importers' simple ones)
+/// still shows the text.
 #[allow(clippy::not_unsafe_ptr_arg_deref)] // the environment is the importer's, passed back untouched
 pub fn log_to(logger: Logger, environment: *mut c_void, name: &CStr, status: Status, category: &str, message: &str) {
     if let Some(f) = logger {
         let category = c_string(category);
-        let message = c_string(message);
+        let message = c_string(&message.replace('%', "%%"));
         // SAFETY: the importer gave this function as an fmi2CallbackLogger;
         // every string is NUL-terminated and outlives the call.
-        unsafe { f(environment, name.as_ptr(), status, category.as_ptr(), c"%s".as_ptr(), message.as_ptr()) };
+        unsafe { f(environment, name.as_ptr(), status, category.as_ptr(), message.as_ptr()) };
     }
 }
 
