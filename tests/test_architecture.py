@@ -116,5 +116,5 @@ def test_the_graph_sees_imports() -> None:
     """The checker itself: it finds known imports (no vacuous pass)."""
     graph = _graph()
     assert "hpctl.sim.run" in graph["hpctl.identify.fit"]
-    assert "hpctl.sim.metrics" in graph["hpctl.identify.fit"]
+    assert "hpctl.sim.metrics" in graph["hpctl.identify.dataset"]
     assert "hpctl._core" in graph["hpctl.sim.run"]

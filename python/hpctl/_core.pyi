@@ -45,6 +45,15 @@ __all__ = [
     "can_encode",
     "can_decode",
     "Ecu",
+    "vehicle_presets",
+    "vehicle_controller_config",
+    "vehicle_statics",
+    "vehicle_run",
+    "vehicle_run_many",
+    "VehiclePlant",
+    "VEHICLE_CHANNELS",
+    "VEHICLE_CORNER_CHANNELS",
+    "VEHICLE_CONTROLLER_CHANNELS",
 ]
 
 # The plain-dict forms the core reads and returns: hpctl._coretypes.
@@ -55,7 +64,12 @@ from hpctl._coretypes import (
     GasPropsDict,
     OilNodeDict,
     RigDict,
+    RoadDict,
+    SuspensionDict,
     UnitDict,
+    VehicleDict,
+    VehicleRunDict,
+    VehicleStaticsDict,
 )
 
 CHANNELS: list[str]
@@ -152,3 +166,44 @@ class Ecu:
     def tx_dropped(self) -> int: ...
     def receive(self, id: int, data: bytes, extended: bool = False) -> int | None: ...
     def period(self) -> list[tuple[int, bytes]]: ...
+
+# The vehicles (hp-vehicle): see hpctl.vehicle.
+VEHICLE_CHANNELS: list[str]
+VEHICLE_CORNER_CHANNELS: list[str]
+VEHICLE_CONTROLLER_CHANNELS: list[str]
+
+def vehicle_presets() -> dict[str, VehicleDict]: ...
+def vehicle_controller_config(vehicle: VehicleDict) -> dict[str, Any]: ...
+def vehicle_statics(vehicle: VehicleDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True) -> VehicleStaticsDict: ...
+def vehicle_run(
+    vehicle: VehicleDict,
+    road: RoadDict,
+    drive: dict[str, NDArray[Any]],
+    suspension: SuspensionDict,
+    dt_s: float,
+    ambient_k: float,
+    max_dt_s: float = 1e-3,
+    record_every: int = 1,
+    t_gas_sensor_tau_s: float = 1.0,
+    progress: Callable[[int, int], object] | None = None,
+) -> VehicleRunDict: ...
+def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRunDict | HpctlError]: ...
+@final
+class VehiclePlant:
+    def __new__(
+        cls, vehicle: VehicleDict, road: RoadDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True, max_dt_s: float = 1e-3
+    ) -> VehiclePlant: ...
+    @property
+    def corner_count(self) -> int: ...
+    @property
+    def time_s(self) -> float: ...
+    def sample(self) -> dict[str, float | list[float]]: ...
+    def step(
+        self,
+        dt_s: float,
+        valve5_open: Sequence[bool],
+        valve6_open: Sequence[bool],
+        speed_m_s: float,
+        long_acc_m_s2: float = 0.0,
+        steer_angle_rad: float = 0.0,
+    ) -> dict[str, float | list[float]]: ...

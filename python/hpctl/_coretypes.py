@@ -157,3 +157,82 @@ class ClosedLoopDict(TypedDict):
     plant: Channels
     inputs: dict[str, NDArray[Any]]
     outputs: dict[str, NDArray[Any]]
+
+
+# --- the vehicles (hp-vehicle) -------------------------------------------------
+
+
+class VehicleBodyDict(TypedDict):
+    mass_kg: float
+    roll_inertia_kg_m2: float
+    pitch_inertia_kg_m2: float
+    yaw_inertia_kg_m2: float
+    cg_height_m: float
+    roll_centre_height_m: float
+
+
+class AxleDict(TypedDict):
+    x_m: float
+    track_m: float
+    unsprung_mass_kg: float
+    wheel_radius_m: float
+    tyre_stiffness_n_per_m: float
+    tyre_damping_n_s_per_m: float
+    cornering_stiffness_n_per_rad: float
+    steer_ratio: float
+    unit: UnitDict
+
+
+class SeatDict(TypedDict):
+    x_m: float
+    y_m: float
+    height_m: float
+
+
+class VehicleDict(TypedDict):
+    body: VehicleBodyDict
+    axles: list[AxleDict]
+    steering_ratio: float
+    seat: SeatDict
+
+
+class RoadDict(TypedDict):
+    """Two tracks on one distance grid."""
+
+    start_m: float
+    dx_m: float
+    left_m: NDArray[np.float64]
+    right_m: NDArray[np.float64]
+
+
+class PassiveSuspensionDict(TypedDict):
+    kind: Literal["passive"]
+    spring_hard: bool
+    damper_on: bool
+
+
+class SemiActiveSuspensionDict(TypedDict):
+    kind: Literal["semi_active"]
+    config: dict[str, Any] | None
+
+
+SuspensionDict = Union[PassiveSuspensionDict, SemiActiveSuspensionDict]
+
+
+class VehicleStaticsDict(TypedDict):
+    static_load_n: NDArray[np.float64]
+    static_disp_m: NDArray[np.float64]
+    tyre_static_deflection_m: NDArray[np.float64]
+    x_m: NDArray[np.float64]
+    y_m: NDArray[np.float64]
+    total_mass_kg: float
+
+
+class VehicleRunDict(TypedDict):
+    """1-D arrays per period (``VEHICLE_CHANNELS``); (periods, wheels)
+    arrays per wheel (``VEHICLE_CORNER_CHANNELS``) and per controller
+    (``VEHICLE_CONTROLLER_CHANNELS``, semi-active runs only)."""
+
+    vehicle: dict[str, NDArray[np.float64]]
+    corners: dict[str, NDArray[np.float64]]
+    controller: dict[str, NDArray[np.float64]]

@@ -17,8 +17,8 @@
 //! - [`load`]: the static load pressure, the ride height's zero reference.
 //! - [`gas_table`]: the gas in accumulator L, tabulated once.
 //!
-//! [`closed_loop`] runs the controller on the plant model of `hp-core`
-//! (host simulation and tests; not used by the firmware).
+//! The closed loop with the plant model (host simulation) lives in the
+//! host-side crate `hp-vehicle`, so this crate holds only what flies.
 //!
 //! Numerics: the ECU (Cortex-M4F) has a single-precision FPU only, where a
 //! double-precision operation costs about a hundred instructions, so the
@@ -33,7 +33,6 @@
 
 pub mod can;
 pub mod clock;
-pub mod closed_loop;
 pub mod config;
 mod controller;
 pub mod damper;

@@ -5,7 +5,7 @@
 //! time. At a communication point the outputs are those of the tick at that
 //! instant with the inputs set there (computed when read, without delay,
 //! as the ECU acts on the sample at the start of its period; see
-//! `hp_ctrl::closed_loop`); `fmi2DoStep` commits that tick and runs the
+//! `hp_vehicle::closed_loop`); `fmi2DoStep` commits that tick and runs the
 //! ticks inside the step with the inputs held. The communication step must
 //! be a whole number of periods.
 //!

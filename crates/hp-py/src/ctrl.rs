@@ -12,7 +12,7 @@ use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
-use hp_ctrl::closed_loop::{Sensors, Vehicle};
+use hp_vehicle::closed_loop::{Sensors, VehicleSignals};
 use hp_ctrl::{diag, input_group, Config, DriverMode, Inputs, Outputs, ParamError, Params, State};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -92,7 +92,7 @@ fn config_from_dict(obj: &Bound<'_, PyAny>) -> PyResult<Config> {
     Ok(c)
 }
 
-fn config_to_dict<'py>(py: Python<'py>, c: &Config) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn config_to_dict<'py>(py: Python<'py>, c: &Config) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let unit = write_unit(py, &c.unit)?;
     unit.set_item("gas", c.unit.gas.name())?;
@@ -115,7 +115,7 @@ fn param_error(e: ParamError) -> PyErr {
 }
 
 /// Compiled parameters from an optional config dict (None: the seed unit).
-fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
+pub(crate) fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
     let config = match config {
         Some(c) if !c.is_none() => config_from_dict(c)?,
         _ => Config::seed_unit(),
@@ -158,7 +158,7 @@ const INPUT_FLOATS: [FloatField<Inputs>; 11] = [
 const INPUT_BOOLS: [BoolField<Inputs>; 2] = [("brake_pressed", |i| &mut i.brake_pressed), ("link_fault", |i| &mut i.link_fault)];
 
 /// The scenario's per-period fields of the closed loop.
-const VEHICLE_FLOATS: [FloatField<Vehicle>; 6] = [
+const VEHICLE_FLOATS: [FloatField<VehicleSignals>; 6] = [
     ("speed_m_s", |v| &mut v.speed_m_s),
     ("lat_acc_m_s2", |v| &mut v.lat_acc_m_s2),
     ("long_acc_m_s2", |v| &mut v.long_acc_m_s2),
@@ -174,7 +174,7 @@ const SPRING_MODES: [&str; 2] = ["hard", "soft"];
 const DAMPER_MODES: [&str; 2] = ["high", "low"];
 const SEQUENCER_STATES: [&str; 5] = ["idle", "lowering", "raising", "holding", "blocked"];
 
-fn driver_mode(value: i64, path: &str) -> PyResult<DriverMode> {
+pub(crate) fn driver_mode(value: i64, path: &str) -> PyResult<DriverMode> {
     match value {
         0 => Ok(DriverMode::Auto),
         1 => Ok(DriverMode::Comfort),
@@ -190,7 +190,7 @@ fn fresh_mask(value: i64, path: &str) -> PyResult<u16> {
         .ok_or_else(|| parameter(format!("{path} = {value} is not a set of input groups (0..={})", input_group::ALL)))
 }
 
-fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
+pub(crate) fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
     v.extract::<T>().map_err(|_| parameter(format!("{path} must be {what}, got {v}")))
 }
 
@@ -210,7 +210,7 @@ fn inputs_from_dict(obj: &Bound<'_, PyAny>) -> PyResult<Inputs> {
     Ok(i)
 }
 
-fn array<'py, T: numpy::Element + Copy>(r: &mut Reader<'py>, name: &str, path: &str, dtype: &str, n: &mut Option<usize>) -> PyResult<Vec<T>> {
+pub(crate) fn array<'py, T: numpy::Element + Copy>(r: &mut Reader<'py>, name: &str, path: &str, dtype: &str, n: &mut Option<usize>) -> PyResult<Vec<T>> {
     let v = r.get(name)?;
     let a: PyReadonlyArray1<'_, T> = extract(&v, &format!("{path}.{name}"), &format!("a 1-D numpy array of {dtype}"))?;
     let values = a.as_array().to_vec();
@@ -254,7 +254,7 @@ fn inputs_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Inputs>> {
 }
 
 /// The scenario of a closed loop: `periods` values of each vehicle field.
-fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vehicle>> {
+fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<VehicleSignals>> {
     let mut r = Reader::new(obj, "scenario")?;
     let mut n = None;
     let floats: Vec<Vec<f64>> = VEHICLE_FLOATS
@@ -264,7 +264,7 @@ fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vehicle>> {
     let brake: Vec<bool> = array(&mut r, "brake_pressed", "scenario", "bool", &mut n)?;
     let modes: Vec<i64> = array(&mut r, "driver_mode", "scenario", "int64", &mut n)?;
     r.finish()?;
-    let mut out = vec![Vehicle::default(); n.unwrap_or(0)];
+    let mut out = vec![VehicleSignals::default(); n.unwrap_or(0)];
     for (k, v) in out.iter_mut().enumerate() {
         for ((_, field), column) in VEHICLE_FLOATS.iter().zip(&floats) {
             *field(v) = column.get(k).copied().unwrap_or(f64::NAN);
@@ -401,7 +401,7 @@ struct LoopCase {
     base: MotionSpec,
     sprung_mass_kg: f64,
     params: Params,
-    vehicles: Vec<Vehicle>,
+    vehicles: Vec<VehicleSignals>,
     dt_s: f64,
     ambient_k: f64,
     max_dt_s: f64,
@@ -481,7 +481,7 @@ impl LoopCase {
         };
         let mut state = State::new();
         let vehicles = &self.vehicles;
-        hp_ctrl::closed_loop::run(
+        hp_vehicle::closed_loop::run(
             &rig,
             &self.params,
             &self.sensors,

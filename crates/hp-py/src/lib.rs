@@ -11,6 +11,7 @@ mod exec;
 mod params;
 mod plant;
 mod sim;
+mod vehicle;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -18,6 +19,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     sim::register(m)?;
     ctrl::register(m)?;
     can::register(m)?;
+    vehicle::register(m)?;
     m.add_class::<plant::Plant>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
