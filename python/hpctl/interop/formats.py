@@ -55,9 +55,9 @@ def format_of(path: str | Path, fmt: str | None = None) -> str:
     for name, suffixes in FORMATS.items():
         if suffix in suffixes:
             return name
-    if suffix == "":
-        return "record"
-    raise MappingError(f"{path}: cannot tell the format from the suffix {suffix!r}; known: " + ", ".join(f"{n} ({' '.join(s)})" for n, s in FORMATS.items()))
+    # Any other name is a rig record's NAME (NAME.csv + NAME.toml), as
+    # hpctl.data.records reads it ("sine_0.01hz" has the suffix ".01hz").
+    return "record"
 
 
 def unit_label(column: str) -> str:
