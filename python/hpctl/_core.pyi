@@ -44,6 +44,7 @@ __all__ = [
     "CanRejectError",
     "can_encode",
     "can_decode",
+    "CanCounter",
     "Ecu",
     "vehicle_presets",
     "vehicle_controller_config",

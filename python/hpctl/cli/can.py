@@ -60,9 +60,9 @@ def decode_cmd(log: Path, dbc: Path | None, out_dir: Path, mapping: Path | None,
     with errors(rep):
         d = decode_log(log, dbc)
         out_dir.mkdir(parents=True, exist_ok=True)
-        for m, table in sorted(d.tables.items()):
-            cols = list(table)
-            _write_csv(out_dir / f"{m}.csv", cols, zip(*(table[c].tolist() for c in cols)))
+        for m, columns in sorted(d.tables.items()):
+            cols = list(columns)
+            _write_csv(out_dir / f"{m}.csv", cols, zip(*(columns[c].tolist() for c in cols)))
         _write_csv(out_dir / "rejected.csv", ["time_s", "id", "message", "reason"], ((i.time_s, f"{i.id:#x}", i.message or "", i.reason) for i in d.issues))
         summary = _summary(d)
         if mapping is not None:

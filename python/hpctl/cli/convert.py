@@ -32,11 +32,13 @@ def convert_cmd(source: Path, target: Path, mapping: Path | None, from_fmt: str 
         record = read(source, load_mapping(mapping) if mapping else None, fmt=from_fmt)
         files = write(record, target, fmt=to_fmt)
         t = record.data["time_s"]
-        summary = {
+        columns = list(record.data)
+        files_written = [str(f) for f in files]
+        summary: dict[str, object] = {
             "source": str(source),
-            "files": [str(f) for f in files],
+            "files": files_written,
             "kind": record.kind,
-            "columns": list(record.data),
+            "columns": columns,
             "samples": int(t.size),
             "duration_s": float(t[-1] - t[0]),
         }
@@ -44,4 +46,4 @@ def convert_cmd(source: Path, target: Path, mapping: Path | None, from_fmt: str 
             click.echo(json.dumps(jsonable(summary), indent=2))
         else:
             rep.out.print(f"{record.kind} record, {t.size} samples over {summary['duration_s']:.3f} s, columns: {', '.join(record.data)}", soft_wrap=True, highlight=False)
-            rep.out.print("wrote " + ", ".join(summary["files"]), soft_wrap=True, highlight=False)
+            rep.out.print("wrote " + ", ".join(files_written), soft_wrap=True, highlight=False)

@@ -182,10 +182,10 @@ def to_record(raw: RawTable, mapping: ChannelMap | None = None, name: str = "rec
         t0, t1 = max(starts), min(ends)
         if not t1 > t0:
             raise RecordError(f"{where}: the channels do not overlap in time ({t0} s .. {t1} s)")
-        grid = t0 + raster * np.arange(int(math.floor((t1 - t0) / raster + 1e-9)) + 1)
+        grid = np.asarray(t0 + raster * np.arange(int(math.floor((t1 - t0) / raster + 1e-9)) + 1), dtype=np.float64)
         for c, b in bases.items():
             assert b is not None
-            columns[c] = _hold(grid, b, columns[c]) if c in FLAG_COLUMNS else np.interp(grid, b, columns[c])
+            columns[c] = _hold(grid, b, columns[c]) if c in FLAG_COLUMNS else np.asarray(np.interp(grid, b, columns[c]), dtype=np.float64)
         time = grid
     else:
         assert time is not None or bases
