@@ -333,3 +333,20 @@ def test_bad_input_is_an_fmi_error_with_a_message_not_a_crash(fmus: dict[str, Pa
     c.fmu.exitInitializationMode()
     c.fmu.doStep(0.0, 2e-3)
     c.fmu.freeInstance()
+
+
+def test_outputs_during_initialisation_follow_what_is_set(slaves: Any) -> None:
+    """Reading outputs in initialisation mode (how a master computes
+    initial values) reflects parameters and initial inputs set afterwards:
+    the static force at 10 mm of compression exceeds the one at 0, and a
+    larger piston area carries more."""
+    u = slaves("unit")
+    u.fmu.enterInitializationMode()
+    f0 = u.get("force_n")[0]
+    u.set(disp_m=0.01)
+    f1 = u.get("force_n")[0]
+    u.set(piston_area_m2=2.2e-3)
+    f2 = u.get("force_n")[0]
+    assert f1 > f0 > 0 and f2 > f1
+    u.fmu.exitInitializationMode()
+    assert u.get("force_n")[0] == pytest.approx(f2, rel=1e-12)

@@ -56,6 +56,10 @@ pub trait Component {
     /// Brings the outputs up to date (no-op when they are).
     fn refresh(&mut self, time_s: f64) -> Result<(), ModelError>;
     fn mark_stale(&mut self);
+    /// Drops a model built during initialisation (its parameters or
+    /// initial inputs changed): the next read or the end of initialisation
+    /// builds it again.
+    fn forget_model(&mut self);
     fn do_step(&mut self, time_s: f64, step_s: f64) -> Result<Option<String>, ModelError>;
     fn snapshot(&self) -> Box<dyn Component>;
     fn restore(&mut self, from: &dyn Component) -> bool;
@@ -115,6 +119,10 @@ impl<M: Model> Component for Core<M> {
         Ok(())
     }
     fn mark_stale(&mut self) {
+        self.stale = true;
+    }
+    fn forget_model(&mut self) {
+        self.model = None;
         self.stale = true;
     }
     fn do_step(&mut self, time_s: f64, step_s: f64) -> Result<Option<String>, ModelError> {
@@ -366,7 +374,11 @@ impl Instance {
         for (&r, &x) in vr.iter().zip(values) {
             self.component.values_mut().set(r as usize, x);
         }
-        self.component.mark_stale();
+        if self.phase == Phase::Stepping {
+            self.component.mark_stale();
+        } else {
+            self.component.forget_model();
+        }
         OK
     }
 
