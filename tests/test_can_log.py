@@ -16,6 +16,7 @@ import pytest
 from click.testing import CliRunner
 
 from hpctl import _core
+from hpctl.caveats import Code
 from hpctl.cli import main
 from hpctl.data import DBC_PATH
 
@@ -120,7 +121,9 @@ def test_bad_frames_are_reported_not_decoded(suffix: str, tmp_path: Path, rig_db
     # The unprotected load cell: every frame decoded and marked.
     assert d.outcomes["RIG_Force"] == {"unprotected": 40}
     np.testing.assert_allclose(d.tables["RIG_Force"]["Force"], 1000.0 * np.arange(40))
-    assert any("4 frame(s)" in w or "5 frame(s)" in w for w in d.warnings())
+    (w,) = d.caveats()
+    assert w.code == Code.CAN_FRAMES_REJECTED and w.details["message"] == msg.name and w.details["frames"] == 5
+    assert dict(zip(w.details["reasons"], w.details["counts"])) == {"crc": 1, "repeated": 1, "skipped": 3}
 
 
 def test_unknown_identifiers_are_counted(tmp_path: Path) -> None:
@@ -128,7 +131,9 @@ def test_unknown_identifiers_are_counted(tmp_path: Path) -> None:
     _write_log(path, [(0.0, 0x7AB, False, bytes(8)), (0.01, 0x7AB, False, bytes(8))])
     d = decode_log(path)
     assert d.unknown_ids == {0x7AB: 2} and d.tables == {}
-    assert "identifier(s) the DBC does not know: 0x7ab" in d.warnings()[0]
+    (w,) = d.caveats()
+    assert w.code == Code.CAN_UNKNOWN_IDS and w.details == {"frames": 2, "ids": [0x7AB]}
+    assert "identifier(s) the DBC does not know: 0x7ab" in w.message
 
 
 MAPPING = """
@@ -164,15 +169,74 @@ def test_hpctl_can_decode_writes_tables_a_report_and_a_record(tmp_path: Path, ri
     (tmp_path / "map.toml").write_text(MAPPING.format(msg=msg.name, sig=sig.name))
     out = tmp_path / "out"
     r = CliRunner().invoke(main, ["can", "decode", str(log), "--dbc", str(rig_dbc), "--out", str(out), "--mapping", str(tmp_path / "map.toml"),
-                                  "--record", str(tmp_path / "rec.tdms"), "--json"])
+                                  "--record", "rec.tdms", "--json"])
     assert r.exit_code == 0, r.output
-    summary = json.loads(r.output)
-    assert len(summary["rejected"]) == 5 and summary["warnings"]
+    summary = json.loads(r.stdout)
+    assert len(summary["rejected"]) == 5 and summary["record"] == ["rec.tdms"]
+    assert [w["code"] for w in summary["warnings"]] == ["can_frames_rejected"] and summary["warnings"][0]["details"]["frames"] == 5
     assert (out / f"{msg.name}.csv").is_file() and (out / "rejected.csv").read_text().count("\n") == 6
     assert json.loads((out / "summary.json").read_text()) == summary
     from hpctl import interop
 
-    rec = interop.read(tmp_path / "rec.tdms")
+    rec = interop.read(out / "rec.tdms")
     assert rec.kind == "characterisation" and rec.data["time_s"][1] - rec.data["time_s"][0] == pytest.approx(0.01)
     # The load cell's force on the raster, linear in time: 1000 N per 10 ms.
     np.testing.assert_allclose(rec.data["force_n"], 1000.0 * (rec.data["time_s"] - 0.005) / 0.01, rtol=1e-9)
+
+
+def test_can_decode_output_folder_rules(tmp_path: Path, rig_dbc: Path) -> None:
+    """The output folder's rules (hpctl.data.output): warnings with
+    --strict exit 3 with every output written; a summary.json hpctl did
+    not write is not replaced (exit 2, nothing changed) unless --force; a
+    second decode replaces the first's tables and removes those of
+    messages the new log lacks; a failed decode (a log that is not one)
+    leaves the previous outputs byte for byte."""
+    msg, frames, _ = _frames()
+    log = tmp_path / "drive.log"
+    _write_log(log, _corrupt(frames, msg))
+    out = tmp_path / "out"
+    runner = CliRunner()
+    r = runner.invoke(main, ["can", "decode", str(log), "--dbc", str(rig_dbc), "--out", str(out), "--strict", "-q"])
+    assert r.exit_code == 3, r.output
+    assert "can_frames_rejected" in r.stderr
+    assert json.loads((out / "summary.json").read_text())["warnings"][0]["code"] == "can_frames_rejected"
+    assert (out / "RIG_Force.csv").is_file() and (out / f"{msg.name}.csv").is_file()
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+
+    # A log that is not one: exit 2, the folder as it was.
+    bad = tmp_path / "bad.blf"
+    bad.write_bytes(b"not a BLF file" * 20)
+    r = runner.invoke(main, ["can", "decode", str(bad), "--out", str(out), "-q"])
+    assert r.exit_code == 2, r.output
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+
+    # Only the load cell this time: the protected message's table goes.
+    only_force = tmp_path / "force.log"
+    _write_log(only_force, [f for f in frames if f[1] != msg.frame_id])
+    r = runner.invoke(main, ["can", "decode", str(only_force), "--dbc", str(rig_dbc), "--out", str(out), "-q"])
+    assert r.exit_code == 0, r.output
+    assert not (out / f"{msg.name}.csv").exists() and (out / "RIG_Force.csv").is_file()
+    assert json.loads((out / "summary.json").read_text())["warnings"] == []
+
+    # The user's own summary.json is theirs.
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "summary.json").write_text("mine\n")
+    r = runner.invoke(main, ["can", "decode", str(only_force), "--dbc", str(rig_dbc), "--out", str(user), "-q"])
+    assert r.exit_code == 2 and "summary.json" in r.stderr
+    assert (user / "summary.json").read_text() == "mine\n" and not (user / "RIG_Force.csv").exists()
+    r = runner.invoke(main, ["can", "decode", str(only_force), "--dbc", str(rig_dbc), "--out", str(user), "-q", "--force"])
+    assert r.exit_code == 0, r.output
+    assert json.loads((user / "summary.json").read_text())["log"] == str(only_force)
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf"])
+def test_a_file_that_is_not_a_log_is_a_record_error(suffix: str, tmp_path: Path) -> None:
+    """Whatever python-can's reader raises on garbage (the BLF reader's
+    BLFParseError is not a ValueError) is a RecordError naming the file."""
+    from hpctl.errors import RecordError
+
+    p = tmp_path / f"garbage{suffix}"
+    p.write_bytes(b"(1.0) can0 not a frame at all ##\x00\xff" * 30)
+    with pytest.raises(RecordError, match="garbage"):
+        decode_log(p)

@@ -304,3 +304,34 @@ def test_hpctl_convert(tmp_path: Path) -> None:
     r = runner.invoke(main, ["convert", str(tmp_path / "f.tdms"), str(tmp_path / "f"), "--mapping", str(tmp_path / "m.toml")])
     assert r.exit_code == 2
     assert "'kilonewtonz' is not known" in r.output
+
+
+def test_hpctl_convert_never_overwrites_what_it_did_not_write(tmp_path: Path) -> None:
+    """TARGET's folder is an hpctl output folder: a file there hpctl did
+    not write is not replaced (exit 2, untouched) unless --force; hpctl's
+    own output is replaced by a rerun; converting a second file into the
+    folder leaves the first in place; the JSON carries "warnings"."""
+    from hpctl.data import DEMO_DIR
+
+    src = sorted(DEMO_DIR.glob("*.csv"))[0]
+    runner = CliRunner()
+    (tmp_path / "a.parquet").write_bytes(b"the user's own file")
+    r = runner.invoke(main, ["convert", str(src), str(tmp_path / "a.parquet")])
+    assert r.exit_code == 2 and "a.parquet" in r.stderr and "--force" in r.stderr
+    assert (tmp_path / "a.parquet").read_bytes() == b"the user's own file"
+    r = runner.invoke(main, ["convert", str(src), str(tmp_path / "a.parquet"), "--force", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["warnings"] == []
+    assert_same(read_record(src), interop.read(tmp_path / "a.parquet"))
+    for _ in range(2):  # its own file: replaced without --force
+        r = runner.invoke(main, ["convert", str(src), str(tmp_path / "b.mf4")])
+        assert r.exit_code == 0, r.output
+    r = runner.invoke(main, ["convert", str(tmp_path / "b.mf4"), str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    assert all((tmp_path / n).is_file() for n in ("a.parquet", "b.mf4", "c.csv", "c.toml"))
+    assert_same(read_record(src), read_record(tmp_path / "c"))
+    # A record pair whose TOML is the user's: neither half replaced.
+    (tmp_path / "d.toml").write_text("# mine\n")
+    r = runner.invoke(main, ["convert", str(src), str(tmp_path / "d")])
+    assert r.exit_code == 2 and "d.toml" in r.stderr
+    assert not (tmp_path / "d.csv").exists() and (tmp_path / "d.toml").read_text() == "# mine\n"

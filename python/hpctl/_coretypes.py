@@ -79,6 +79,7 @@ class UnitDict(TypedDict):
     stroke_extension_m: float
     end_stop_stiffness_n_per_m: float
     end_stop_damping_n_s_per_m: float
+    rated_speed_m_s: float
     effects: NotRequired[EffectsDict]
     polytropic_exponent: NotRequired[float | None]
 
@@ -151,6 +152,13 @@ class GasPropsDict(TypedDict):
     dp_dt_pa_per_k: NDArray[np.float64]
     dp_drho_pa_m3_per_kg: NDArray[np.float64]
     cv_j_per_kg_k: NDArray[np.float64]
+
+
+class ValidatedRangeDict(TypedDict):
+    """Where a gas model was validated (``_core.gas_validated_range``)."""
+
+    pressure_pa: tuple[float, float]
+    temperature_k: tuple[float, float]
 
 
 class ClosedLoopDict(TypedDict):

@@ -51,6 +51,7 @@ pub const STROKE_COMPRESSION_M: Range = r("stroke_compression_m", 1e-3, 2.0);
 pub const STROKE_EXTENSION_M: Range = r("stroke_extension_m", 1e-3, 2.0);
 pub const END_STOP_STIFFNESS_N_PER_M: Range = r("end_stop_stiffness_n_per_m", 0.0, 1e9);
 pub const END_STOP_DAMPING_N_S_PER_M: Range = r("end_stop_damping_n_s_per_m", 0.0, 1e7);
+pub const RATED_SPEED_M_S: Range = r("rated_speed_m_s", 1e-3, 100.0);
 pub const TAU_S: Range = r("tau_s", 1e-6, MAX_FINITE_TAU_S);
 pub const POLYTROPIC_EXPONENT: Range = r("polytropic_exponent", 1.0, 2.0);
 pub const FRICTION_COULOMB_N: Range = r("friction_coulomb_n", 0.0, 1e6);
@@ -71,7 +72,7 @@ pub const SENSOR_TIME_CONSTANT_S: Range = r("sensor_time_constant_s", 0.0, 10.0)
 pub const SPRUNG_MASS_KG: Range = r("sprung_mass_kg", 1.0, 1e6);
 
 /// Every range above, for the bindings.
-pub const ALL: [Range; 29] = [
+pub const ALL: [Range; 30] = [
     PISTON_AREA_M2,
     SMALL_ACC_VOLUME_M3,
     LARGE_ACC_VOLUME_M3,
@@ -84,6 +85,7 @@ pub const ALL: [Range; 29] = [
     STROKE_EXTENSION_M,
     END_STOP_STIFFNESS_N_PER_M,
     END_STOP_DAMPING_N_S_PER_M,
+    RATED_SPEED_M_S,
     TAU_S,
     POLYTROPIC_EXPONENT,
     FRICTION_COULOMB_N,

@@ -131,6 +131,11 @@ pub struct UnitParams {
     pub end_stop_stiffness_n_per_m: f64,
     /// Damping of the end stops, N s/m.
     pub end_stop_damping_n_s_per_m: f64,
+    /// Highest strut speed the unit is rated for (its damper
+    /// characterised up to), m/s. The model does not use it: a run beyond
+    /// it is outside what the unit's data describe, which the front ends
+    /// report as a warning.
+    pub rated_speed_m_s: f64,
     /// Optional model terms.
     pub effects: Effects,
 }
@@ -325,6 +330,7 @@ impl Unit {
         ranges::STROKE_EXTENSION_M.check(p.stroke_extension_m)?;
         ranges::END_STOP_STIFFNESS_N_PER_M.check(p.end_stop_stiffness_n_per_m)?;
         ranges::END_STOP_DAMPING_N_S_PER_M.check(p.end_stop_damping_n_s_per_m)?;
+        ranges::RATED_SPEED_M_S.check(p.rated_speed_m_s)?;
         match p.heat {
             HeatTransfer::TimeConstant(tau) => {
                 ranges::TAU_S.check(tau)?;

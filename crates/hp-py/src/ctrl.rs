@@ -6,8 +6,8 @@
 //! types, undefined enum values, arrays of unequal length) raise
 //! `ParameterError`.
 
-use crate::errors::{guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel};
+use crate::errors::{bad_argument, guard, parameter, to_py};
+use crate::exec::{detached_with_progress, run_parallel, threads_arg};
 use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
@@ -127,6 +127,20 @@ pub(crate) fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params>
 #[pyfunction]
 pub fn ctrl_seed_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     guard(|| config_to_dict(py, &Config::seed_unit()))
+}
+
+/// The controller configuration for the plant unit `unit` (a unit dict as
+/// `simulate` takes): its `unit` block derived from the unit
+/// (`hp_ctrl::gas_table::UnitConfig::from_unit`), every other block the
+/// default calibration. For the seed unit it equals `ctrl_seed_config()`.
+#[pyfunction]
+pub fn ctrl_config_for_unit<'py>(py: Python<'py>, unit: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let params = params::unit(unit)?;
+        let config = Config { unit: hp_ctrl::gas_table::UnitConfig::from_unit(&params), ..Config::seed_unit() };
+        Params::new(config).map_err(param_error)?;
+        config_to_dict(py, &config)
+    })
 }
 
 // ---------------------------------------------------------- inputs/outputs
@@ -558,8 +572,10 @@ pub fn closed_loop<'py>(
 /// result dict or the exception it raised.
 #[pyfunction]
 #[pyo3(signature = (cases, threads=None))]
-pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: Option<usize>) -> PyResult<Bound<'py, PyList>> {
+pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
+        let threads = threads_arg(threads)?;
+        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
         let mut specs = Vec::with_capacity(cases.len());
         for (i, c) in cases.iter().enumerate() {
             let path = format!("cases[{i}]");
@@ -649,6 +665,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_class::<Controller>()?;
     m.add_function(wrap_pyfunction!(ctrl_seed_config, m)?)?;
+    m.add_function(wrap_pyfunction!(ctrl_config_for_unit, m)?)?;
     m.add_function(wrap_pyfunction!(closed_loop, m)?)?;
     m.add_function(wrap_pyfunction!(closed_loop_many, m)?)?;
     let flags = PyDict::new(py);

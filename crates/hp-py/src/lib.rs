@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod args;
 mod can;
 mod ctrl;
 mod e2e_counter;

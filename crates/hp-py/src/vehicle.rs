@@ -5,8 +5,8 @@
 //! Thin: conversions only.
 
 use crate::ctrl::{array, config_to_dict, driver_mode, extract, params_from};
-use crate::errors::{guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel};
+use crate::errors::{bad_argument, guard, parameter, to_py};
+use crate::exec::{detached_with_progress, run_parallel, threads_arg};
 use crate::params::{self, Reader};
 use hp_core::unit::Valves;
 use hp_ctrl::{Outputs, Params, State};
@@ -449,8 +449,10 @@ pub fn vehicle_run<'py>(
 /// case, its result dict or the exception it raised.
 #[pyfunction]
 #[pyo3(signature = (cases, threads=None))]
-pub fn vehicle_run_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: Option<usize>) -> PyResult<Bound<'py, PyList>> {
+pub fn vehicle_run_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
+        let threads = threads_arg(threads)?;
+        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
         let mut specs = Vec::with_capacity(cases.len());
         for (i, c) in cases.iter().enumerate() {
             let path = format!("cases[{i}]");

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
+from hpctl.errors import bad_argument, check_float_array, check_number
 
 # The values come from the controller itself (the bindings export its
 # tables); the names are checked against those tables by the tests.
@@ -194,9 +195,14 @@ def input_arrays(inputs: Mapping[str, ArrayLike]) -> dict[str, NDArray[Any]]:
     :class:`Inputs` defaults; fields without a default are required) as
     equally long contiguous arrays of the dtypes :meth:`Controller.step_many`
     takes."""
+    if not isinstance(inputs, Mapping):
+        raise bad_argument("inputs", inputs, "a mapping of input field names to values or arrays")
     unknown = set(inputs) - set(INPUT_DTYPES)
     if unknown:
         raise _core.ParameterError(f"unknown input field(s) {sorted(unknown)} (known: {', '.join(INPUT_DTYPES)})")
+    for name, v in inputs.items():
+        if isinstance(v, (str, bytes)) or np.ndim(v) > 1:
+            raise bad_argument(f"inputs.{name}", v, "a number or a one-dimensional array")
     lengths = {np.size(v) for v in inputs.values() if np.ndim(v) > 0}
     if len(lengths) > 1:
         raise _core.ParameterError(f"input arrays of unequal lengths {sorted(lengths)}")
@@ -209,7 +215,11 @@ def input_arrays(inputs: Mapping[str, ArrayLike]) -> dict[str, NDArray[Any]]:
             value = f.default
         else:
             raise _core.ParameterError(f"missing input field {f.name}")
-        out[f.name] = np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=INPUT_DTYPES[f.name]), (n,)))
+        try:
+            converted: NDArray[Any] = np.asarray(value, dtype=INPUT_DTYPES[f.name])
+        except (TypeError, ValueError):
+            raise bad_argument(f"inputs.{f.name}", value, f"a value or a one-dimensional array convertible to {np.dtype(INPUT_DTYPES[f.name])}") from None
+        out[f.name] = np.ascontiguousarray(np.broadcast_to(converted, (n,)))
     return out
 
 
@@ -223,6 +233,8 @@ class Controller:
     (the safe state)."""
 
     def __init__(self, config: Mapping[str, Any] | None = None) -> None:
+        if config is not None and not isinstance(config, Mapping):
+            raise bad_argument("config", config, "a configuration mapping like seed_config() (or None)")
         self._core = _core.Controller(None if config is None else dict(config))
 
     @property
@@ -235,12 +247,14 @@ class Controller:
 
     def step(self, inputs: Inputs, dt_s: float) -> Outputs:
         """One control period."""
-        return Outputs.from_dict(self._core.step(inputs.to_dict(), float(dt_s)))
+        if not isinstance(inputs, Inputs):
+            raise bad_argument("inputs", inputs, "an hpctl.control.controller.Inputs")
+        return Outputs.from_dict(self._core.step(inputs.to_dict(), check_number(dt_s, "dt_s", finite=False)))
 
     def step_many(self, inputs: Mapping[str, ArrayLike], dt_s: float | ArrayLike) -> dict[str, NDArray[Any]]:
         """Consecutive periods: ``inputs`` as for :func:`input_arrays`,
         ``dt_s`` one step size or one per period. Returns the outputs as
         arrays (enums as their numeric values, ``diag`` as uint32)."""
         arrays = input_arrays(inputs)
-        dt: float | NDArray[np.float64] = float(np.asarray(dt_s)) if np.ndim(dt_s) == 0 else np.ascontiguousarray(dt_s, dtype=np.float64)
+        dt: float | NDArray[np.float64] = check_number(dt_s, "dt_s", finite=False) if np.ndim(dt_s) == 0 else check_float_array(dt_s, "dt_s")
         return self._core.step_many(arrays, dt)

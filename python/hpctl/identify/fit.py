@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from hpctl.errors import HpctlError, SimulationError
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper
 from hpctl.identify.signals import apply_sensor_lag
 from hpctl.model.effects import (
@@ -235,10 +236,22 @@ def fit(
         x, success, message, jmat = x0, True, "nothing to fit", np.zeros((0, 0))
     values = values_from_x(params, x)
     sims = simulate_all(model, datasets, [values])[0]
+    _raise_failed(datasets, sims)
     r = residual_vector(datasets, sims, fold)
     rss = float(r @ r)
     stderr = _stderr(params, x, jmat, rss, len(r))
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
+
+
+def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | Exception]) -> None:
+    """A record the model cannot simulate at the fitted values is an error,
+    never a fit: the optimiser treats a failed trial as a very bad one and
+    backs off, but when the result itself fails (e.g. a record that the
+    simulator refuses outright) there is nothing to report but why."""
+    for d, sim in zip(datasets, sims):
+        if isinstance(sim, Exception):
+            cls = type(sim) if isinstance(sim, HpctlError) else SimulationError
+            raise cls(f"record {d.name}: the model cannot be simulated on it: {sim}") from sim
 
 
 def _stderr(params: Sequence[Param], x: FloatArray, jmat: FloatArray, rss: float, n: int) -> dict[str, float]:

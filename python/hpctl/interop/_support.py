@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import importlib
 import os
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
 
+from hpctl.data.output import replace_in_order
 from hpctl.errors import MissingDependencyError
 
 #: Distribution name of each optional module (for the error message).
@@ -45,13 +47,17 @@ def atomic_path(path: Path) -> Iterator[Path]:
     succeeds, removed when it fails: a reader never sees half a file and a
     failed write never destroys the old one.
 
-    (Written here because the project's atomic output writer was not on
-    main yet when this module was; see docs/interop.md.)"""
+    The format libraries write the file themselves (given a path), so
+    :func:`hpctl.data.output.atomic_write_bytes`, which takes bytes, does
+    not fit; this is its counterpart for them, for the Python API. The
+    command line writes into an :class:`~hpctl.data.output.OutputDir`'s
+    staging folder on top of it (manifest, lock, no silent overwrite)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{threading.get_ident()}.tmp{path.suffix}")
     try:
         yield tmp
-        os.replace(tmp, path)
+        with tmp.open("rb") as f:  # on disk before the rename makes it the file
+            os.fsync(f.fileno())
+        replace_in_order([(tmp, path)])
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        tmp.unlink(missing_ok=True)

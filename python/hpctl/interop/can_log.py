@@ -15,6 +15,7 @@ not protect (e.g. J1939 network management) are decoded and marked
 
 from __future__ import annotations
 
+import struct
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl import _core
+from hpctl.caveats import Caveat, Code
 from hpctl.data import DBC_PATH
 from hpctl.errors import CanRejectError, RecordError
 from hpctl.interop._support import require
@@ -63,17 +65,24 @@ class CanDecode:
     def rejected(self) -> int:
         return len(self.issues)
 
-    def warnings(self) -> list[str]:
-        """What the tables cannot stand behind, one line per message."""
+    def caveats(self) -> list[Caveat]:
+        """What the tables cannot stand behind: one warning per message
+        with rejected frames, one for identifiers the DBC does not know."""
         out = []
         by_message: dict[str, Counter[str]] = defaultdict(Counter)
         for i in self.issues:
             by_message[i.message or f"id {i.id:#x}"][i.reason] += 1
         for m, reasons in sorted(by_message.items()):
-            out.append(f"{m}: {sum(reasons.values())} frame(s) rejected and not decoded (" + ", ".join(f"{r}: {n}" for r, n in sorted(reasons.items())) + ")")
+            n = sum(reasons.values())
+            out.append(Caveat(Code.CAN_FRAMES_REJECTED,
+                              f"{m}: {n} frame(s) rejected and not decoded (" + ", ".join(f"{r}: {k}" for r, k in sorted(reasons.items())) + ")",
+                              {"message": m, "frames": n, "reasons": sorted(reasons), "counts": [reasons[r] for r in sorted(reasons)]}))
         if self.unknown_ids:
-            out.append(f"{sum(self.unknown_ids.values())} frame(s) with {len(self.unknown_ids)} identifier(s) the DBC does not know: "
-                       + ", ".join(f"{i:#x}" for i in sorted(self.unknown_ids)))
+            ids = sorted(self.unknown_ids)
+            n = sum(self.unknown_ids.values())
+            out.append(Caveat(Code.CAN_UNKNOWN_IDS,
+                              f"{n} frame(s) with {len(ids)} identifier(s) the DBC does not know: " + ", ".join(f"{i:#x}" for i in ids),
+                              {"frames": n, "ids": ids}))
         return out
 
     def to_raw(self) -> RawTable:
@@ -101,9 +110,16 @@ def decode_log(path: str | Path, dbc: str | Path | None = None) -> CanDecode:
         db = cantools.database.load_file(str(db_path))
     except Exception as e:  # cantools raises several parser errors
         raise RecordError(f"{db_path}: not a readable CAN database: {e}") from None
+    # What python-can's readers raise on a file that is not their format:
+    # ValueError/OSError/EOFError, struct.error on short records, and the
+    # BLF reader's own BLFParseError (an Exception, not a ValueError).
+    malformed: tuple[type[BaseException], ...] = (ValueError, OSError, EOFError, struct.error)
+    blf_error = getattr(getattr(getattr(can, "io", None), "blf", None), "BLFParseError", None)
+    if isinstance(blf_error, type) and issubclass(blf_error, BaseException):
+        malformed += (blf_error,)
     try:
         reader = can.LogReader(str(p))
-    except (ValueError, OSError) as e:
+    except malformed as e:
         raise RecordError(f"{p}: python-can cannot read this log: {e}") from None
 
     rows: dict[str, list[tuple[float, dict[str, float]]]] = defaultdict(list)
@@ -145,7 +161,7 @@ def decode_log(path: str | Path, dbc: str | Path | None = None) -> CanDecode:
                 issues.append(FrameIssue(t, msg.arbitration_id, name, f"undecodable: {e}"))
                 continue
             rows[name].append((t, {k: float(v) for k, v in values.items()}))
-    except (ValueError, OSError, EOFError) as e:
+    except malformed as e:
         raise RecordError(f"{p}: the log is malformed after {frames} frames: {e}") from None
     finally:
         stop = getattr(reader, "stop", None)

@@ -15,11 +15,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
 
+import numpy as np
 import tomli_w
 
 from hpctl import _core
 from hpctl._coretypes import UnitDict
-from hpctl.errors import ParameterError
+from hpctl.errors import ParameterError, bad_argument, check_number
 
 GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
 
@@ -140,6 +141,7 @@ class Unit:
     stroke_extension_m: float
     end_stop_stiffness_n_per_m: float
     end_stop_damping_n_s_per_m: float
+    rated_speed_m_s: float
     effects: Effects = field(default_factory=Effects)
     polytropic_exponent: float | None = None
 
@@ -149,7 +151,13 @@ class Unit:
         return cls.from_dict(_core.seed_unit())
 
     def replace(self, **changes: Any) -> Unit:
-        """A copy with some fields changed."""
+        """A copy with some fields changed (unknown fields raise
+        :class:`~hpctl.errors.ParameterError`; values are checked when the
+        unit is used, by the core)."""
+        known = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(changes) - known)
+        if unknown:
+            raise ParameterError(f"Unit has no field {', '.join(unknown)} (fields: {', '.join(sorted(known))})")
         return dataclasses.replace(self, **changes)
 
     def with_effects(self, **effects: Any) -> Unit:
@@ -224,7 +232,7 @@ class Unit:
 
     def static_force_n(self, disp_m: float, t_k: float, spring_hard: bool) -> float:
         """Force at rest at compression ``disp_m`` with the gas at ``t_k``."""
-        return _core.static_force_n(self.to_dict(), disp_m, t_k, spring_hard)
+        return _core.static_force_n(self.to_dict(), check_number(disp_m, "disp_m"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
 
     def load_pressure_pa(self, load_n: float) -> float:
         """The gas pressure that carries ``load_n`` at rest, Pa."""
@@ -232,7 +240,13 @@ class Unit:
 
     def static_disp_for_load_m(self, load_n: float, t_k: float, spring_hard: bool) -> float:
         """Compression at which the unit carries ``load_n`` at rest, gas at ``t_k``."""
-        return _core.static_disp_for_load_m(self.to_dict(), load_n, t_k, spring_hard)
+        return _core.static_disp_for_load_m(self.to_dict(), check_number(load_n, "load_n"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
+
+
+def _flag(value: Any, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise bad_argument(name, value, "a bool")
+    return bool(value)
 
 
 def _expect_mapping(value: Any, where: str) -> dict[str, Any]:

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
 from hpctl._coretypes import CaseDict, CharacterisationRigDict, MotionDict, SampledDict, SdofRigDict
+from hpctl.errors import bad_argument, check_flags, check_float_array, check_number
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
@@ -84,10 +85,13 @@ Motion = Union[Hold, Sine, Step, Steps, Sampled]
 
 def _motion_dict(m: Motion) -> MotionDict:
     if isinstance(m, Sampled):
-        d: SampledDict = {"kind": "sampled", "time_s": np.ascontiguousarray(m.time_s, float), "disp_m": np.ascontiguousarray(m.disp_m, float)}
+        d: SampledDict = {"kind": "sampled", "time_s": check_float_array(m.time_s, "Sampled.time_s"),
+                          "disp_m": check_float_array(m.disp_m, "Sampled.disp_m")}
         if m.vel_m_s is not None:
-            d["vel_m_s"] = np.ascontiguousarray(m.vel_m_s, float)
+            d["vel_m_s"] = check_float_array(m.vel_m_s, "Sampled.vel_m_s")
         return d
+    if not isinstance(m, (Hold, Sine, Step, Steps)):
+        raise bad_argument("motion", m, "one of hpctl.Hold, Sine, Step, Steps, Sampled")
     return cast(MotionDict, dict(vars(m)))
 
 
@@ -119,17 +123,20 @@ def _case(
     ambient_k: float | None,
     channels: Sequence[str] | None,
 ) -> CaseDict:
-    def flags(v: bool | ArrayLike) -> bool | list[bool]:
-        return bool(v) if np.ndim(v) == 0 else [bool(x) for x in np.asarray(v).ravel()]
-
+    if not isinstance(unit, Unit):
+        raise bad_argument("unit", unit, "an hpctl.Unit")
+    if channels is not None and (isinstance(channels, str) or not all(isinstance(c, str) for c in channels)):
+        raise bad_argument("channels", channels, f"a sequence of channel names ({', '.join(CHANNELS)})")
+    if not isinstance(rig, (CharacterisationRig, SdofRig)):
+        raise bad_argument("rig", rig, "a rig (hpctl.sim.run.characterisation_rig or sdof_rig)")
     return {
         "unit": unit.to_dict(),
         "rig": rig.to_core(),
-        "times_s": np.ascontiguousarray(times_s, dtype=float),
-        "dt_s": float(dt_s),
-        "ambient_k": unit.static_temperature_k if ambient_k is None else float(ambient_k),
-        "spring_hard": flags(spring_hard),
-        "damper_on": flags(damper_on),
+        "times_s": check_float_array(times_s, "times_s"),
+        "dt_s": check_number(dt_s, "dt_s"),
+        "ambient_k": unit.static_temperature_k if ambient_k is None else check_number(ambient_k, "ambient_k"),
+        "spring_hard": check_flags(spring_hard, "spring_hard"),
+        "damper_on": check_flags(damper_on, "damper_on"),
         "channels": None if channels is None else list(channels),
     }
 
@@ -172,9 +179,21 @@ def sdof_rig(base: Motion, sprung_mass_kg: float = SEED_SPRUNG_MASS_KG) -> SdofR
     return SdofRig(base, sprung_mass_kg)
 
 
+#: Most output samples of one run (8e8 bytes per channel).
+MAX_SAMPLES = 100_000_000
+
+
 def uniform_times(duration_s: float, sample_dt_s: float) -> FloatArray:
     """Output times 0, dt, 2 dt, ... up to ``duration_s``."""
+    duration_s = check_number(duration_s, "duration_s")
+    sample_dt_s = check_number(sample_dt_s, "sample_dt_s")
+    if duration_s < 0:
+        raise bad_argument("duration_s", duration_s, "a duration >= 0 s")
+    if sample_dt_s <= 0:
+        raise bad_argument("sample_dt_s", sample_dt_s, "an output interval > 0 s")
     n = int(round(duration_s / sample_dt_s))
+    if n > MAX_SAMPLES:
+        raise bad_argument("duration_s", duration_s, f"at most {MAX_SAMPLES:.0e} output samples ({n:.3g} at sample_dt_s = {sample_dt_s:g})")
     return np.arange(n + 1, dtype=float) * sample_dt_s
 
 
@@ -238,9 +257,13 @@ class Case:
 
 
 def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result | Exception]:
-    """Runs cases in parallel in Rust (all cores unless ``threads``). A case
-    that fails yields its exception in place of a result."""
+    """Runs cases in parallel in Rust: ``threads`` None or 0 = all cores,
+    at most 4 x the cores (else :class:`~hpctl.errors.ParameterError`). A
+    case that fails yields its exception in place of a result. Ctrl-C stops
+    the batch between cases."""
     dicts = []
     for c in cases:
+        if not isinstance(c, Case):
+            raise bad_argument("cases", c, "a sequence of hpctl.sim.run.Case")
         dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels))
     return [r if isinstance(r, Exception) else Result(dict(r)) for r in _core.simulate_many(dicts, threads)]
