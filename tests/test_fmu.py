@@ -37,7 +37,9 @@ def fmus(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     if shutil.which("cargo") is None:
         pytest.skip("cargo is not installed: the FMUs cannot be built")
     out = tmp_path_factory.mktemp("fmu")
-    subprocess.run([str(ROOT / "scripts" / "build-fmu.sh"), str(out)], check=True, capture_output=True, text=True)
+    built = subprocess.run([str(ROOT / "scripts" / "build-fmu.sh"), str(out)], capture_output=True, text=True)
+    if built.returncode != 0:
+        pytest.fail(f"scripts/build-fmu.sh failed (exit {built.returncode}):\n{built.stderr[-4000:]}")
     return {"unit": out / "hpctl_unit.fmu", "controller": out / "hpctl_controller.fmu"}
 
 
