@@ -7,10 +7,8 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.table import Table
 
-from hpctl.cli._ui import FINITE, Reporter, errors, finish, fmt, force_option, load_unit, strict_option, with_warnings
-from hpctl.data.output import OutputDir
+from hpctl.cli._ui import FINITE, Reporter, errors, finish, fmt, force_option, load_unit, output_dir, strict_option, table, with_warnings
 
 
 @click.command("closed-loop")
@@ -39,7 +37,7 @@ def closed_loop_cmd(unit_file: Path | None, road_class: str, speed_m_s: float, l
         from hpctl.report.closed_loop import plot_height_change, plot_modes
 
         unit = load_unit(unit_file, None, None)
-        with OutputDir(out_dir, "closed-loop", force=force, protect=("summary.json", "ride_height.png", "modes.png")) as out:
+        with output_dir(out_dir, "closed-loop", force=force, protect=("summary.json", "ride_height.png", "modes.png")) as out:
             height, modes, summary = closed_loop.demo(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
             caveats = closed_loop.demo_caveats(height, modes, summary)
             where = f"ISO 8608 class {road_class.upper()} road at {speed_m_s:g} m/s, seed {seed}"
@@ -51,17 +49,14 @@ def closed_loop_cmd(unit_file: Path | None, road_class: str, speed_m_s: float, l
         if as_json:
             click.echo(json.dumps(document, indent=2))
         else:
-            t = Table(title=f"Pump-free ride height (class {summary['road_class']}, {speed_m_s:g} m/s), mm")
-            for col in ("change", "target", "held at rest", "estimate", "on the road", "time [s]", "valve-6 openings"):
-                t.add_column(col, justify="right")
+            t = table(f"Pump-free ride height (class {summary['road_class']}, {speed_m_s:g} m/s), mm",
+                      ("change", "target", "held at rest", "estimate", "on the road", "time [s]", "valve-6 openings"))
             for name in ("lowering", "raising"):
                 s = summary[name]
                 t.add_row(name, fmt(s["target_m"], 1e3, 1), fmt(s["held_offset_m"], 1e3, 1), fmt(s["estimate_m"], 1e3, 1),
                           fmt(s["road_mean_change_m"], 1e3, 1), fmt(s["time_to_reach_s"]), str(s["valve6_openings"]))
             rep.out.print(t)
-            t = Table(title="Pressures when done, MPa")
-            for col in ("change", "p_S", "p_L", "target p_L", "load (estimate)", "load (true)"):
-                t.add_column(col, justify="right")
+            t = table("Pressures when done, MPa", ("change", "p_S", "p_L", "target p_L", "load (estimate)", "load (true)"))
             for name in ("lowering", "raising"):
                 s = summary[name]
                 t.add_row(name, *(fmt(s[k], 1e-6, 2) for k in ("p_gas_pa", "p_gas2_pa", "p_gas2_target_pa", "p_load_estimate_pa", "p_load_true_pa")))

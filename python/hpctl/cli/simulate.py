@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.table import Table
 
 from hpctl.caveats import Caveat
 from hpctl.cli._ui import (
@@ -22,9 +21,11 @@ from hpctl.cli._ui import (
     force_option,
     load_unit,
     modes,
+    output_dir,
     parse_floats,
     parse_tau,
     strict_option,
+    table,
     with_warnings,
 )
 from hpctl.data.output import OutputDir
@@ -73,7 +74,7 @@ def simulate(
     rep = Reporter(quiet, as_json)
     with errors(rep):
         unit = load_unit(unit_file, parse_tau(tau_s), gas)
-        with OutputDir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
+        with output_dir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
             if sweep:
                 summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out)
             else:
@@ -191,26 +192,20 @@ def _print_summary(rep: Reporter, runs: Sequence[experiments.Experiment], test: 
     steps = [e.summary for e in runs if e.record.kind == "sdof"]
     chars = [e.summary for e in runs if e.record.kind == "characterisation"]
     if steps:
-        t = Table(title="SDOF step response")
-        for col in ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"):
-            t.add_column(col, justify="right")
+        t = table("SDOF step response", ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"))
         for s in steps:
             t.add_row(s["spring"], s["damper"], fmt(s["natural_frequency_hz"]), fmt(s["damping_ratio"]), fmt(s["overshoot_m"], 1e3, 1),
                       fmt(s["settling_time_s"]), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if chars and test != "heat":
-        t = Table(title="Characterisation")
-        for col in ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"):
-            t.add_column(col, justify="right")
+        t = table("Characterisation", ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"))
         for s in chars:
             t.add_row(s["spring"], s["damper"], s["excitation"], f"{s['force_min_n'] / 1e3:.1f} .. {s['force_max_n'] / 1e3:.1f}",
                       fmt(s.get("loop_area_j"), 1, 0), fmt(s.get("gas_loop_area_j"), 1, 0), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if test == "heat":
         seed = experiments.SEED_HEAT_BUILDUP
-        t = Table(title="Damper heat build-up: this model vs the seed")
-        for col in ("quantity", "hpctl", "seed"):
-            t.add_column(col, justify="right")
+        t = table("Damper heat build-up: this model vs the seed", ("quantity", "hpctl", "seed"))
         for s in (e.summary for e in runs):
             t.add_row("gas temperature [C]", f"{s['gas_temperature_start_k'] - 273.15:.0f} -> {s['gas_temperature_end_k'] - 273.15:.0f}",
                       f"{seed['gas_temperature_start_c']:.0f} -> {seed['gas_temperature_end_c']:.0f}")

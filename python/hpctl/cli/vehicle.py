@@ -10,10 +10,9 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.table import Table
 from rich.text import Text
 
-from hpctl.cli._ui import Reporter, errors, jsonable
+from hpctl.cli._ui import Reporter, errors, jsonable, provenance, table
 
 #: Some cases failed (their results are missing; the others were written).
 EXIT_CASES_FAILED = 3
@@ -68,7 +67,9 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
             result = comparison.evaluate(specs, spec, chosen, threads=threads)
         out_dir.mkdir(parents=True, exist_ok=True)
         rows = comparison_rows(result)
-        (out_dir / "comparison.md").write_text(markdown_table(rows))
+        from hpctl.data.output import provenance_line
+
+        (out_dir / "comparison.md").write_text(provenance_line(provenance()) + "\n\n" + markdown_table(rows))
         plots = [ride_handling_plot(result, out_dir / "ride_handling.png").name]
         for name, rs in result.by_vehicle().items():
             plots.append(lane_change_plot(rs, out_dir / f"lane_change_{name}.png").name)
@@ -82,6 +83,7 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
                         write_record(rec, rec_dir / stem)
                         written.append(stem)
         summary = {
+            "hpctl": provenance(),
             "route": {"name": spec.name, "seed": seed, "scale": scale, "sections": [s.__dict__ for s in result.results[0].route.sections] if result.results and result.results[0].route else []},
             "cases": [_case_json(r) for r in result.results],
             "table": rows,
@@ -95,10 +97,8 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
         else:
-            t = Table(title="Ride versus handling on the mixed route")
             keys = ["vehicle", "setting", "rough a_v [m/s²]", "lane change roll [deg]", "tyre load DLC, lane change", "tyre load DLC, rough", "travel used, rough [%]", "end-stop hits", "lift-off [s]"]
-            for k in keys:
-                t.add_column(k, justify="right")
+            t = table("Ride versus handling on the mixed route", keys)
             for row in rows:
                 t.add_row(*(row.get(k, "") for k in keys))
             rep.out.print(t)
@@ -200,6 +200,7 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
         if result.best.failures:
             warnings.append(f"{result.best.failures} case(s) failed with the tuned configuration")
         summary = {
+            "hpctl": provenance(),
             "vehicles": list(names),
             "seeds": seed_list,
             "scale": scale,
@@ -218,9 +219,7 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
         else:
-            t = Table(title=f"Tuned over {len(routes)} route(s) x {len(names)} vehicle(s): J {result.default.j:.4f} -> {result.best.j:.4f}")
-            for c in ("parameter", "default", "tuned"):
-                t.add_column(c, justify="right")
+            t = table(f"Tuned over {len(routes)} route(s) x {len(names)} vehicle(s): J {result.default.j:.4f} -> {result.best.j:.4f}", ("parameter", "default", "tuned"))
             for n, a, b in result.changes():
                 t.add_row(n, f"{a:.4g}", f"{b:.4g}")
             rep.out.print(t)

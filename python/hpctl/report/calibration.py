@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from hpctl.caveats import Caveat  # noqa: E402
-from hpctl.data.output import OutputDir  # noqa: E402
+from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
@@ -113,12 +113,18 @@ def warnings_section(caveats: Sequence[Caveat]) -> list[str]:
     return ["## Warnings", "", *[f"- `{c.code}`: {c.message}" for c in caveats], ""]
 
 
+def _provenance(out: OutputDir) -> list[str]:
+    """The report's provenance line (when the folder knows who writes it)."""
+    return [] if out.provenance is None else [provenance_line(out.provenance), ""]
+
+
 def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
     """fit.md with parameters, errors, plots and the warnings."""
     plots = record_plots(result, out, "fit")
     lines = [
         "# hpctl fit",
         "",
+        *_provenance(out),
         f"Model: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}; "
         f"{result.n} residuals; residual RMS / noise = {result.rms_ratio:.3f}; BIC = {result.bic:.1f}; {result.message}",
         "",
@@ -147,6 +153,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
     lines = [
         "# hpctl diagnosis",
         "",
+        *_provenance(out),
         f"**Verdict: {diag.verdict.replace('_', ' ')}.**",
         "",
     ]

@@ -18,7 +18,7 @@ import numpy as np
 
 from hpctl import _core
 from hpctl.caveats import Caveat, Code
-from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
+from hpctl.data.records import RecordTest, RigRecord
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, OilNode, Unit
 from hpctl.sim import checks, metrics
 from hpctl.sim.run import (
@@ -27,6 +27,8 @@ from hpctl.sim.run import (
     Result,
     Sine,
     Step,
+    motion_test,
+    record_of,
     run_characterisation,
     run_sdof,
 )
@@ -67,27 +69,8 @@ def _record(
     ambient_k: float,
     sprung_mass_kg: float | None = None,
 ) -> RigRecord:
-    r = result.channels
-    columns = ["time_s", "disp_m", "force_n"]
-    if kind == "sdof":
-        columns += ["body_disp_m", "base_disp_m"]
-    columns += ["p_gas_pa", "p_gas2_pa", "t_gas_k"]
-    if unit.effects.oil_node is not None:
-        columns += ["t_oil_k"]
-    data = {c: np.asarray(r[c], float) for c in columns}
-    data["t_amb_k"] = np.full(len(r["time_s"]), ambient_k)
-    data["spring_hard"] = np.asarray(r["spring_hard"], float)
-    data["damper_on"] = np.asarray(r["damper_on"], float)
-    return RigRecord(
-        kind="sdof" if kind == "sdof" else "characterisation",
-        description=description,
-        unit=RecordUnit(unit.piston_area_m2, unit.small_acc_volume_m3, unit.large_acc_volume_m3, "N2"),
-        static=RecordStatic(unit.static_pressure_pa, unit.static_temperature_k, ambient_k),
-        test=test,
-        data=data,
-        sprung_mass_kg=sprung_mass_kg,
-        name=name,
-    )
+    return record_of(unit, result.channels, kind="sdof" if kind == "sdof" else "characterisation", test=test, name=name,
+                     description=description, ambient_k=ambient_k, sprung_mass_kg=sprung_mass_kg)
 
 
 def characterisation(
@@ -108,14 +91,8 @@ def characterisation(
     result = run_characterisation(
         unit, motion, duration_s, sample_dt_s=sample_dt_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient, progress=progress
     )
-    excitation = {"sine": "sine", "step": "step", "steps": "steps"}.get(motion.kind, "drive")
-    test = RecordTest(
-        spring=spring_name(spring_hard),
-        damper=damper_name(damper_on),
-        excitation=excitation,
-        amplitude_m=getattr(motion, "amplitude_m", None) or getattr(motion, "height_m", None),
-        frequency_hz=getattr(motion, "frequency_hz", None),
-    )
+    test = motion_test(motion, spring_hard=spring_hard, damper_on=damper_on)
+    excitation = test.excitation
     name = f"char_{excitation}_{spring_name(spring_hard)}_{damper_name(damper_on)}"
     record = _record(unit, result, kind="characterisation", test=test, name=name, description=f"hpctl simulation: characterisation, {excitation}", ambient_k=ambient)
     t, x, f = result["time_s"], result["disp_m"], result["force_n"]
