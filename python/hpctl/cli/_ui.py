@@ -171,6 +171,17 @@ def strict_option(f: Callable[..., Any]) -> Callable[..., Any]:
     return click.option("--strict", is_flag=True, help=f"Exit with code {EXIT_WARNINGS} if there is any warning (the outputs are still written).")(f)
 
 
+#: The figure formats (:data:`hpctl.report.plots.FORMATS`; repeated here so
+#: that the option does not import matplotlib at start-up: a test keeps
+#: the two equal).
+FIGURE_FORMATS = ("png", "svg", "pdf")
+
+
+def format_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    return click.option("--format", "fig_format", type=click.Choice(FIGURE_FORMATS), default="png", show_default=True,
+                        help="File format of the plots.")(f)
+
+
 def force_option(f: Callable[..., Any]) -> Callable[..., Any]:
     return click.option("--force", is_flag=True,
                         help="Overwrite files in the output folder that hpctl did not write (or that were changed since).")(f)

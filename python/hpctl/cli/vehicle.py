@@ -30,7 +30,8 @@ def _warn(rep: Reporter, warnings: list[str]) -> None:
 @click.option("--seed", type=int, default=1, show_default=True, help="Road seed (same seed, same roads).")
 @click.option("--scale", type=float, default=1.0, show_default=True, help="Shorten the route's segments by this factor (0-1], for quick looks.")
 @click.option("--setting", "settings", multiple=True, type=click.Choice(["soft-low", "soft-high", "hard-low", "hard-high", "semi-active"]), help="Suspension setting (repeat; default: all five).")
-@click.option("--config", "config_file", type=click.Path(exists=True, dir_okay=False, path_type=Path), help="Controller configuration (JSON, e.g. tuned.json from hpctl tune) for the semi-active runs.")
+@click.option("--config", "config_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="Controller configuration for the semi-active runs: TOML (all or some values, merged over each vehicle's default) or tuned.json from hpctl tune.")
 @click.option("--records", type=click.Choice(["semi-active", "all", "none"]), default="semi-active", show_default=True, help="Write rig records (one per wheel, 100 Hz) of these runs.")
 @click.option("--threads", type=int, default=None, help="Parallel runs (default: all cores).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/evaluate"), show_default=True, help="Output folder.")
@@ -58,11 +59,11 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
             raise ParameterError(f"threads = {threads} must be at least 1")
         names = {"soft-low": comparison.PASSIVE[0], "soft-high": comparison.PASSIVE[1], "hard-low": comparison.PASSIVE[2], "hard-high": comparison.PASSIVE[3], "semi-active": comparison.SEMI_ACTIVE}
         chosen = [names[s] for s in settings] if settings else list(comparison.SETTINGS)
+        specs = [preset(v) for v in (vehicles or ("4x4", "8x8"))]
         if config_file is not None:
-            config = _read_config(config_file)
+            config = _read_config(config_file, specs)
             chosen = [comparison.Setting(s.name, semi_active=True, config=config) if s.semi_active else s for s in chosen]
         spec = mixed(seed=seed, scale=scale)
-        specs = [preset(v) for v in (vehicles or ("4x4", "8x8"))]
         with rep.err.status("driving") if not quiet else _null():
             result = comparison.evaluate(specs, spec, chosen, threads=threads)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -70,9 +71,11 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
         from hpctl.data.output import provenance_line
 
         (out_dir / "comparison.md").write_text(provenance_line(provenance()) + "\n\n" + markdown_table(rows))
-        plots = [ride_handling_plot(result, out_dir / "ride_handling.png").name]
+        plots = ["ride_handling.png"]
+        ride_handling_plot(result, out_dir / plots[0])
         for name, rs in result.by_vehicle().items():
-            plots.append(lane_change_plot(rs, out_dir / f"lane_change_{name}.png").name)
+            plots.append(f"lane_change_{name}.png")
+            lane_change_plot(rs, out_dir / plots[-1])
         written = []
         if records != "none":
             rec_dir = out_dir / "records"
@@ -115,20 +118,14 @@ class _null:
         return None
 
 
-def _read_config(path: Path) -> dict[str, Any]:
-    from hpctl.errors import ParameterError
+def _read_config(path: Path, vehicles: list[Any]) -> dict[str, Any]:
+    """The values of a configuration file, checked over each vehicle's
+    default (an unknown key or a value out of range names itself)."""
+    from hpctl.control import config
 
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as e:
-        raise ParameterError(f"{path}: cannot read the controller configuration: {e}") from None
-    config = data.get("config", data) if isinstance(data, dict) else None
-    if not isinstance(config, dict):
-        raise ParameterError(f"{path}: expected a JSON object with the controller configuration (or {{\"config\": ...}})")
-    from hpctl.control.controller import Controller
-
-    Controller(config)  # validates every key and value
-    return config
+    for v in vehicles:
+        config.read_config(path, v.controller_config())
+    return config.read_changes(path)
 
 
 def _case_json(r: Any) -> dict[str, Any]:
@@ -154,11 +151,13 @@ def _case_json(r: Any) -> dict[str, Any]:
 @click.option("--maxiter", type=int, default=4, show_default=True, help="Differential evolution: generations.")
 @click.option("--seed", type=int, default=1, show_default=True, help="Optimiser seed.")
 @click.option("--threads", type=int, default=None, help="Local parallel evaluations (default: all cores).")
+@click.option("--config", "config_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="Controller configuration to start from (TOML: all or some values, merged over each vehicle's default; or tuned.json).")
 @click.option("--cluster", default=None, help="A Dask scheduler (tcp://HOST:PORT) to evaluate on instead of this machine.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/tune"), show_default=True, help="Output folder.")
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON on stdout.")
-def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxiter: int, seed: int, threads: int | None, cluster: str | None,
+def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxiter: int, seed: int, threads: int | None, config_file: Path | None, cluster: str | None,
          out_dir: Path, quiet: bool, as_json: bool) -> None:
     """Tune the semi-active controller's thresholds (handling triggers,
     hold, skyhook estimator and switching) over a set of routes with
@@ -182,11 +181,14 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
             raise ParameterError(f"popsize = {popsize} and maxiter = {maxiter} must be at least 1")
         routes = tuple(mixed(seed=s, scale=scale) for s in seed_list)
         names = tuple(vehicles or ("4x4",))
+        from hpctl.vehicle.model import preset
+
+        start = None if config_file is None else _read_config(config_file, [preset(v) for v in names])
         executor: tuning.Executor = tuning.DaskExecutor(cluster) if cluster else tuning.LocalExecutor(threads)
         try:
             with rep.err.status("passive references") if not quiet else _null():
                 refs = tuning.references(names, routes, threads=threads)
-            problem = tuning.Problem(names, routes, references=refs)
+            problem = tuning.Problem(names, routes, references=refs, config=start)
             result = tuning.tune(problem, executor, popsize=popsize, maxiter=maxiter, seed=seed,
                              on_generation=lambda g, f: rep.err.print(f"generation {g}: best J = {f:.4f}"))
         finally:

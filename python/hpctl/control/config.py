@@ -90,7 +90,12 @@ def read_config(path: str | Path, base: Mapping[str, Any]) -> dict[str, Any]:
     """The configuration a file describes: its values merged over ``base``
     (usually :func:`~hpctl.control.closed_loop.config_for_unit` of the unit
     the controller runs), checked."""
-    return check(merge(base, read_changes(path), "config"), str(path))
+    changes = read_changes(path)
+    try:
+        merged = merge(base, changes, "config")
+    except ParameterError as e:
+        raise ParameterError(f"{path}: {e}") from None
+    return check(merged, str(path))
 
 
 def to_toml(config: Mapping[str, Any]) -> str:

@@ -10,11 +10,13 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from hpctl import _core
 from hpctl.caveats import Caveat, Code
@@ -48,6 +50,9 @@ class Experiment:
     result: Result
     summary: dict[str, Any] = field(default_factory=dict)
     caveats: list[Caveat] = field(default_factory=list)
+    #: Derived time series a plot tells the story with (e.g. the heat
+    #: build-up's cycle means), SI units, each with its ``*_time_s``.
+    series: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
 def spring_name(hard: bool) -> Literal["hard", "soft"]:
@@ -258,6 +263,20 @@ def heat_buildup(
     x0 = unit.static_disp_for_load_m(load, ambient_k, spring_hard)
     x1 = unit.static_disp_for_load_m(load, t_gas_end, spring_hard)
     first = (t >= 0) & (t < 1.0 / frequency_hz)
+    # The run as the story it tells: cycle means and envelopes (groups of
+    # cycles, at most ~300 points), and the ride height the gas
+    # temperature gives at rest under the sprung mass.
+    every = max(1, math.ceil(frequency_hz * duration_s / 300))
+    gas = metrics.cycle_stats(t, r["t_gas_k"], frequency_hz, every)
+    oil = metrics.cycle_stats(t, r["t_oil_k"], frequency_hz, every)
+    force = metrics.cycle_stats(t, r["force_n"], frequency_hz, every)
+    e.series = {
+        "cycle_time_s": gas["time_s"],
+        "t_gas_mean_k": gas["mean"], "t_gas_min_k": gas["min"], "t_gas_max_k": gas["max"],
+        "t_oil_mean_k": oil["mean"],
+        "force_min_n": force["min"], "force_max_n": force["max"],
+        "ride_height_change_m": np.array([x0 - unit.static_disp_for_load_m(load, float(tk), spring_hard) for tk in gas["mean"]]),
+    }
     e.name = f"heat_buildup_{spring_name(spring_hard)}"
     e.record.name = e.name
     e.record.description = f"hpctl simulation: damper heat build-up, {duration_s / 60:g} min at {frequency_hz:g} Hz, {amplitude_m * 1e3:g} mm"
@@ -275,6 +294,10 @@ def heat_buildup(
             "dynamic_force_range_start_n": float(np.ptp(r["force_n"][first])),
             "dynamic_force_range_end_n": float(np.ptp(r["force_n"][last])),
             "ride_height_change_m": x0 - x1,
+            "ambient_k": ambient_k,
+            "frequency_hz": frequency_hz,
+            "amplitude_m": amplitude_m,
+            "sprung_mass_kg": sprung_mass_kg,
             "ride_height_change_of_gas_volume": (x0 - x1) * unit.piston_area_m2 / (unit.small_acc_volume_m3 if spring_hard else unit.small_acc_volume_m3 + unit.large_acc_volume_m3),
         }
     )
