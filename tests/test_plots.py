@@ -53,7 +53,7 @@ def test_heat_buildup_is_drawn_as_cycle_means_with_its_headline(heat: experiment
     # The headline on the figure: the gas temperature from start to end, the ride height.
     assert f"gas {s['gas_temperature_start_k'] - 273.15:.0f} → {s['gas_temperature_end_k'] - 273.15:.0f} °C" in words
     assert f"ride height {1e3 * s['ride_height_change_m']:+.1f} mm" in words
-    assert "seed: gas 23 → 68 °C" in words
+    assert "seed (75 min): gas 23 → 68 °C" in words
     # Test conditions in the title.
     assert "60 mm at 0.5 Hz for 4 min" in fig.axes[0].get_title() and "damper on" in fig.axes[0].get_title()
     # One unit per axis, and the ride height has an axis of its own.

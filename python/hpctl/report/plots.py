@@ -149,15 +149,18 @@ def heat_buildup(e: Experiment, path: str | Path | None = None) -> Figure:
     ax[0].plot(start_min, np.r_[s["ambient_k"] - 273.15, gas_c], color="tab:blue", lw=1.6, label="gas, cycle mean")
     ax[0].plot(minutes, x["t_oil_mean_k"] - 273.15, color="tab:red", lw=1.6, label="oil, cycle mean")
     seed = SEED_HEAT_BUILDUP
-    ax[0].plot([minutes[-1]], [seed["gas_temperature_end_c"]], "o", color="tab:blue", mfc="none", ms=8, label=f"seed: gas {seed['gas_temperature_end_c']:.0f} °C")
-    ax[0].plot([minutes[-1]], [seed["oil_temperature_end_c"]], "s", color="tab:red", mfc="none", ms=8, label=f"seed: oil {seed['oil_temperature_end_c']:.0f} °C")
+    # The seed's numbers where the seed measured them: at the end of its run.
+    seed_min = seed["duration_s"] / 60.0
+    ax[0].plot([seed_min], [seed["gas_temperature_end_c"]], "o", color="tab:blue", mfc="none", ms=8, label=f"seed: gas {seed['gas_temperature_end_c']:.0f} °C after {seed_min:g} min")
+    ax[0].plot([seed_min], [seed["oil_temperature_end_c"]], "s", color="tab:red", mfc="none", ms=8, label=f"seed: oil {seed['oil_temperature_end_c']:.0f} °C after {seed_min:g} min")
     ax[0].set_ylabel("temperature [°C]")
     ax[0].legend(loc="upper left", fontsize=8, ncol=2)
     ax[1].fill_between(minutes, 1e-3 * x["force_min_n"], 1e-3 * x["force_max_n"], color="tab:gray", alpha=0.5, lw=0, label="force range within a cycle")
     ax[1].set_ylabel("strut force [kN]")
     ax[1].legend(loc="upper left", fontsize=8)
     ax[2].plot(start_min, 1e3 * np.r_[0.0, x["ride_height_change_m"]], color="tab:green", lw=1.6, label="ride height at rest with the gas at its cycle mean")
-    ax[2].axhline(1e3 * seed["ride_height_change_m"], color="tab:green", ls=":", lw=1.2, label=f"seed: +{1e3 * seed['ride_height_change_m']:.0f} mm")
+    ax[2].plot([seed_min], [1e3 * seed["ride_height_change_m"]], "o", color="tab:green", mfc="none", ms=8,
+               label=f"seed: +{1e3 * seed['ride_height_change_m']:.0f} mm after {seed_min:g} min")
     ax[2].set_ylabel("ride height change [mm]")
     ax[2].set_xlabel("time [min]")
     ax[2].legend(loc="upper left", fontsize=8)
@@ -166,7 +169,7 @@ def heat_buildup(e: Experiment, path: str | Path | None = None) -> Figure:
     headline = (f"gas {s['gas_temperature_start_k'] - 273.15:.0f} → {s['gas_temperature_end_k'] - 273.15:.0f} °C, "
                 f"oil → {s['oil_temperature_end_k'] - 273.15:.0f} °C, spring rate {100 * s['static_spring_rate_change']:+.0f} %, "
                 f"ride height {1e3 * s['ride_height_change_m']:+.1f} mm, mean damper power {s['mean_damper_power_w']:.0f} W\n"
-                f"seed: gas {seed['gas_temperature_start_c']:.0f} → {seed['gas_temperature_end_c']:.0f} °C, oil → {seed['oil_temperature_end_c']:.0f} °C, "
+                f"seed ({seed_min:g} min): gas {seed['gas_temperature_start_c']:.0f} → {seed['gas_temperature_end_c']:.0f} °C, oil → {seed['oil_temperature_end_c']:.0f} °C, "
                 f"spring rate {100 * seed['spring_rate_change']:+.0f} %, ride height +{1e3 * seed['ride_height_change_m']:.0f} mm")
     _headline(ax[0], headline)
     ax[0].set_title(f"Damper heat build-up: sine {1e3 * s['amplitude_m']:g} mm at {s['frequency_hz']:g} Hz for {s['duration_s'] / 60:g} min, "
@@ -182,10 +185,10 @@ def _headline(ax: Axes, text: str) -> None:
 def valve_states(ax: Axes, t: np.ndarray, spring_hard: np.ndarray, damper_on: np.ndarray) -> None:
     """The valve states of a record on an axis of their own: valve 6
     (closed = hard spring) and valve 5 (closed = damper on), as steps."""
-    ax.step(t, 1.5 + np.asarray(spring_hard, float), where="post", color="tab:purple", lw=1.0)
+    ax.step(t, 2.0 + np.asarray(spring_hard, float), where="post", color="tab:purple", lw=1.0)
     ax.step(t, np.asarray(damper_on, float), where="post", color="tab:brown", lw=1.0)
-    ax.set_yticks([0, 1, 1.5, 2.5], ["damper off", "damper on", "soft", "hard"], fontsize=7)
-    ax.set_ylim(-0.3, 2.8)
+    ax.set_yticks([0, 1, 2, 3], ["damper off", "damper on", "soft", "hard"], fontsize=7)
+    ax.set_ylim(-0.4, 3.4)
     ax.set_ylabel("valves")
 
 

@@ -213,6 +213,7 @@ def seed_oil_node() -> OilNode:
 
 # The seed's section 4.5, for comparison.
 SEED_HEAT_BUILDUP = {
+    "duration_s": 75 * 60.0,
     "gas_temperature_start_c": 23.0,
     "gas_temperature_end_c": 68.0,
     "oil_temperature_end_c": 130.0,
