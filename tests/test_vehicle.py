@@ -104,7 +104,8 @@ def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard
 
 
 def test_a_failed_case_is_kept_as_a_warning_not_raised() -> None:
-    bad = comparison.Setting("broken", semi_active=True, config={"unit": {}})
+    # A configuration is merged over the vehicle's (a part is a whole configuration): a value out of range breaks it.
+    bad = comparison.Setting("broken", semi_active=True, config={"unit": {"piston_area_m2": -1.0}})
     r = comparison.run_case(comparison.Case(preset("4x4"), route.mixed(scale=0.05), bad))
     assert r.error is not None and r.sections == [] and "case failed" in r.warnings[0]
 
@@ -117,7 +118,9 @@ def test_the_evaluate_command_writes_table_plots_records_and_warnings(tmp_path: 
     summary = json.loads((out / "comparison.json").read_text())
     assert {c["setting"] for c in summary["cases"]} == {"soft, low damping", "semi-active"}
     assert isinstance(summary["warnings"], list) and summary["failed"] == []
-    assert (out / "ride_handling.png").stat().st_size > 10_000 and (out / "comparison.md").read_text().startswith("| vehicle")
+    md = (out / "comparison.md").read_text().splitlines()
+    assert (out / "ride_handling.png").stat().st_size > 10_000 and md[0].startswith("Written by hpctl ") and md[2].startswith("| vehicle")
+    assert summary["hpctl"]["command"].startswith("hpctl evaluate --vehicle 4x4 --scale 0.1")
     # One rig record per wheel of the semi-active run, readable by the record reader.
     assert len(summary["records"]) == 4
     rec = read_record(out / "records" / summary["records"][0])
