@@ -76,6 +76,10 @@ ROWS: tuple[Row, ...] = (
         "would overwrite files hpctl did not write (or that changed since): summary.json; move them away, choose another --out, or pass --force"),
     Row("hpctl simulate --test sdof-step --duration-s 1 --out BUSY_OUT", "exit 2", "is in use by another hpctl run (pid"),
     Row("hpctl simulate --test sdof-step --duration-s 1 --out FILE/sub", "exit 1", "Not a directory"),
+    Row("hpctl can decode FILE --out BUSY_OUT", "exit 2", "is in use by another hpctl run (pid"),
+    # Data in and out.
+    Row("hpctl convert TORN OUT/torn.parquet", "exit 2", "torn.csv: does not match the csv_sha256 in torn.toml"),
+    Row("hpctl can decode FILE --out OUT", "exit 2", "python-can cannot read this log: No read support for unknown log format"),
     # The Python API and the bindings.
     Row('_core.can_encode("HP_Driver", 0, {"DriverMode": 1.5, "RideHeightRequest": 0.0})', "raises ParameterError",
         "values.DriverMode = 1.5: expected a whole number (a flag, an enumeration or a count)"),

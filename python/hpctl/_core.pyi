@@ -1,6 +1,6 @@
 # Hand-kept stub of the Rust extension hpctl._core (checked by stubtest).
 from collections.abc import Callable, Sequence
-from typing import Any, final
+from typing import Any, Literal, final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +46,7 @@ __all__ = [
     "CanRejectError",
     "can_encode",
     "can_decode",
+    "CanCounter",
     "Ecu",
     "vehicle_presets",
     "vehicle_controller_config",
@@ -162,6 +163,13 @@ class CanRejectError(HpctlError): ...
 
 def can_encode(name: str, counter: int, values: dict[str, float]) -> tuple[int, bytes]: ...
 def can_decode(id: int, data: bytes | bytearray | memoryview, extended: bool = False) -> tuple[str, int, dict[str, float]]: ...
+@final
+class CanCounter:
+    """One message's E2E alive-counter check (hp_ctrl::can::e2e::CounterState)."""
+    def __new__(cls) -> CanCounter: ...
+    def check(self, counter: int) -> Literal["next", "repeated", "skipped", "synced"]: ...
+    def reset(self) -> None: ...
+
 @final
 class Ecu:
     def __new__(cls) -> Ecu: ...

@@ -10,7 +10,7 @@ from __future__ import annotations
 import click
 
 from hpctl._version import __version__
-from hpctl.cli import calibrate, closed_loop, simulate, vehicle
+from hpctl.cli import calibrate, can, closed_loop, convert, simulate, vehicle
 from hpctl.cli._ui import ARGS_KEY
 
 
@@ -36,7 +36,8 @@ def main() -> None:
 
 main.add_command(simulate.simulate)
 main.add_command(closed_loop.closed_loop_cmd)
-for command in calibrate.COMMANDS + vehicle.COMMANDS:
+main.add_command(convert.convert_cmd)
+for command in calibrate.COMMANDS + vehicle.COMMANDS + can.COMMANDS:
     main.add_command(command)
 
 if __name__ == "__main__":  # pragma: no cover
