@@ -133,3 +133,15 @@ def test_the_evaluate_command_writes_table_plots_records_and_warnings(tmp_path: 
 def test_the_evaluate_command_rejects_bad_input_with_exit_2(tmp_path: Path, args: list[str], message: str) -> None:
     res = CliRunner().invoke(main, ["evaluate", "--vehicle", "4x4", "--out", str(tmp_path), *args])
     assert res.exit_code == 2 and message in res.output
+
+
+@pytest.mark.parametrize(("command", "mine"), [("evaluate", "comparison.md"), ("tune", "tuned.json")])
+def test_evaluate_and_tune_never_overwrite_a_users_file(tmp_path: Path, command: str, mine: str) -> None:
+    # Checked before the drives: the run stops at once, the user's file is
+    # untouched and nothing else is written.
+    (tmp_path / mine).write_text("the user's notes\n")
+    res = CliRunner().invoke(main, [command, "--vehicle", "4x4", "--scale", "0.05", "--out", str(tmp_path)])
+    assert res.exit_code == 2, res.output
+    assert "would overwrite files hpctl did not write" in res.output and mine in res.output
+    assert (tmp_path / mine).read_text() == "the user's notes\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [mine]

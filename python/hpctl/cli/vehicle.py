@@ -12,7 +12,7 @@ from typing import Any
 import click
 from rich.text import Text
 
-from hpctl.cli._ui import Reporter, errors, jsonable, provenance, table
+from hpctl.cli._ui import Reporter, errors, force_option, jsonable, output_dir, provenance, table
 
 #: Some cases failed (their results are missing; the others were written).
 EXIT_CASES_FAILED = 3
@@ -35,10 +35,11 @@ def _warn(rep: Reporter, warnings: list[str]) -> None:
 @click.option("--records", type=click.Choice(["semi-active", "all", "none"]), default="semi-active", show_default=True, help="Write rig records (one per wheel, 100 Hz) of these runs.")
 @click.option("--threads", type=int, default=None, help="Parallel runs (default: all cores).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/evaluate"), show_default=True, help="Output folder.")
+@force_option
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON on stdout.")
 def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float, settings: tuple[str, ...], config_file: Path | None,
-             records: str, threads: int | None, out_dir: Path, quiet: bool, as_json: bool) -> None:
+             records: str, threads: int | None, out_dir: Path, force: bool, quiet: bool, as_json: bool) -> None:
     """Drive the vehicles along the mixed route (smooth start, highway,
     double lane change, rough track, obstacles) with the four passive
     settings and the semi-active controller (one per wheel), and compare
@@ -64,38 +65,40 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
             config = _read_config(config_file, specs)
             chosen = [comparison.Setting(s.name, semi_active=True, config=config) if s.semi_active else s for s in chosen]
         spec = mixed(seed=seed, scale=scale)
-        with rep.err.status("driving") if not quiet else _null():
-            result = comparison.evaluate(specs, spec, chosen, threads=threads)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        rows = comparison_rows(result)
-        from hpctl.data.output import provenance_line
+        plots = ["ride_handling.png", *(f"lane_change_{s.name}.png" for s in specs)]
+        # The folder is locked and checked before the drives (minutes), and
+        # everything is staged and moved into place at the end: an
+        # interrupted or failed run leaves the previous results whole.
+        with output_dir(out_dir, "evaluate", force=force, protect=("comparison.md", "comparison.json", *plots)) as out:
+            with rep.err.status("driving") if not quiet else _null():
+                result = comparison.evaluate(specs, spec, chosen, threads=threads)
+            rows = comparison_rows(result)
+            from hpctl.data.output import provenance_line
 
-        (out_dir / "comparison.md").write_text(provenance_line(provenance()) + "\n\n" + markdown_table(rows))
-        plots = ["ride_handling.png"]
-        ride_handling_plot(result, out_dir / plots[0])
-        for name, rs in result.by_vehicle().items():
-            plots.append(f"lane_change_{name}.png")
-            lane_change_plot(rs, out_dir / plots[-1])
-        written = []
-        if records != "none":
-            rec_dir = out_dir / "records"
-            rec_dir.mkdir(exist_ok=True)
-            for r in result.results:
-                if records == "all" or r.case.setting.semi_active:
-                    for stem, rec in comparison.wheel_records(r):
-                        write_record(rec, rec_dir / stem)
-                        written.append(stem)
-        summary = {
-            "hpctl": provenance(),
-            "route": {"name": spec.name, "seed": seed, "scale": scale, "sections": [s.__dict__ for s in result.results[0].route.sections] if result.results and result.results[0].route else []},
-            "cases": [_case_json(r) for r in result.results],
-            "table": rows,
-            "warnings": result.warnings,
-            "failed": [r.case.label for r in result.failed],
-            "plots": plots,
-            "records": written,
-        }
-        (out_dir / "comparison.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+            out.write_text("comparison.md", provenance_line(provenance()) + "\n\n" + markdown_table(rows))
+            plots = ["ride_handling.png"]
+            ride_handling_plot(result, out.path(plots[0]))
+            for name, rs in result.by_vehicle().items():
+                plots.append(f"lane_change_{name}.png")
+                lane_change_plot(rs, out.path(plots[-1]))
+            written = []
+            if records != "none":
+                for r in result.results:
+                    if records == "all" or r.case.setting.semi_active:
+                        for stem, rec in comparison.wheel_records(r):
+                            write_record(rec, out.path(f"records/{stem}"))
+                            written.append(stem)
+            summary = {
+                "hpctl": provenance(),
+                "route": {"name": spec.name, "seed": seed, "scale": scale, "sections": [s.__dict__ for s in result.results[0].route.sections] if result.results and result.results[0].route else []},
+                "cases": [_case_json(r) for r in result.results],
+                "table": rows,
+                "warnings": result.warnings,
+                "failed": [r.case.label for r in result.failed],
+                "plots": plots,
+                "records": written,
+            }
+            out.write_text("comparison.json", json.dumps(jsonable(summary), indent=2) + "\n")
         _warn(rep, result.warnings)
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
@@ -105,7 +108,7 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
             for row in rows:
                 t.add_row(*(row.get(k, "") for k in keys))
             rep.out.print(t)
-            rep.out.print(f"[bold]Wrote[/bold] comparison.md, comparison.json, {', '.join(plots)} and {len(written)} records to {out_dir}/")
+            rep.say(("Wrote", "bold"), f" comparison.md, comparison.json, {', '.join(plots)} and {len(written)} records to {out_dir}/")
         if result.failed:
             sys.exit(EXIT_CASES_FAILED)
 
@@ -155,10 +158,11 @@ def _case_json(r: Any) -> dict[str, Any]:
               help="Controller configuration to start from (TOML: all or some values, merged over each vehicle's default; or tuned.json).")
 @click.option("--cluster", default=None, help="A Dask scheduler (tcp://HOST:PORT) to evaluate on instead of this machine.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/tune"), show_default=True, help="Output folder.")
+@force_option
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON on stdout.")
 def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxiter: int, seed: int, threads: int | None, config_file: Path | None, cluster: str | None,
-         out_dir: Path, quiet: bool, as_json: bool) -> None:
+         out_dir: Path, force: bool, quiet: bool, as_json: bool) -> None:
     """Tune the semi-active controller's thresholds (handling triggers,
     hold, skyhook estimator and switching) over a set of routes with
     differential evolution, locally or on a Dask cluster. Objective:
@@ -184,39 +188,39 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
         from hpctl.vehicle.model import preset
 
         start = None if config_file is None else _read_config(config_file, [preset(v) for v in names])
-        executor: tuning.Executor = tuning.DaskExecutor(cluster) if cluster else tuning.LocalExecutor(threads)
-        try:
-            with rep.err.status("passive references") if not quiet else _null():
-                refs = tuning.references(names, routes, threads=threads)
-            problem = tuning.Problem(names, routes, references=refs, config=start)
-            result = tuning.tune(problem, executor, popsize=popsize, maxiter=maxiter, seed=seed,
-                             on_generation=lambda g, f: rep.err.print(f"generation {g}: best J = {f:.4f}"))
-        finally:
-            executor.close()
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / "tuned.json").write_text(json.dumps({"config": result.config}, indent=2) + "\n")
-        tuning_plot(result, out_dir / "tuning.png")
-        warnings: list[str] = []
-        if result.best.end_stop_hits:
-            warnings.append(f"{result.best.end_stop_hits} end-stop hit(s) with the tuned configuration")
-        if result.best.failures:
-            warnings.append(f"{result.best.failures} case(s) failed with the tuned configuration")
-        summary = {
-            "hpctl": provenance(),
-            "vehicles": list(names),
-            "seeds": seed_list,
-            "scale": scale,
-            "executor": f"dask {cluster}" if cluster else f"local, {getattr(executor, 'threads', 1)} threads",
-            "default": result.default.__dict__,
-            "best": result.best.__dict__,
-            "improvement": result.default.j - result.best.j,
-            "changes": [{"parameter": n, "default": a, "tuned": b} for n, a, b in result.changes()],
-            "generations": result.generations,
-            "evaluations": result.evaluations,
-            "history": list(result.history),
-            "warnings": warnings,
-        }
-        (out_dir / "tuning.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+        with output_dir(out_dir, "tune", force=force, protect=("tuned.json", "tuning.json", "tuning.png")) as out:
+            executor: tuning.Executor = tuning.DaskExecutor(cluster) if cluster else tuning.LocalExecutor(threads)
+            try:
+                with rep.err.status("passive references") if not quiet else _null():
+                    refs = tuning.references(names, routes, threads=threads)
+                problem = tuning.Problem(names, routes, references=refs, config=start)
+                result = tuning.tune(problem, executor, popsize=popsize, maxiter=maxiter, seed=seed,
+                                     on_generation=lambda g, f: rep.err.print(f"generation {g}: best J = {f:.4f}"))
+            finally:
+                executor.close()
+            out.write_text("tuned.json", json.dumps({"config": result.config}, indent=2) + "\n")
+            tuning_plot(result, out.path("tuning.png"))
+            warnings: list[str] = []
+            if result.best.end_stop_hits:
+                warnings.append(f"{result.best.end_stop_hits} end-stop hit(s) with the tuned configuration")
+            if result.best.failures:
+                warnings.append(f"{result.best.failures} case(s) failed with the tuned configuration")
+            summary = {
+                "hpctl": provenance(),
+                "vehicles": list(names),
+                "seeds": seed_list,
+                "scale": scale,
+                "executor": f"dask {cluster}" if cluster else f"local, {getattr(executor, 'threads', 1)} threads",
+                "default": result.default.__dict__,
+                "best": result.best.__dict__,
+                "improvement": result.default.j - result.best.j,
+                "changes": [{"parameter": n, "default": a, "tuned": b} for n, a, b in result.changes()],
+                "generations": result.generations,
+                "evaluations": result.evaluations,
+                "history": list(result.history),
+                "warnings": warnings,
+            }
+            out.write_text("tuning.json", json.dumps(jsonable(summary), indent=2) + "\n")
         _warn(rep, warnings)
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
@@ -227,7 +231,7 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
             rep.out.print(t)
             rep.out.print(f"comfort ratio {result.default.comfort_ratio:.3f} -> {result.best.comfort_ratio:.3f}, "
                           f"roll ratio {result.default.roll_ratio:.3f} -> {result.best.roll_ratio:.3f} (1 = the passive reference)")
-            rep.out.print(f"[bold]Wrote[/bold] tuned.json, tuning.json, tuning.png to {out_dir}/")
+            rep.say(("Wrote", "bold"), f" tuned.json, tuning.json, tuning.png to {out_dir}/")
         if not math.isfinite(result.best.j):
             sys.exit(EXIT_CASES_FAILED)
 
