@@ -17,6 +17,7 @@ the machine is slow.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import os
 import time
@@ -189,7 +190,11 @@ def main() -> None:
     ]
     if args.propssi:
         variants.append((coolprop_propssi, "SciPy solve_ivp + CoolProp (PropsSI)"))
+    have_coolprop = importlib.util.find_spec("CoolProp") is not None
     for eos, label in variants:
+        if eos in (coolprop, coolprop_propssi) and not have_coolprop:
+            print(f"  {label + ':':51} skipped: CoolProp is not installed (pip install CoolProp, or hpctl[test])")
+            continue
         z_py = python_sdof(unit, dur, eos)
         t_py = best_of(args.repeat, lambda: python_sdof(unit, dur, eos))
         agree = float(np.max(np.abs(z_py - z_rs)))

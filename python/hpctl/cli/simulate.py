@@ -11,7 +11,6 @@ from typing import Any
 
 import click
 from click.core import ParameterSource
-from rich.table import Table
 
 from hpctl.caveats import Caveat
 from hpctl.cli._ui import (
@@ -21,11 +20,14 @@ from hpctl.cli._ui import (
     finish,
     fmt,
     force_option,
+    format_option,
     load_unit,
     modes,
+    output_dir,
     parse_floats,
     parse_tau,
     strict_option,
+    table,
     with_warnings,
 )
 from hpctl.data.output import OutputDir
@@ -58,6 +60,7 @@ from hpctl.sim.run import DEFAULT_RTOL, Sine, Step, Steps
 @click.option("--threads", type=click.IntRange(min=0), default=None,
               help="Threads for --sweep: 0 (the default) = all cores, at most 4 x the cores.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out"), show_default=True, help="Output folder.")
+@format_option
 @force_option
 @strict_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars or tables.")
@@ -65,10 +68,10 @@ from hpctl.sim.run import DEFAULT_RTOL, Sine, Step, Steps
 def simulate(
     unit_file: Path | None, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
     tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, fixed_steps: bool, mass_kg: float, sweep: bool,
-    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool,
+    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, fig_format: str, force: bool, strict: bool, quiet: bool, as_json: bool,
 ) -> None:
     """Run the seed's experiments (default) or one test on a unit, and write
-    rig records, PNG plots and a summary into the output folder. What a
+    rig records, plots (PNG, SVG or PDF) and a summary into the output folder. What a
     result cannot stand behind (end stops, the gas model's range, the
     rated speed, a failed case...) is printed as a warning and listed in
     summary.json under "warnings"."""
@@ -76,18 +79,18 @@ def simulate(
     rep = Reporter(quiet, as_json)
     with errors(rep):
         unit = load_unit(unit_file, parse_tau(tau_s), gas)
-        with OutputDir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
+        with output_dir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
             if sweep:
-                summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out)
+                summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out, fig_format)
             else:
                 rtol = None if fixed_steps else DEFAULT_RTOL
-                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, rtol, mass_kg, out)
+                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, rtol, mass_kg, out, fig_format)
             document = with_warnings(summary, caveats)
             out.write_json("summary.json", document)
         if as_json:
             click.echo(json.dumps(document, indent=2))
         else:
-            what = "sweep.csv, sweep.png" if sweep else "records, plots"
+            what = f"sweep.csv, sweep.{fig_format}" if sweep else "records, plots"
             rep.say(("Wrote", "bold"), f" {what} and summary.json to {out_dir}/")
         finish(rep, caveats, strict)
 
@@ -125,7 +128,7 @@ def _refuse_unused_options(run: str) -> None:
 
 def _sweep(
     rep: Reporter, unit: Unit, spring: str, damper: str, amplitude_m: float | None, mass_kg: float,
-    pressures: str | None, taus: str | None, threads: int | None, out: OutputDir,
+    pressures: str | None, taus: str | None, threads: int | None, out: OutputDir, fig_format: str = "png",
 ) -> tuple[dict[str, Any], list[Caveat]]:
     from hpctl.report.plots import sweep_plot
     from hpctl.sim import sweep
@@ -145,7 +148,8 @@ def _sweep(
     for row in summary["rows"]:
         w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sweep.COLUMNS})
     out.write_text("sweep.csv", buf.getvalue())
-    sweep_plot(summary["rows"], out.path("sweep.png"), spring != "soft")
+    height_m = amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M
+    sweep_plot(summary["rows"], out.path(f"sweep.{fig_format}"), spring != "soft", height_m=height_m, mass_kg=mass_kg)
     if summary["failed"]:
         rep.note(f"{summary['failed']} of {summary['cases']} sweep cases failed (see the warnings and the error column of sweep.csv)")
     return summary, caveats
@@ -153,7 +157,7 @@ def _sweep(
 
 def _simulate(
     rep: Reporter, unit: Unit, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
-    duration_s: float | None, dt_s: float | None, rtol: float | None, mass_kg: float, out: OutputDir,
+    duration_s: float | None, dt_s: float | None, rtol: float | None, mass_kg: float, out: OutputDir, fig_format: str = "png",
 ) -> tuple[dict[str, Any], list[Caveat]]:
     def given(value: float | None, default: float) -> float:
         return default if value is None else value
@@ -203,16 +207,11 @@ def _simulate(
     steps = [e for e in runs if e.record.kind == "sdof"]
     if test == "heat":
         for e in runs:
-            r = e.result
-            plots.time_series(
-                [("gas", r["time_s"], r["t_gas_k"] - 273.15, "gas [C]"), ("oil", r["time_s"], r["t_oil_k"] - 273.15, "oil [C]"),
-                 ("force", r["time_s"], 1e-3 * r["force_n"], "force [kN]")],
-                out.path(f"{e.name}.png"), "Damper heat build-up",
-            )
+            plots.heat_buildup(e, out.path(f"{e.name}.{fig_format}"))
     elif chars:
-        plots.force_displacement(chars, out.path("force_displacement.png"))
+        plots.force_displacement(chars, out.path(f"force_displacement.{fig_format}"))
     if steps:
-        plots.step_responses(steps, out.path("step_responses.png"), title=f"SDOF step response ({mass_kg:g} kg)")
+        plots.step_responses(steps, out.path(f"step_responses.{fig_format}"))
     summary: dict[str, Any] = {"test": test, "unit": {"piston_area_m2": unit.piston_area_m2, "static_pressure_pa": unit.static_pressure_pa, "tau_s": unit.tau_s, "gas": unit.gas}}
     summary.update(experiments.headline(runs))
     summary["runs"] = [dict(e.summary, name=e.name) for e in runs]
@@ -226,26 +225,20 @@ def _print_summary(rep: Reporter, runs: Sequence[experiments.Experiment], test: 
     steps = [e.summary for e in runs if e.record.kind == "sdof"]
     chars = [e.summary for e in runs if e.record.kind == "characterisation"]
     if steps:
-        t = Table(title="SDOF step response")
-        for col in ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"):
-            t.add_column(col, justify="right")
+        t = table("SDOF step response", ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"))
         for s in steps:
             t.add_row(s["spring"], s["damper"], fmt(s["natural_frequency_hz"]), fmt(s["damping_ratio"]), fmt(s["overshoot_m"], 1e3, 1),
                       fmt(s["settling_time_s"]), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if chars and test != "heat":
-        t = Table(title="Characterisation")
-        for col in ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"):
-            t.add_column(col, justify="right")
+        t = table("Characterisation", ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"))
         for s in chars:
             t.add_row(s["spring"], s["damper"], s["excitation"], f"{s['force_min_n'] / 1e3:.1f} .. {s['force_max_n'] / 1e3:.1f}",
                       fmt(s.get("loop_area_j"), 1, 0), fmt(s.get("gas_loop_area_j"), 1, 0), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if test == "heat":
         seed = experiments.SEED_HEAT_BUILDUP
-        t = Table(title="Damper heat build-up: this model vs the seed")
-        for col in ("quantity", "hpctl", "seed"):
-            t.add_column(col, justify="right")
+        t = table("Damper heat build-up: this model vs the seed", ("quantity", "hpctl", "seed"))
         for s in (e.summary for e in runs):
             t.add_row("gas temperature [C]", f"{s['gas_temperature_start_k'] - 273.15:.0f} -> {s['gas_temperature_end_k'] - 273.15:.0f}",
                       f"{seed['gas_temperature_start_c']:.0f} -> {seed['gas_temperature_end_c']:.0f}")

@@ -86,10 +86,12 @@ class RecordTest:
     frequency_hz: float | None = None
 
 
-@dataclass
+@dataclass(eq=False)
 class RigRecord:
     """One rig record. ``data`` keeps the CSV's columns in file order,
-    unknown columns included."""
+    unknown columns included. Two records are equal when everything a
+    record file holds is (the name, which is the file's, aside): the
+    tables and the columns, in order, sample for sample."""
 
     kind: Kind
     unit: RecordUnit
@@ -102,6 +104,19 @@ class RigRecord:
 
     def __getitem__(self, column: str) -> NDArray[np.float64]:
         return self.data[column]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RigRecord):
+            return NotImplemented
+        return (
+            (self.kind, self.unit, self.static, self.test, self.description, self.sprung_mass_kg)
+            == (other.kind, other.unit, other.static, other.test, other.description, other.sprung_mass_kg)
+            and list(self.data) == list(other.data)
+            and all(np.array_equal(self.data[c], other.data[c]) for c in self.data)
+        )
+
+    # Mutable (its arrays): not hashable, like the dataclass it was.
+    __hash__ = None  # type: ignore[assignment]
 
     def __contains__(self, column: str) -> bool:
         return column in self.data
