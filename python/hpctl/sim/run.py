@@ -359,15 +359,19 @@ def run_characterisation(
     sample_dt_s: float = 1e-2,
     spring_hard: bool | ArrayLike = True,
     damper_on: bool | ArrayLike = True,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     ambient_k: float | None = None,
     channels: Sequence[str] | None = None,
     progress: Progress | None = None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> Result:
     """The characterisation rig: prescribed strut compression, outputs
     every ``sample_dt_s`` over ``duration_s``; the other arguments as for
     :func:`run`."""
-    return run(unit, characterisation_rig(strut), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels, progress=progress)
+    return run(unit, characterisation_rig(strut), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
+               progress=progress, steps_s=steps_s, record_steps=record_steps)
 
 
 def run_sdof(
@@ -379,15 +383,19 @@ def run_sdof(
     sample_dt_s: float = 1e-3,
     spring_hard: bool | ArrayLike = True,
     damper_on: bool | ArrayLike = True,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     ambient_k: float | None = None,
     channels: Sequence[str] | None = None,
     progress: Progress | None = None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> Result:
     """The single-degree-of-freedom rig: a sprung mass over a moving base,
     outputs every ``sample_dt_s`` over ``duration_s``; the other arguments
     as for :func:`run`."""
-    return run(unit, sdof_rig(base, sprung_mass_kg), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels, progress=progress)
+    return run(unit, sdof_rig(base, sprung_mass_kg), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
+               progress=progress, steps_s=steps_s, record_steps=record_steps)
 
 
 @dataclass(frozen=True)
