@@ -14,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 from rich.console import Console
 
@@ -32,6 +33,40 @@ def test_the_command_line_starts_without_scipy_or_matplotlib() -> None:
             "print(sorted(m for m in ('scipy', 'matplotlib') if m in sys.modules), file=sys.stderr)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert r.stderr.strip() == "[]" and "--test" in r.stdout
+
+
+def test_the_package_loads_its_api_on_first_use() -> None:
+    # PEP 562: `import hpctl` (and so every `hpctl.cli` start) pays for no
+    # simulation API; the first use of a name loads it, and every public
+    # name resolves to the object of the module it lives in.
+    code = ("import sys, hpctl; before = sorted(m for m in ('numpy', 'hpctl._core', 'hpctl.sim.run') if m in sys.modules); "
+            "u = hpctl.Unit; print(before, 'hpctl.model.unit' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert r.stdout.split() == ["[]", "True"]
+
+
+def test_every_public_name_resolves_and_the_type_checker_sees_the_same_names() -> None:
+    import ast
+    import importlib
+
+    import hpctl
+
+    for name in hpctl.__all__:
+        obj = getattr(hpctl, name)
+        if name != "__version__":
+            assert obj is getattr(importlib.import_module(hpctl._LAZY[name]), name)
+    assert set(dir(hpctl)) >= set(hpctl.__all__)
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        hpctl.nope  # noqa: B018
+    # The TYPE_CHECKING imports (what IDEs see) name the same modules and names as _LAZY.
+    tree = ast.parse(Path(hpctl.__file__).read_text())
+    seen = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+            for imp in node.body:
+                assert isinstance(imp, ast.ImportFrom)
+                seen.update({a.name: imp.module for a in imp.names})
+    assert seen == hpctl._LAZY
 
 
 def test_version_is_the_installed_distributions() -> None:

@@ -100,14 +100,17 @@ def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard
             assert 0 < s.ride.a_v_m_s2 < 5 and 0 <= s.wheels.dynamic_load_coefficient < 1
     # Every warning names its case; lift-off in the metrics is in the warnings.
     lifted = [r for r in short_runs.results if any(s.wheels.lifted_wheels for s in r.sections)]
-    assert all(any("lift-off" in w for w in r.warnings) for r in lifted)
+    assert all(any(w.code == "wheel_lift_off" and "lift-off" in w.message for w in r.warnings) for r in lifted)
+    for r in short_runs.results:
+        for w in r.warnings:
+            assert w.message.startswith(r.case.label) and w.details["vehicle"] == r.case.vehicle.name
 
 
 def test_a_failed_case_is_kept_as_a_warning_not_raised() -> None:
     # A configuration is merged over the vehicle's (a part is a whole configuration): a value out of range breaks it.
     bad = comparison.Setting("broken", semi_active=True, config={"unit": {"piston_area_m2": -1.0}})
     r = comparison.run_case(comparison.Case(preset("4x4"), route.mixed(scale=0.05), bad))
-    assert r.error is not None and r.sections == [] and "case failed" in r.warnings[0]
+    assert r.error is not None and r.sections == [] and r.warnings[0].code == "case_failed" and "case failed" in r.warnings[0].message
 
 
 def test_the_evaluate_command_writes_table_plots_records_and_warnings(tmp_path: Path) -> None:
@@ -145,3 +148,27 @@ def test_evaluate_and_tune_never_overwrite_a_users_file(tmp_path: Path, command:
     assert "would overwrite files hpctl did not write" in res.output and mine in res.output
     assert (tmp_path / mine).read_text() == "the user's notes\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == [mine]
+
+
+def test_evaluate_warnings_carry_codes_and_strict_exits_3(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Whatever the short drive gives, one end-stop warning is added to the
+    # reduction, so that the plumbing (codes in the JSON, --strict) is tested.
+    from hpctl.caveats import Caveat, Code
+
+    real = comparison._warnings
+
+    def with_end_stop(case: comparison.Case, sections: list) -> list[Caveat]:
+        return [*real(case, sections), Caveat(Code.END_STOP, f"{case.label}: 1 end-stop hit(s) (test)", {"hits": 1})]
+
+    monkeypatch.setattr(comparison, "_warnings", with_end_stop)
+    args = ["evaluate", "--vehicle", "4x4", "--scale", "0.05", "--setting", "soft-low", "--records", "none", "--threads", "1"]
+    lenient = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "a")])
+    assert lenient.exit_code == 0, lenient.output
+    assert "warning [end_stop]" in lenient.output
+    summary = json.loads((tmp_path / "a" / "comparison.json").read_text())
+    assert "end_stop" in {w["code"] for w in summary["warnings"]}
+    assert all(set(w) == {"code", "message", "details"} for w in summary["warnings"])
+    assert summary["cases"][0]["warnings"][-1]["details"] == {"hits": 1}
+    strict = CliRunner().invoke(main, [*args, "--strict", "--out", str(tmp_path / "b")])
+    assert strict.exit_code == 3, strict.output
+    assert (tmp_path / "b" / "comparison.json").exists()  # the outputs are still written

@@ -5,50 +5,75 @@ The physics and the controller are in Rust (``hpctl._core``); this package
 is the Python API and the ``hpctl`` command line.
 """
 
-from hpctl._version import __version__
-from hpctl.errors import (
-    ConvergenceError,
-    HpctlError,
-    InternalError,
-    ParameterError,
-    RecordError,
-    SimulationError,
-)
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Damper, DamperCurve, Effects, Unit
-from hpctl.sim.run import (
-    Hold,
-    Result,
-    Sampled,
-    Sine,
-    Step,
-    Steps,
-    run,
-    run_characterisation,
-    run_many,
-    run_sdof,
-)
+from __future__ import annotations
 
-__all__ = [
-    "__version__",
-    "SEED_SPRUNG_MASS_KG",
-    "ConvergenceError",
-    "Damper",
-    "DamperCurve",
-    "Effects",
-    "Hold",
-    "HpctlError",
-    "InternalError",
-    "ParameterError",
-    "RecordError",
-    "Result",
-    "Sampled",
-    "SimulationError",
-    "Sine",
-    "Step",
-    "Steps",
-    "Unit",
-    "run",
-    "run_characterisation",
-    "run_many",
-    "run_sdof",
-]
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from hpctl._version import __version__
+
+# The public names are loaded on first use (PEP 562), not with the package:
+# ``import hpctl.cli`` for ``hpctl --help`` must not pay for the simulation
+# API it may never call (start-up goal 0.5 s, scripts/bench_startup.py).
+# Where each name lives is written once, here; ``__all__`` is derived.
+_LAZY: dict[str, str] = {
+    "ConvergenceError": "hpctl.errors",
+    "HpctlError": "hpctl.errors",
+    "InternalError": "hpctl.errors",
+    "ParameterError": "hpctl.errors",
+    "RecordError": "hpctl.errors",
+    "SimulationError": "hpctl.errors",
+    "SEED_SPRUNG_MASS_KG": "hpctl.model.unit",
+    "Damper": "hpctl.model.unit",
+    "DamperCurve": "hpctl.model.unit",
+    "Effects": "hpctl.model.unit",
+    "Unit": "hpctl.model.unit",
+    "Hold": "hpctl.sim.run",
+    "Result": "hpctl.sim.run",
+    "Sampled": "hpctl.sim.run",
+    "Sine": "hpctl.sim.run",
+    "Step": "hpctl.sim.run",
+    "Steps": "hpctl.sim.run",
+    "run": "hpctl.sim.run",
+    "run_characterisation": "hpctl.sim.run",
+    "run_many": "hpctl.sim.run",
+    "run_sdof": "hpctl.sim.run",
+}
+
+__all__ = ["__version__", *sorted(_LAZY)]
+
+if TYPE_CHECKING:  # what a type checker and an IDE see; same names as _LAZY
+    from hpctl.errors import (
+        ConvergenceError,
+        HpctlError,
+        InternalError,
+        ParameterError,
+        RecordError,
+        SimulationError,
+    )
+    from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Damper, DamperCurve, Effects, Unit
+    from hpctl.sim.run import (
+        Hold,
+        Result,
+        Sampled,
+        Sine,
+        Step,
+        Steps,
+        run,
+        run_characterisation,
+        run_many,
+        run_sdof,
+    )
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'hpctl' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # the next lookup is a plain attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

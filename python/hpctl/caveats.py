@@ -57,6 +57,12 @@ class Code(StrEnum):
     NOT_CONVERGED = "not_converged"
     #: The residual is more than noise: the model misses something.
     RESIDUAL_STRUCTURED = "residual_structured"
+    #: A wheel left the ground (its tyre force reached zero): the vehicle
+    #: results there depend on the lift-off model.
+    WHEEL_LIFT_OFF = "wheel_lift_off"
+    #: The vehicle went beyond the handling model's validated range (the
+    #: linear tyre's lateral acceleration limit).
+    HANDLING_RANGE = "handling_range"
     #: CAN frames of a log failed the ECU's checks (CRC, alive counter,
     #: length, ranges) and were left out of the decoded tables.
     CAN_FRAMES_REJECTED = "can_frames_rejected"

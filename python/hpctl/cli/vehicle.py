@@ -10,18 +10,13 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.text import Text
 
-from hpctl.cli._ui import Reporter, errors, force_option, jsonable, output_dir, provenance, table
+from hpctl.caveats import Caveat, Code
+from hpctl.caveats import to_json as caveats_json
+from hpctl.cli._ui import Reporter, errors, finish, force_option, jsonable, output_dir, provenance, strict_option, table
 
 #: Some cases failed (their results are missing; the others were written).
 EXIT_CASES_FAILED = 3
-
-
-def _warn(rep: Reporter, warnings: list[str]) -> None:
-    # Text, never markup (a message is data), no hard wrap.
-    for w in warnings:
-        rep.errors.print(Text.assemble(("warning: ", "yellow"), w), soft_wrap=True, highlight=False)
 
 
 @click.command("evaluate")
@@ -36,17 +31,19 @@ def _warn(rep: Reporter, warnings: list[str]) -> None:
 @click.option("--threads", type=int, default=None, help="Parallel runs (default: all cores).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/evaluate"), show_default=True, help="Output folder.")
 @force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON on stdout.")
 def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float, settings: tuple[str, ...], config_file: Path | None,
-             records: str, threads: int | None, out_dir: Path, force: bool, quiet: bool, as_json: bool) -> None:
+             records: str, threads: int | None, out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool) -> None:
     """Drive the vehicles along the mixed route (smooth start, highway,
     double lane change, rough track, obstacles) with the four passive
     settings and the semi-active controller (one per wheel), and compare
     ride (ISO 2631-1 at the seat) and handling (roll, tyre loads). Writes
     comparison.md, comparison.json, ride_handling.png, lane_change_*.png and
-    rig records. Warnings (end stops, lift-off, safe states, failed cases)
-    go to stderr and into the JSON; exit 3 if a case failed."""
+    rig records. Warnings (end stops, lift-off, safe states, the handling
+    model's range, failed cases) go to stderr and into the JSON, with their
+    codes; exit 3 if a case failed, or with --strict if there is any."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
         from hpctl.data.records import write_record
@@ -93,13 +90,12 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
                 "route": {"name": spec.name, "seed": seed, "scale": scale, "sections": [s.__dict__ for s in result.results[0].route.sections] if result.results and result.results[0].route else []},
                 "cases": [_case_json(r) for r in result.results],
                 "table": rows,
-                "warnings": result.warnings,
+                "warnings": caveats_json(result.warnings),
                 "failed": [r.case.label for r in result.failed],
                 "plots": plots,
                 "records": written,
             }
             out.write_text("comparison.json", json.dumps(jsonable(summary), indent=2) + "\n")
-        _warn(rep, result.warnings)
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
         else:
@@ -110,7 +106,9 @@ def evaluate(vehicles: tuple[str, ...], route_name: str, seed: int, scale: float
             rep.out.print(t)
             rep.say(("Wrote", "bold"), f" comparison.md, comparison.json, {', '.join(plots)} and {len(written)} records to {out_dir}/")
         if result.failed:
+            rep.warn(result.warnings)
             sys.exit(EXIT_CASES_FAILED)
+        finish(rep, result.warnings, strict)
 
 
 class _null:
@@ -136,7 +134,7 @@ def _case_json(r: Any) -> dict[str, Any]:
         "vehicle": r.case.vehicle.name,
         "setting": r.case.setting.name,
         "error": r.error,
-        "warnings": r.warnings,
+        "warnings": caveats_json(r.warnings),
         "sections": [
             {"name": s.name, "kind": s.kind, "duration_s": s.duration_s, "ride": s.ride.__dict__, "handling": s.handling.__dict__,
              "wheels": {**s.wheels.__dict__, "end_stop_wheels": list(s.wheels.end_stop_wheels), "lifted_wheels": list(s.wheels.lifted_wheels)},
@@ -159,10 +157,11 @@ def _case_json(r: Any) -> dict[str, Any]:
 @click.option("--cluster", default=None, help="A Dask scheduler (tcp://HOST:PORT) to evaluate on instead of this machine.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/tune"), show_default=True, help="Output folder.")
 @force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON on stdout.")
 def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxiter: int, seed: int, threads: int | None, config_file: Path | None, cluster: str | None,
-         out_dir: Path, force: bool, quiet: bool, as_json: bool) -> None:
+         out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool) -> None:
     """Tune the semi-active controller's thresholds (handling triggers,
     hold, skyhook estimator and switching) over a set of routes with
     differential evolution, locally or on a Dask cluster. Objective:
@@ -200,11 +199,13 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
                 executor.close()
             out.write_text("tuned.json", json.dumps({"config": result.config}, indent=2) + "\n")
             tuning_plot(result, out.path("tuning.png"))
-            warnings: list[str] = []
+            warnings: list[Caveat] = []
             if result.best.end_stop_hits:
-                warnings.append(f"{result.best.end_stop_hits} end-stop hit(s) with the tuned configuration")
+                warnings.append(Caveat(Code.END_STOP, f"{result.best.end_stop_hits} end-stop hit(s) with the tuned configuration",
+                                       {"hits": result.best.end_stop_hits}))
             if result.best.failures:
-                warnings.append(f"{result.best.failures} case(s) failed with the tuned configuration")
+                warnings.append(Caveat(Code.CASE_FAILED, f"{result.best.failures} case(s) failed with the tuned configuration",
+                                       {"failed_cases": result.best.failures}))
             summary = {
                 "hpctl": provenance(),
                 "vehicles": list(names),
@@ -218,10 +219,9 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
                 "generations": result.generations,
                 "evaluations": result.evaluations,
                 "history": list(result.history),
-                "warnings": warnings,
+                "warnings": caveats_json(warnings),
             }
             out.write_text("tuning.json", json.dumps(jsonable(summary), indent=2) + "\n")
-        _warn(rep, warnings)
         if as_json:
             click.echo(json.dumps(jsonable(summary), indent=2))
         else:
@@ -233,7 +233,9 @@ def tune(vehicles: tuple[str, ...], seeds: str, scale: float, popsize: int, maxi
                           f"roll ratio {result.default.roll_ratio:.3f} -> {result.best.roll_ratio:.3f} (1 = the passive reference)")
             rep.say(("Wrote", "bold"), f" tuned.json, tuning.json, tuning.png to {out_dir}/")
         if not math.isfinite(result.best.j):
+            rep.warn(warnings)
             sys.exit(EXIT_CASES_FAILED)
+        finish(rep, warnings, strict)
 
 
 COMMANDS = (evaluate, tune)

@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from hpctl import _core
 from hpctl._coretypes import SuspensionDict
+from hpctl.caveats import Caveat, Code
 from hpctl.control.config import merge
 from hpctl.control.controller import DriveMode
 from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
@@ -103,7 +104,7 @@ class Trace:
 class CaseResult:
     case: Case
     sections: list[SectionMetrics] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[Caveat] = field(default_factory=list)
     trace: Trace | None = None
     error: str | None = None
     route: Route | None = None
@@ -122,22 +123,28 @@ class CaseResult:
         return s.handling.roll_peak_rad if s else math.nan
 
 
-def _warnings(case: Case, sections: Sequence[SectionMetrics]) -> list[str]:
+def _warnings(case: Case, sections: Sequence[SectionMetrics]) -> list[Caveat]:
     out = []
     who = case.label
+    where = {"vehicle": case.vehicle.name, "setting": case.setting.name}
     for s in sections:
         w = s.wheels
         if w.end_stop_hits:
-            out.append(f"{who}: {w.end_stop_hits} end-stop hit(s) on the {s.name} ({', '.join(w.end_stop_wheels)})")
+            out.append(Caveat(Code.END_STOP, f"{who}: {w.end_stop_hits} end-stop hit(s) on the {s.name} ({', '.join(w.end_stop_wheels)})",
+                              {**where, "section": s.name, "hits": w.end_stop_hits, "wheels": list(w.end_stop_wheels)}))
         if w.lifted_wheels:
-            out.append(f"{who}: wheel lift-off for {w.lift_off_s:.3f} s on the {s.name} ({', '.join(w.lifted_wheels)})")
+            out.append(Caveat(Code.WHEEL_LIFT_OFF, f"{who}: wheel lift-off for {w.lift_off_s:.3f} s on the {s.name} ({', '.join(w.lifted_wheels)})",
+                              {**where, "section": s.name, "lift_off_s": w.lift_off_s, "wheels": list(w.lifted_wheels)}))
         if s.safe_state_s > 0:
-            out.append(f"{who}: controller safe state for {s.safe_state_s:.3f} s on the {s.name}")
+            out.append(Caveat(Code.SAFE_STATE, f"{who}: controller safe state for {s.safe_state_s:.3f} s on the {s.name}",
+                              {**where, "section": s.name, "safe_state_s": s.safe_state_s}))
         if s.handling.lat_acc_peak_m_s2 > LINEAR_TYRE_LIMIT_M_S2:
-            out.append(
+            out.append(Caveat(
+                Code.HANDLING_RANGE,
                 f"{who}: lateral acceleration {s.handling.lat_acc_peak_m_s2:.2f} m/s^2 on the {s.name} is beyond the "
-                f"linear tyre model's range ({LINEAR_TYRE_LIMIT_M_S2} m/s^2): handling results there overstate the grip"
-            )
+                f"linear tyre model's range ({LINEAR_TYRE_LIMIT_M_S2} m/s^2): handling results there overstate the grip",
+                {**where, "section": s.name, "lat_acc_peak_m_s2": s.handling.lat_acc_peak_m_s2, "limit_m_s2": LINEAR_TYRE_LIMIT_M_S2},
+            ))
     return out
 
 
@@ -168,7 +175,8 @@ def run_case(
         )
     except HpctlError as e:
         result.error = f"{type(e).__name__}: {e}"
-        result.warnings.append(f"{case.label}: case failed: {result.error}")
+        result.warnings.append(Caveat(Code.CASE_FAILED, f"{case.label}: case failed: {result.error}",
+                                      {"vehicle": case.vehicle.name, "setting": case.setting.name, "error": result.error}))
     return result
 
 
@@ -177,7 +185,7 @@ class Evaluation:
     results: list[CaseResult]
 
     @property
-    def warnings(self) -> list[str]:
+    def warnings(self) -> list[Caveat]:
         return [w for r in self.results for w in r.warnings]
 
     @property
