@@ -82,7 +82,10 @@ class Steps:
 @dataclass(frozen=True)
 class Sampled:
     """Samples interpolated by a C1 cubic (e.g. a measured displacement):
-    through the given velocities if there are, else with three-point ones."""
+    through the given velocities if there are, else with three-point ones.
+    Error-controlled steps stop at every sample, where the cubic changes
+    and the velocity's slope jumps (steps across these kinks made errors
+    that added up over long records instead of cancelling)."""
 
     time_s: FloatArray
     disp_m: FloatArray
