@@ -9,10 +9,12 @@ import numpy as np
 import pytest
 
 import hpctl
+from hpctl._core import sensor_lag
+from hpctl.errors import ParameterError
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
-from hpctl.identify.signals import apply_sensor_lag, derivative, noise_sigma
+from hpctl.identify.signals import derivative, noise_sigma
 from hpctl.model.unit import Friction, Sensor
 from hpctl.sim.run import characterisation_rig, sdof_rig, uniform_times
 
@@ -38,7 +40,7 @@ def test_derivative_is_fourth_order_on_irregular_samples() -> None:
 def test_sensor_lag_filter_matches_the_analytic_steady_state() -> None:
     tau, w = 0.01, 2 * math.pi
     t = np.arange(0, 5, 0.002)
-    y = apply_sensor_lag(t, np.sin(w * t), tau)
+    y = sensor_lag(t, np.sin(w * t), tau)
     ref = np.sin(w * t - math.atan(w * tau)) / math.sqrt(1 + (w * tau) ** 2)
     assert np.abs(y - ref)[-500:].max() < 2e-5
 
@@ -53,10 +55,30 @@ def test_sensor_lag_filter_matches_the_units_lag_state() -> None:
     a = hpctl.run(unit, rig, times, spring_hard=True, damper_on=True, dt_s=2e-4)
     b = hpctl.run(lagged, rig, times, spring_hard=True, damper_on=True, dt_s=2e-4)
     rest = a["force_n"][0] - a["damper_force_n"][0]
-    filtered = apply_sensor_lag(times, a["force_n"], 0.02, rest)
+    filtered = sensor_lag(times, a["force_n"], 0.02, rest)
     # The filter assumes the force linear between samples (4 ms here): its
     # error is of the order of the force's curvature times h^2 / 8.
     assert np.abs(filtered - b["force_n"]).max() < 1e-4 * np.ptp(b["force_n"])
+
+
+def test_sensor_lag_filter_is_exact_for_a_signal_linear_between_samples() -> None:
+    # First-order hold: a ramp x = m t from rest gives exactly
+    # y = m (t - tau (1 - exp(-t / tau))), on any sampling.
+    tau, m = 0.01, 3.0
+    rng = np.random.default_rng(5)
+    t = np.concatenate(([0.0], np.cumsum(rng.uniform(1e-5, 0.03, 400))))
+    y = sensor_lag(t, m * t, tau)
+    assert np.abs(y - m * (t - tau * -np.expm1(-t / tau))).max() < 1e-12 * m * t[-1]
+
+
+def test_sensor_lag_rejects_what_it_cannot_filter() -> None:
+    t = np.arange(5.0)
+    with pytest.raises(ParameterError, match="sensor_time_constant_s"):
+        sensor_lag(t, t, -1.0)
+    with pytest.raises(ParameterError, match="times_s"):
+        sensor_lag(t[::-1], t, 0.1)
+    with pytest.raises(ParameterError, match="values"):
+        sensor_lag(t, t[:3], 0.1)
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@
 //! - [`thermal`]: the energy equation of a gas volume (the seed's Eq. 1).
 //! - [`damper`]: the damper pack, bypass valve 5 and the valve-6 orifice.
 //! - [`unit`]: the spring-damper unit and its optional effects.
+//! - [`lag`]: the first-order lag of the transducers (in the ODE and on samples).
 //! - [`motion`], [`rig`]: the characterisation and SDOF rigs.
 //! - [`ode`]: fixed-step RK4; [`adaptive`]: error-controlled steps
 //!   (Dormand-Prince 5(4), and Rosenbrock-W for the stiff valve-6 exchange)
@@ -21,6 +22,7 @@ pub mod adaptive;
 pub mod damper;
 pub mod error;
 pub mod gas;
+pub mod lag;
 pub mod motion;
 pub mod ode;
 pub mod presets;

@@ -19,6 +19,7 @@
 use crate::damper::{Damper, Orifice};
 use crate::error::{check_range, Error, Result};
 use crate::gas::{EquationOfState, Gas, GasProps, DENSITY_RANGE_KG_M3, TEMPERATURE_RANGE_K};
+use crate::lag::{self, Lag, LagState};
 use crate::ranges;
 use crate::thermal::{gas_temperature_k, temperature_rate_k_s, temperature_rate_per_volume_rate, HeatTransfer};
 
@@ -81,7 +82,7 @@ pub struct Sensor {
     pub force_offset_n: f64,
     /// Offset added to both measured gas pressures, Pa.
     pub pressure_offset_pa: f64,
-    /// First-order lag of all measured channels, s (0 = none).
+    /// First-order lag of all measured channels ([`crate::lag`]), s (0 = none).
     pub time_constant_s: f64,
 }
 
@@ -731,9 +732,11 @@ impl Unit {
         // Transducers.
         let (force_measured, p_s_measured, p_l_measured) = match e.sensor {
             Some(s) if s.time_constant_s > 0.0 => {
-                rate.force_sensor_n = (force - state.force_sensor_n) / s.time_constant_s;
-                rate.p_small_sensor_pa = (p_s - state.p_small_sensor_pa) / s.time_constant_s;
-                rate.p_large_sensor_pa = (p_l - state.p_large_sensor_pa) / s.time_constant_s;
+                let lag = Lag { time_constant_s: s.time_constant_s };
+                let follow = |output: f64, input: f64| lag::rate(&lag, &LagState { output }, input);
+                rate.force_sensor_n = follow(state.force_sensor_n, force);
+                rate.p_small_sensor_pa = follow(state.p_small_sensor_pa, p_s);
+                rate.p_large_sensor_pa = follow(state.p_large_sensor_pa, p_l);
                 (
                     state.force_sensor_n + s.force_offset_n,
                     state.p_small_sensor_pa + s.pressure_offset_pa,

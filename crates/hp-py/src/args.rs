@@ -3,7 +3,7 @@
 //! `ParameterError` (a `ValueError`) naming the argument, its value and
 //! what was expected that every other bad input raises.
 
-use crate::errors::bad_argument;
+use crate::errors::{bad_argument, parameter};
 use numpy::PyReadonlyArray1;
 use pyo3::buffer::PyBuffer;
 use pyo3::prelude::*;
@@ -49,4 +49,9 @@ pub fn bytes_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<u8>> {
     let expected = "bytes, a bytearray or a memoryview of unsigned bytes";
     let buffer = PyBuffer::<u8>::get(obj).map_err(|_| bad_argument(name, obj, expected))?;
     buffer.to_vec(obj.py()).map_err(|_| bad_argument(name, obj, expected))
+}
+
+/// `v` converted to `T`, or a `ParameterError` naming `path` and what was expected.
+pub fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
+    v.extract::<T>().map_err(|_| parameter(format!("{path} must be {what}, got {v}")))
 }

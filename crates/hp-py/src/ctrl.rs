@@ -6,8 +6,9 @@
 //! types, undefined enum values, arrays of unequal length) raise
 //! `ParameterError`.
 
-use crate::errors::{bad_argument, guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel, threads_arg};
+use crate::args::extract;
+use crate::errors::{guard, parameter, to_py};
+use crate::exec::{detached_with_progress, parse_cases, run_parallel, threads_arg};
 use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
@@ -202,10 +203,6 @@ fn fresh_mask(value: i64, path: &str) -> PyResult<u16> {
         .ok()
         .filter(|v| v & !input_group::ALL == 0)
         .ok_or_else(|| parameter(format!("{path} = {value} is not a set of input groups (0..={})", input_group::ALL)))
-}
-
-pub(crate) fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
-    v.extract::<T>().map_err(|_| parameter(format!("{path} must be {what}, got {v}")))
 }
 
 /// One period's inputs from a dict with every field of `Inputs`.
@@ -575,11 +572,7 @@ pub fn closed_loop<'py>(
 pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
         let threads = threads_arg(threads)?;
-        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
-        let mut specs = Vec::with_capacity(cases.len());
-        for (i, c) in cases.iter().enumerate() {
-            let path = format!("cases[{i}]");
-            let mut r = Reader::new(&c, &path)?;
+        let specs = parse_cases(cases, |r, path| {
             let config = r.get_opt("config")?;
             let max_dt_s = match r.get_opt("max_dt_s")? {
                 Some(v) => extract(&v, &format!("{path}.max_dt_s"), "a number")?,
@@ -597,7 +590,7 @@ pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads
                 Some(v) => extract(&v, &format!("{path}.t_gas_sensor_tau_s"), "a number")?,
                 None => Sensors::default().t_gas_tau_s,
             };
-            let case = LoopCase::from_py(
+            LoopCase::from_py(
                 &r.get("unit")?,
                 &r.get("rig")?,
                 &r.get("scenario")?,
@@ -608,10 +601,8 @@ pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads
                 channels,
                 record_every,
                 t_gas_sensor_tau_s,
-            )?;
-            r.finish()?;
-            specs.push(case);
-        }
+            )
+        })?;
         run_parallel(py, &specs, threads, |c| c.run(|_| true), |c, r| c.to_dict(py, r))
     })
 }

@@ -2,6 +2,7 @@
 //! and Ctrl-C, or many cases in parallel on a rayon pool.
 
 use crate::errors::{bad_argument, parameter, to_py};
+use crate::params::Reader;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -74,6 +75,39 @@ pub fn threads_arg(threads: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>
         Ok(n) if n > 0 && (n as u64) <= max as u64 => Ok(Some(n as usize)),
         _ => Err(bad_argument("threads", obj, &expected)),
     }
+}
+
+/// The case list of a parallel runner: a list of dicts, the `i`-th read
+/// by `parse(reader, "cases[i]")` and then checked for unknown keys. An
+/// error in a case names it: a message that does not already carry the
+/// case's path gets it as a prefix (same exception, same attributes).
+pub fn parse_cases<'py, S>(
+    cases: &Bound<'py, PyAny>,
+    mut parse: impl FnMut(&mut Reader<'py>, &str) -> PyResult<S>,
+) -> PyResult<Vec<S>> {
+    let list = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
+    let mut specs = Vec::with_capacity(list.len());
+    for (i, case) in list.iter().enumerate() {
+        let path = format!("cases[{i}]");
+        let named = |e: PyErr| in_case(case.py(), e, &path);
+        let mut reader = Reader::new(&case, &path).map_err(named)?;
+        let spec = parse(&mut reader, &path).map_err(named)?;
+        reader.finish().map_err(named)?;
+        specs.push(spec);
+    }
+    Ok(specs)
+}
+
+/// `err` with `path: ` before its message unless the message names `path`.
+fn in_case(py: Python<'_>, err: PyErr, path: &str) -> PyErr {
+    let value = err.value(py);
+    let message = value.str().map(|m| m.to_string()).unwrap_or_default();
+    if !message.contains(path) {
+        // Rewriting `args` keeps the class and the attributes (`parameter`,
+        // `value`, `expected`); should it fail, the unprefixed error stands.
+        let _ = value.setattr("args", (format!("{path}: {message}"),));
+    }
+    err
 }
 
 /// Runs every case on a pool of `threads` threads (all cores when None)

@@ -1,10 +1,11 @@
 //! Running the rigs from Python: one run, or many in parallel (rayon).
 
-use crate::args::f64_array;
+use crate::args::{extract, f64_array};
 use crate::errors::{bad_argument, guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel, threads_arg};
+use crate::exec::{detached_with_progress, parse_cases, run_parallel, threads_arg};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
+use hp_core::lag::{self, Lag, LagSample, LagState};
 use hp_core::rig::{run, run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail, Steps};
 use hp_core::unit::{Unit, UnitParams, Valves};
 use numpy::IntoPyArray;
@@ -292,26 +293,23 @@ pub fn simulate<'py>(
 pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
         let threads = threads_arg(threads)?;
-        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
-        let mut specs = Vec::with_capacity(cases.len());
-        for (i, c) in cases.iter().enumerate() {
-            let mut r = params::Reader::new(&c, &format!("cases[{i}]"))?;
+        let specs = parse_cases(cases, |r, path| {
             let spring_hard = r.get("spring_hard")?;
             let damper_on = r.get("damper_on")?;
             let channels = match r.get_opt("channels")? {
-                Some(v) => Some(v.extract::<Vec<String>>().map_err(|_| parameter(format!("cases[{i}].channels must be a list of names")))?),
+                Some(v) => Some(extract(&v, &format!("{path}.channels"), "a list of channel names")?),
                 None => None,
             };
             let rtol = match r.get_opt("rtol")? {
-                Some(v) => Some(v.extract::<f64>().map_err(|_| parameter(format!("cases[{i}].rtol must be a number or None")))?),
+                Some(v) => Some(extract(&v, &format!("{path}.rtol"), "a number or None")?),
                 None => None,
             };
             let steps = if r.get_opt("steps_s")?.is_some() { Some(r.vec("steps_s")?) } else { None };
             let record = match r.get_opt("record_steps")? {
-                Some(v) => v.extract::<bool>().map_err(|_| parameter(format!("cases[{i}].record_steps must be a bool")))?,
+                Some(v) => extract(&v, &format!("{path}.record_steps"), "a bool")?,
                 None => false,
             };
-            let case = Case::from_py(
+            Case::from_py(
                 &r.get("unit")?,
                 &r.get("rig")?,
                 r.vec("times_s")?,
@@ -323,11 +321,52 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: O
                 rtol,
                 steps,
                 record,
-            )?;
-            r.finish()?;
-            specs.push(case);
-        }
+            )
+        })?;
         run_parallel(py, &specs, threads, |c| c.run(|_| true), |c, r| c.to_dict(py, r))
+    })
+}
+
+/// The transducers' first-order lag ([`hp_core::lag`]) applied to the
+/// samples `values` at `times_s`, exact for a signal linear between
+/// samples: what a transducer of time constant `time_constant_s` reports.
+/// It starts settled at `rest` (the value at rest before the motion;
+/// `values[0]` when None), as the unit's sensor state does.
+#[pyfunction]
+#[pyo3(signature = (times_s, values, time_constant_s, rest=None))]
+pub fn sensor_lag<'py>(
+    py: Python<'py>,
+    times_s: &Bound<'py, PyAny>,
+    values: &Bound<'py, PyAny>,
+    time_constant_s: f64,
+    rest: Option<f64>,
+) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    guard(|| {
+        let times = f64_array(times_s, "times_s")?;
+        let x = f64_array(values, "values")?;
+        if times.len() != x.len() {
+            return Err(parameter(format!("values has {} samples; expected one per time in times_s ({})", x.len(), times.len())));
+        }
+        let lag = Lag { time_constant_s: hp_core::ranges::SENSOR_TIME_CONSTANT_S.check(time_constant_s).map_err(to_py)? };
+        for (i, w) in times.windows(2).enumerate() {
+            if let [t0, t1] = *w {
+                if t1 <= t0 || !t1.is_finite() || !t0.is_finite() {
+                    return Err(parameter(format!("times_s[{}] = {t1} after {t0}: expected finite, increasing times", i + 1)));
+                }
+            }
+        }
+        if let Some(r) = rest.filter(|r| !r.is_finite()) {
+            return Err(parameter(format!("rest = {r}: expected a finite number")));
+        }
+        let mut state = LagState::settled(rest.or(x.first().copied()).unwrap_or(0.0));
+        let mut out = Vec::with_capacity(x.len());
+        out.extend(x.first().map(|_| state.output));
+        for (t, v) in times.windows(2).zip(x.windows(2)) {
+            if let (&[t0, t1], &[x0, x1]) = (t, v) {
+                out.push(lag::step(&lag, &mut state, &LagSample { input_prev: x0, input: x1, dt_s: t1 - t0 }));
+            }
+        }
+        Ok(out.into_pyarray(py))
     })
 }
 
@@ -452,6 +491,7 @@ pub fn seed_sprung_mass_kg() -> f64 {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate_many, m)?)?;
+    m.add_function(wrap_pyfunction!(sensor_lag, m)?)?;
     m.add_function(wrap_pyfunction!(static_force_n, m)?)?;
     m.add_function(wrap_pyfunction!(static_disp_for_load_m, m)?)?;
     m.add_function(wrap_pyfunction!(gas_masses_kg, m)?)?;

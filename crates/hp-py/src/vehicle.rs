@@ -4,9 +4,10 @@
 //! at a time with valve commands per wheel (for processor-in-the-loop).
 //! Thin: conversions only.
 
-use crate::ctrl::{array, config_to_dict, driver_mode, extract, params_from};
-use crate::errors::{bad_argument, guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel, threads_arg};
+use crate::args::extract;
+use crate::ctrl::{array, config_to_dict, driver_mode, params_from};
+use crate::errors::{guard, parameter, to_py};
+use crate::exec::{detached_with_progress, parse_cases, run_parallel, threads_arg};
 use crate::params::{self, Reader};
 use hp_core::unit::Valves;
 use hp_ctrl::{Outputs, Params, State};
@@ -452,24 +453,20 @@ pub fn vehicle_run<'py>(
 pub fn vehicle_run_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
         let threads = threads_arg(threads)?;
-        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
-        let mut specs = Vec::with_capacity(cases.len());
-        for (i, c) in cases.iter().enumerate() {
-            let path = format!("cases[{i}]");
-            let mut r = Reader::new(&c, &path)?;
+        let specs = parse_cases(cases, |r, path| {
             let opt_f64 = |r: &mut Reader<'_>, key: &str, default: f64| -> PyResult<f64> {
                 match r.get_opt(key)? {
                     Some(v) => extract(&v, &format!("{path}.{key}"), "a number"),
                     None => Ok(default),
                 }
             };
-            let max_dt_s = opt_f64(&mut r, "max_dt_s", 1e-3)?;
-            let tau = opt_f64(&mut r, "t_gas_sensor_tau_s", Sensors::default().t_gas_tau_s)?;
+            let max_dt_s = opt_f64(r, "max_dt_s", 1e-3)?;
+            let tau = opt_f64(r, "t_gas_sensor_tau_s", Sensors::default().t_gas_tau_s)?;
             let record_every = match r.get_opt("record_every")? {
                 Some(v) => extract(&v, &format!("{path}.record_every"), "a positive int")?,
                 None => 1,
             };
-            let case = VehicleCase::from_py(
+            VehicleCase::from_py(
                 &r.get("vehicle")?,
                 &r.get("road")?,
                 &r.get("drive")?,
@@ -479,10 +476,8 @@ pub fn vehicle_run_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads
                 max_dt_s,
                 record_every,
                 tau,
-            )?;
-            r.finish()?;
-            specs.push(case);
-        }
+            )
+        })?;
         run_parallel(py, &specs, threads, |c| c.run(|_| true), |c, r| c.to_dict(py, r))
     })
 }

@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from hpctl import _core
 from hpctl.errors import HpctlError, SimulationError
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper
-from hpctl.identify.signals import apply_sensor_lag
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
@@ -106,7 +106,7 @@ def simulate_all(
                 for c in LAGGED:
                     # At rest the force has no damper or friction part.
                     rest = ch[c][0] - (ch["damper_force_n"][0] + ch["friction_force_n"][0] if c == "force_n" else 0.0)
-                    ch[c] = apply_sensor_lag(d.times_s, ch[c], values["sensor_time_constant_s"], rest)
+                    ch[c] = _core.sensor_lag(d.times_s, ch[c], values["sensor_time_constant_s"], rest)
             row.append(ch)
         out.append(row)
     return out

@@ -1,6 +1,7 @@
 """Signal processing for measured records: noise levels, smoothing that
 never distorts the excitation, fourth-order derivatives on irregular
-samples, local sensitivities, and the first-order sensor lag."""
+samples and local sensitivities. (The first-order sensor lag of a
+sampled signal is the core's: :func:`hpctl._core.sensor_lag`.)"""
 
 from __future__ import annotations
 
@@ -111,21 +112,3 @@ def velocity_noise_gain(dt_s: float) -> float:
     unit of white input noise."""
     coeffs = savgol_coeffs(SMOOTH_WINDOW, SMOOTH_ORDER)
     return float(np.sqrt(np.sum((np.convolve(coeffs, FIVE_POINT) / dt_s) ** 2)))
-
-
-def apply_sensor_lag(t: FloatArray, y: FloatArray, tau_s: float, y_rest: float | None = None) -> FloatArray:
-    """A first-order lag of time constant ``tau_s`` applied to samples ``y``
-    at times ``t``, exact for a signal linear between samples (first-order
-    hold): what the transducer reports. It starts settled at ``y_rest``
-    (the value at rest before the motion; ``y[0]`` by default), as the
-    unit's sensor state does."""
-    out = np.empty_like(y)
-    h = np.diff(t)
-    a = np.exp(-h / tau_s)
-    ramp = (tau_s / h) * (1.0 - a)
-    acc = float(y[0] if y_rest is None else y_rest)
-    out[0] = acc
-    for k in range(1, len(y)):
-        acc = a[k - 1] * acc + y[k] - a[k - 1] * y[k - 1] - (y[k] - y[k - 1]) * ramp[k - 1]
-        out[k] = acc
-    return out

@@ -133,7 +133,8 @@ class Effect:
     #: (None when the unit does not have it; no function: no fast dynamics).
     max_step_s: MaxStep | None = None
     #: A fit applies it to the simulated outputs instead of the unit
-    #: (:func:`hpctl.identify.signals.apply_sensor_lag`): a lag state in the
+    #: (:func:`hpctl._core.sensor_lag`, hp-core's ``lag`` block, which is
+    #: also the unit's sensor state): a lag state in the
     #: ODE would force steps shorter than the lag on records hours long.
     #: ``apply`` still puts it into the unit, for the virtual rig's truth.
     on_outputs: bool = False
