@@ -63,7 +63,7 @@ def steps(u: Unit) -> dict[str, Any]:
         for on in (False, True):
             # A stiff oil column is the fastest dynamics: the step follows it.
             e = sdof_step(u, spring_hard=hard, damper_on=on, dt_s=min(1e-3, max_step_s(u)))
-            s = {k: e.summary.get(k) for k in ("natural_frequency_hz", "damping_ratio", "overshoot_m", "settling_time_s")}
+            s = {k: e.summary.to_dict().get(k) for k in ("natural_frequency_hz", "damping_ratio", "overshoot_m", "settling_time_s")}
             if not hard and not on:
                 ch = e.result.channels
                 s["valve6_peak_dp_pa"] = float(max(abs(a - b) for a, b in zip(ch["p_gas_true_pa"], ch["p_gas2_true_pa"])))
@@ -74,7 +74,7 @@ def steps(u: Unit) -> dict[str, Any]:
 def freqs(u: Unit) -> tuple[float, float]:
     """Natural frequencies (hard, soft) from the damper-off steps."""
     dt = min(1e-3, max_step_s(u))
-    f = [sdof_step(u, spring_hard=h, damper_on=False, dt_s=dt).summary.get("natural_frequency_hz") for h in (True, False)]
+    f = [sdof_step(u, spring_hard=h, damper_on=False, dt_s=dt).summary.to_dict().get("natural_frequency_hz") for h in (True, False)]
     return f[0] or math.nan, f[1] or math.nan
 
 

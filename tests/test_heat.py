@@ -18,11 +18,11 @@ def run() -> Experiment:
 def test_oil_and_gas_reach_the_seeds_temperatures(run: Experiment) -> None:
     # The oil node is calibrated to these two numbers (see hp-core presets).
     s = run.summary
-    assert s["oil_temperature_end_k"] - 273.15 == pytest.approx(SEED_HEAT_BUILDUP["oil_temperature_end_c"], abs=3)
-    assert s["gas_temperature_end_k"] - 273.15 == pytest.approx(SEED_HEAT_BUILDUP["gas_temperature_end_c"], abs=3)
+    assert s.oil_temperature_end_k - 273.15 == pytest.approx(SEED_HEAT_BUILDUP["oil_temperature_end_c"], abs=3)
+    assert s.gas_temperature_end_k - 273.15 == pytest.approx(SEED_HEAT_BUILDUP["gas_temperature_end_c"], abs=3)
     # Energy: the damper's dissipated energy is its power integrated.
     r = run.result
-    assert s["damper_energy_j"] == pytest.approx(np.trapezoid(r["damper_power_w"], r["time_s"]), rel=1e-3)
+    assert s.damper_energy_j == pytest.approx(np.trapezoid(r["damper_power_w"], r["time_s"]), rel=1e-3)
     # The oil heats monotonically (cycle-averaged) while the damper works.
     oil = r["t_oil_k"][:: int(2.0 / 0.1)]
     assert np.all(np.diff(oil) > 0)
@@ -41,13 +41,13 @@ def test_ride_height_change_is_the_gas_expansion_at_the_load_pressure(run: Exper
     def volume(t_k: float) -> float:
         return float(mass / CP.PropsSI("Dmass", "P", p, "T", t_k, "Nitrogen"))
 
-    expected = (volume(s["gas_temperature_end_k"]) - volume(s["gas_temperature_start_k"])) / unit.piston_area_m2
+    expected = (volume(s.gas_temperature_end_k) - volume(s.gas_temperature_start_k)) / unit.piston_area_m2
     # Within the equation of state's density error near 15 MPa (about 1 %) of the volumes.
-    assert s["ride_height_change_m"] == pytest.approx(expected, rel=0.05)
-    assert 0.015 < s["ride_height_change_m"] < 0.04  # the seed: 18 mm
+    assert s.ride_height_change_m == pytest.approx(expected, rel=0.05)
+    assert 0.015 < s.ride_height_change_m < 0.04  # the seed: 18 mm
 
 
 def test_spring_rate_rises_with_gas_temperature(run: Experiment) -> None:
     s = run.summary
-    assert s["static_spring_rate_end_n_per_m"] > s["static_spring_rate_start_n_per_m"]
-    assert s["dynamic_force_range_end_n"] > s["dynamic_force_range_start_n"]
+    assert s.static_spring_rate_end_n_per_m > s.static_spring_rate_start_n_per_m
+    assert s.dynamic_force_range_end_n > s.dynamic_force_range_start_n

@@ -38,10 +38,10 @@ def test_cycle_stats_against_a_known_sine() -> None:
     t = np.linspace(0.0, 10.0, 10001)
     y = 3.0 + 2.0 * np.sin(2 * np.pi * 0.5 * t) + 0.1 * t
     s = metrics.cycle_stats(t, y, 0.5)
-    assert len(s["time_s"]) == 5 and np.allclose(s["time_s"], [1, 3, 5, 7, 9])
+    assert len(s.time_s) == 5 and np.allclose(s.time_s, [1, 3, 5, 7, 9])
     # The mean of a whole period of the sine is 0: the trend remains.
-    assert np.allclose(s["mean"], 3.0 + 0.1 * s["time_s"], atol=2e-4)
-    assert np.all(s["max"] - s["min"] > 3.9) and np.all(s["max"] - s["min"] < 4.3)
+    assert np.allclose(s.mean, 3.0 + 0.1 * s.time_s, atol=2e-4)
+    assert np.all(s.max - s.min > 3.9) and np.all(s.max - s.min < 4.3)
     assert len(metrics.cycle_stats(t, y, 0.5, every=2)["time_s"]) == 2
 
 
@@ -51,8 +51,8 @@ def test_heat_buildup_is_drawn_as_cycle_means_with_its_headline(heat: experiment
     s = heat.summary
     words = texts(fig)
     # The headline on the figure: the gas temperature from start to end, the ride height.
-    assert f"gas {s['gas_temperature_start_k'] - 273.15:.0f} → {s['gas_temperature_end_k'] - 273.15:.0f} °C" in words
-    assert f"ride height {1e3 * s['ride_height_change_m']:+.1f} mm" in words
+    assert f"gas {s.gas_temperature_start_k - 273.15:.0f} → {s.gas_temperature_end_k - 273.15:.0f} °C" in words
+    assert f"ride height {1e3 * s.ride_height_change_m:+.1f} mm" in words
     assert "seed (75 min): gas 23 → 68 °C" in words
     # Test conditions in the title.
     assert "60 mm at 0.5 Hz for 4 min" in fig.axes[0].get_title() and "damper on" in fig.axes[0].get_title()
@@ -62,7 +62,7 @@ def test_heat_buildup_is_drawn_as_cycle_means_with_its_headline(heat: experiment
     gas_line = next(line for line in fig.axes[0].get_lines() if line.get_label() == "gas, cycle mean")
     assert len(gas_line.get_xdata()) == 121 < len(heat.result.time_s) / 10
     ride = fig.axes[2].get_lines()[0].get_ydata()
-    assert ride[0] == 0.0 and ride[-1] == pytest.approx(1e3 * s["ride_height_change_m"], rel=0.05)
+    assert ride[0] == 0.0 and ride[-1] == pytest.approx(1e3 * s.ride_height_change_m, rel=0.05)
 
 
 def test_figures_are_written_in_the_format_of_their_extension(heat: experiments.Experiment, tmp_path: Path) -> None:

@@ -32,7 +32,7 @@ def responses(u: Unit) -> dict[str, dict[str, Any]]:
     for hard in (True, False):
         for on in (False, True):
             e = sdof_step(u, spring_hard=hard, damper_on=on, dt_s=min(1e-3, max_step_s(u)))
-            s = dict(e.summary)
+            s = e.summary.to_dict()
             ch = e.result.channels
             s["valve6_peak_dp_pa"] = float(abs(ch["p_gas_true_pa"] - ch["p_gas2_true_pa"]).max())
             out[f"{'hard' if hard else 'soft'}_{'on' if on else 'off'}"] = s

@@ -133,26 +133,27 @@ def _sweep(
     from hpctl.report.plots import sweep_plot
     from hpctl.sim import sweep
 
-    summary, caveats = sweep.run_sweep(
+    result, caveats = sweep.run_sweep(
         unit, spring_hard=spring != "soft", mass_kg=mass_kg,
         pressures_pa=parse_floats(pressures, "--sweep-pressure-pa"), taus_s=parse_floats(taus, "--sweep-tau-s"),
         damper=damper, height_m=amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M, threads=threads,
         say=lambda text: rep.note(text),
     )
-    if summary["cases"] and summary["failed"] == summary["cases"]:
-        first = next(r["error"] for r in summary["rows"] if r["error"])
-        raise SimulationError(f"every one of the {summary['cases']} sweep cases failed; the first: {first}")
+    if result.cases and result.failed == result.cases:
+        first = next(r.error for r in result.rows if r.error)
+        raise SimulationError(f"every one of the {result.cases} sweep cases failed; the first: {first}")
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=sweep.COLUMNS, lineterminator="\n")
     w.writeheader()
-    for row in summary["rows"]:
-        w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sweep.COLUMNS})
+    for row in result.rows:
+        d = row.to_dict()
+        w.writerow({k: ("" if d.get(k) is None else d.get(k)) for k in sweep.COLUMNS})
     out.write_text("sweep.csv", buf.getvalue())
     height_m = amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M
-    sweep_plot(summary["rows"], out.path(f"sweep.{fig_format}"), spring != "soft", height_m=height_m, mass_kg=mass_kg)
-    if summary["failed"]:
-        rep.note(f"{summary['failed']} of {summary['cases']} sweep cases failed (see the warnings and the error column of sweep.csv)")
-    return summary, caveats
+    sweep_plot(result.rows, out.path(f"sweep.{fig_format}"), spring != "soft", height_m=height_m, mass_kg=mass_kg)
+    if result.failed:
+        rep.note(f"{result.failed} of {result.cases} sweep cases failed (see the warnings and the error column of sweep.csv)")
+    return result.to_dict(), caveats
 
 
 def _simulate(
@@ -214,7 +215,7 @@ def _simulate(
         plots.step_responses(steps, out.path(f"step_responses.{fig_format}"))
     summary: dict[str, Any] = {"test": test, "unit": {"piston_area_m2": unit.piston_area_m2, "static_pressure_pa": unit.static_pressure_pa, "tau_s": unit.tau_s, "gas": unit.gas}}
     summary.update(experiments.headline(runs))
-    summary["runs"] = [dict(e.summary, name=e.name) for e in runs]
+    summary["runs"] = [dict(e.summary.to_dict(), name=e.name) for e in runs]
     if test == "heat":
         summary["seed"] = experiments.SEED_HEAT_BUILDUP
     _print_summary(rep, runs, test)
@@ -222,30 +223,32 @@ def _simulate(
 
 
 def _print_summary(rep: Reporter, runs: Sequence[experiments.Experiment], test: str) -> None:
-    steps = [e.summary for e in runs if e.record.kind == "sdof"]
-    chars = [e.summary for e in runs if e.record.kind == "characterisation"]
+    steps = [e.summary for e in runs if isinstance(e.summary, experiments.StepSummary)]
+    chars = [e.summary for e in runs if isinstance(e.summary, experiments.CharacterisationSummary)]
     if steps:
         t = table("SDOF step response", ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"))
         for s in steps:
-            t.add_row(s["spring"], s["damper"], fmt(s["natural_frequency_hz"]), fmt(s["damping_ratio"]), fmt(s["overshoot_m"], 1e3, 1),
-                      fmt(s["settling_time_s"]), fmt(s["peak_p_gas_pa"], 1e-6, 1))
+            t.add_row(s.spring, s.damper, fmt(s.natural_frequency_hz), fmt(s.damping_ratio), fmt(s.overshoot_m, 1e3, 1),
+                      fmt(s.settling_time_s), fmt(s.peak_p_gas_pa, 1e-6, 1))
         rep.out.print(t)
     if chars and test != "heat":
         t = table("Characterisation", ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"))
-        for s in chars:
-            t.add_row(s["spring"], s["damper"], s["excitation"], f"{s['force_min_n'] / 1e3:.1f} .. {s['force_max_n'] / 1e3:.1f}",
-                      fmt(s.get("loop_area_j"), 1, 0), fmt(s.get("gas_loop_area_j"), 1, 0), fmt(s["peak_p_gas_pa"], 1e-6, 1))
+        for c in chars:
+            t.add_row(c.spring, c.damper, c.excitation, f"{c.force_min_n / 1e3:.1f} .. {c.force_max_n / 1e3:.1f}",
+                      fmt(c.loop_area_j, 1, 0), fmt(c.gas_loop_area_j, 1, 0), fmt(c.peak_p_gas_pa, 1e-6, 1))
         rep.out.print(t)
     if test == "heat":
         seed = experiments.SEED_HEAT_BUILDUP
         t = table("Damper heat build-up: this model vs the seed", ("quantity", "hpctl", "seed"))
-        for s in (e.summary for e in runs):
-            t.add_row("gas temperature [C]", f"{s['gas_temperature_start_k'] - 273.15:.0f} -> {s['gas_temperature_end_k'] - 273.15:.0f}",
+        for h in (e.summary for e in runs):
+            if not isinstance(h, experiments.HeatBuildupSummary):
+                continue
+            t.add_row("gas temperature [C]", f"{h.gas_temperature_start_k - 273.15:.0f} -> {h.gas_temperature_end_k - 273.15:.0f}",
                       f"{seed['gas_temperature_start_c']:.0f} -> {seed['gas_temperature_end_c']:.0f}")
-            t.add_row("oil temperature at end [C]", f"{s['oil_temperature_end_k'] - 273.15:.0f}", f"{seed['oil_temperature_end_c']:.0f}")
-            t.add_row("static spring rate change", f"{100 * s['static_spring_rate_change']:+.0f} %", f"{100 * seed['spring_rate_change']:+.0f} %")
-            t.add_row("ride height change", f"{1e3 * s['ride_height_change_m']:+.1f} mm ({100 * s['ride_height_change_of_gas_volume']:+.0f} % of gas volume)",
+            t.add_row("oil temperature at end [C]", f"{h.oil_temperature_end_k - 273.15:.0f}", f"{seed['oil_temperature_end_c']:.0f}")
+            t.add_row("static spring rate change", f"{100 * h.static_spring_rate_change:+.0f} %", f"{100 * seed['spring_rate_change']:+.0f} %")
+            t.add_row("ride height change", f"{1e3 * h.ride_height_change_m:+.1f} mm ({100 * h.ride_height_change_of_gas_volume:+.0f} % of gas volume)",
                       f"+{1e3 * seed['ride_height_change_m']:.0f} mm (+{100 * seed['ride_height_change']:.0f} %)")
-            t.add_row("mean damper power [W]", f"{s['mean_damper_power_w']:.0f}", "-")
+            t.add_row("mean damper power [W]", f"{h.mean_damper_power_w:.0f}", "-")
         rep.out.print(t)
 

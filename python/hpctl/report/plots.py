@@ -21,7 +21,8 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from hpctl.errors import ParameterError  # noqa: E402
 from hpctl.sim import metrics  # noqa: E402
-from hpctl.sim.experiments import SEED_HEAT_BUILDUP, Experiment  # noqa: E402
+from hpctl.sim.experiments import SEED_HEAT_BUILDUP, CharacterisationSummary, Experiment, HeatBuildupSummary, StepSummary  # noqa: E402
+from hpctl.sim.sweep import SweepRow  # noqa: E402
 
 #: The file formats a figure is written in (by the path's extension).
 FORMATS = ("png", "svg", "pdf")
@@ -85,9 +86,9 @@ def force_displacement(experiments: Sequence[Experiment], path: str | Path | Non
         t = r["time_s"]
         freq = e.record.test.frequency_hz
         m = metrics.last_cycle(t, freq) if freq and freq * (t[-1] - t[0]) >= 1 else np.ones_like(t, bool)
-        label = f"{e.summary['spring']} spring, damper {e.summary['damper']}"
-        if "loop_area_j" in e.summary:
-            label += f" (loop {e.summary['loop_area_j']:.0f} J)"
+        label = f"{e.summary.spring} spring, damper {e.summary.damper}"
+        if isinstance(e.summary, CharacterisationSummary) and e.summary.loop_area_j is not None:
+            label += f" (loop {e.summary.loop_area_j:.0f} J)"
         ax.plot(1e3 * r["disp_m"][m], 1e-3 * r["force_n"][m], label=label)
     ax.set_xlabel("strut compression from static position [mm]")
     ax.set_ylabel("strut force [kN]")
@@ -107,8 +108,8 @@ def step_responses(experiments: Sequence[Experiment], path: str | Path | None = 
         if not base_drawn:
             ax.plot(r["time_s"], 1e3 * r["base_disp_m"], "k--", lw=1, label="base")
             base_drawn = True
-        f = e.summary.get("natural_frequency_hz")
-        label = f"{e.summary['spring']} spring, damper {e.summary['damper']}" + (f" ({f:.2f} Hz)" if f else "")
+        f = e.summary.natural_frequency_hz if isinstance(e.summary, StepSummary) else None
+        label = f"{e.summary.spring} spring, damper {e.summary.damper}" + (f" ({f:.2f} Hz)" if f else "")
         ax.plot(r["time_s"], 1e3 * r["body_disp_m"], label=label)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("sprung-mass displacement [mm]")
@@ -138,7 +139,7 @@ def heat_buildup(e: Experiment, path: str | Path | None = None) -> Figure:
     ride height the warmer gas gives at rest, and the headline numbers
     beside the seed's."""
     s, x = e.summary, e.series
-    if "cycle_time_s" not in x:
+    if "cycle_time_s" not in x or not isinstance(s, HeatBuildupSummary):
         raise ParameterError(f"{e.name}: not a heat build-up run (no cycle series); see hpctl.sim.experiments.heat_buildup")
     minutes = x["cycle_time_s"] / 60.0
     # The lines start where the run did: at rest, the gas at ambient.
@@ -146,7 +147,7 @@ def heat_buildup(e: Experiment, path: str | Path | None = None) -> Figure:
     fig, ax = plt.subplots(3, 1, figsize=(9, 9), sharex=True, gridspec_kw={"height_ratios": [3, 2, 2]})
     gas_c = x["t_gas_mean_k"] - 273.15
     ax[0].fill_between(minutes, x["t_gas_min_k"] - 273.15, x["t_gas_max_k"] - 273.15, color="tab:blue", alpha=0.15, lw=0, label="gas, range within a cycle")
-    ax[0].plot(start_min, np.r_[s["ambient_k"] - 273.15, gas_c], color="tab:blue", lw=1.6, label="gas, cycle mean")
+    ax[0].plot(start_min, np.r_[s.ambient_k - 273.15, gas_c], color="tab:blue", lw=1.6, label="gas, cycle mean")
     ax[0].plot(minutes, x["t_oil_mean_k"] - 273.15, color="tab:red", lw=1.6, label="oil, cycle mean")
     seed = SEED_HEAT_BUILDUP
     # The seed's numbers where the seed measured them: at the end of its run.
@@ -166,14 +167,14 @@ def heat_buildup(e: Experiment, path: str | Path | None = None) -> Figure:
     ax[2].legend(loc="upper left", fontsize=8)
     for a in ax:
         a.grid(True, alpha=0.3)
-    headline = (f"gas {s['gas_temperature_start_k'] - 273.15:.0f} → {s['gas_temperature_end_k'] - 273.15:.0f} °C, "
-                f"oil → {s['oil_temperature_end_k'] - 273.15:.0f} °C, spring rate {100 * s['static_spring_rate_change']:+.0f} %, "
-                f"ride height {1e3 * s['ride_height_change_m']:+.1f} mm, mean damper power {s['mean_damper_power_w']:.0f} W\n"
+    headline = (f"gas {s.gas_temperature_start_k - 273.15:.0f} → {s.gas_temperature_end_k - 273.15:.0f} °C, "
+                f"oil → {s.oil_temperature_end_k - 273.15:.0f} °C, spring rate {100 * s.static_spring_rate_change:+.0f} %, "
+                f"ride height {1e3 * s.ride_height_change_m:+.1f} mm, mean damper power {s.mean_damper_power_w:.0f} W\n"
                 f"seed ({seed_min:g} min): gas {seed['gas_temperature_start_c']:.0f} → {seed['gas_temperature_end_c']:.0f} °C, oil → {seed['oil_temperature_end_c']:.0f} °C, "
                 f"spring rate {100 * seed['spring_rate_change']:+.0f} %, ride height +{1e3 * seed['ride_height_change_m']:.0f} mm")
     _headline(ax[0], headline)
-    ax[0].set_title(f"Damper heat build-up: sine {1e3 * s['amplitude_m']:g} mm at {s['frequency_hz']:g} Hz for {s['duration_s'] / 60:g} min, "
-                    f"{s['spring']} spring, damper on, {s['sprung_mass_kg']:g} kg, ambient {s['ambient_k'] - 273.15:.0f} °C", fontsize=10)
+    ax[0].set_title(f"Damper heat build-up: sine {1e3 * s.amplitude_m:g} mm at {s.frequency_hz:g} Hz for {s.duration_s / 60:g} min, "
+                    f"{s.spring} spring, damper on, {s.sprung_mass_kg:g} kg, ambient {s.ambient_k - 273.15:.0f} °C", fontsize=10)
     return finish(fig, path)
 
 
@@ -192,14 +193,14 @@ def valve_states(ax: Axes, t: np.ndarray, spring_hard: np.ndarray, damper_on: np
     ax.set_ylabel("valves")
 
 
-def sweep_plot(rows: list[dict[str, Any]], path: str | Path | None, spring_hard: bool, height_m: float = 0.043, mass_kg: float | None = None) -> Figure:
+def sweep_plot(rows: Sequence[SweepRow], path: str | Path | None, spring_hard: bool, height_m: float = 0.043, mass_kg: float | None = None) -> Figure:
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.5))
-    keys = sorted({(r["tau_s"], r["damper_on"]) for r in rows})
+    keys = sorted({(r.tau_s, r.damper_on) for r in rows})
     for tau, on in keys:
-        sel = [r for r in rows if r["tau_s"] == tau and r["damper_on"] == on and not r["error"]]
-        p = np.array([r["static_pressure_pa"] for r in sel]) / 1e6
-        f = np.array([np.nan if r["natural_frequency_hz"] is None else r["natural_frequency_hz"] for r in sel])
-        o = np.array([r["overshoot_m"] for r in sel]) * 1e3
+        sel = [(r.static_pressure_pa, r.response) for r in rows if r.tau_s == tau and r.damper_on == on and r.response is not None]
+        p = np.array([pa for pa, _ in sel]) / 1e6
+        f = np.array([np.nan if m.natural_frequency_hz is None else m.natural_frequency_hz for _, m in sel])
+        o = np.array([m.overshoot_m for _, m in sel]) * 1e3
         label = f"tau {tau:g} s, damper {'on' if on else 'off'}"
         style = "-o" if on else "--s"
         a1.plot(p, f, style, label=label)

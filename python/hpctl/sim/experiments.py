@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Literal
 
 import numpy as np
@@ -41,6 +41,78 @@ SEED_SPEED_M_S = 0.01
 SEED_AMPLITUDE_M = 0.1
 
 
+SpringName = Literal["hard", "soft"]
+DamperName = Literal["on", "off"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunSummary:
+    """What every simulated test reports: the valve states it ran in."""
+
+    spring: SpringName
+    damper: DamperName
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as written to ``summary.json`` (fields in declaration
+        order; optional numbers a run could not show are left out)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if not (f.metadata.get("optional") and getattr(self, f.name) is None)}
+
+
+def _optional() -> Any:
+    return field(default=None, metadata={"optional": True})
+
+
+@dataclass(frozen=True, kw_only=True)
+class CharacterisationSummary(RunSummary):
+    """A characterisation-rig test: force range, peaks, and the loop areas
+    over the last whole cycle of a sine (None: no whole cycle)."""
+
+    excitation: str
+    force_min_n: float
+    force_max_n: float
+    peak_p_gas_pa: float
+    peak_t_gas_k: float
+    loop_area_j: float | None = _optional()
+    gas_loop_area_j: float | None = _optional()
+
+
+@dataclass(frozen=True, kw_only=True)
+class StepSummary(RunSummary):
+    """An SDOF step test (:class:`hpctl.sim.metrics.StepResponse`)."""
+
+    natural_frequency_hz: float | None
+    damping_ratio: float | None
+    overshoot_m: float
+    settling_time_s: float | None
+    peak_p_gas_pa: float
+    static_disp_m: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class HeatBuildupSummary(CharacterisationSummary):
+    """The damper heat build-up run (the seed's section 4.5)."""
+
+    duration_s: float
+    damper_energy_j: float
+    mean_damper_power_w: float
+    gas_temperature_start_k: float
+    gas_temperature_end_k: float
+    oil_temperature_end_k: float
+    static_spring_rate_start_n_per_m: float
+    static_spring_rate_end_n_per_m: float
+    #: Relative change, end over start minus one.
+    static_spring_rate_change: float
+    dynamic_force_range_start_n: float
+    dynamic_force_range_end_n: float
+    ride_height_change_m: float
+    ambient_k: float
+    frequency_hz: float
+    amplitude_m: float
+    sprung_mass_kg: float
+    #: The ride height change as a fraction of the gas volume's stroke.
+    ride_height_change_of_gas_volume: float
+
+
 @dataclass
 class Experiment:
     """One simulated test: its record, what it showed, and what the result
@@ -49,18 +121,18 @@ class Experiment:
     name: str
     record: RigRecord
     result: Result
-    summary: dict[str, Any] = field(default_factory=dict)
+    summary: RunSummary
     caveats: list[Caveat] = field(default_factory=list)
     #: Derived time series a plot tells the story with (e.g. the heat
     #: build-up's cycle means), SI units, each with its ``*_time_s``.
     series: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
-def spring_name(hard: bool) -> Literal["hard", "soft"]:
+def spring_name(hard: bool) -> SpringName:
     return "hard" if hard else "soft"
 
 
-def damper_name(on: bool) -> Literal["on", "off"]:
+def damper_name(on: bool) -> DamperName:
     return "on" if on else "off"
 
 
@@ -103,22 +175,25 @@ def characterisation(
     name = f"char_{excitation}_{spring_name(spring_hard)}_{damper_name(damper_on)}"
     record = _record(unit, result, kind="characterisation", test=test, name=name, description=f"hpctl simulation: characterisation, {excitation}", ambient_k=ambient)
     t, x, f = result["time_s"], result["disp_m"], result["force_n"]
-    summary: dict[str, Any] = {
-        "spring": spring_name(spring_hard),
-        "damper": damper_name(damper_on),
-        "excitation": excitation,
-        "force_min_n": float(f.min()),
-        "force_max_n": float(f.max()),
-        "peak_p_gas_pa": float(result["p_gas_true_pa"].max()),
-        "peak_t_gas_k": float(result["t_gas_k"].max()),
-    }
     caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, rtol, result.time_s, name)
+    loop_area_j = gas_loop_area_j = None
     if isinstance(motion, Sine) and motion.frequency_hz * (t[-1] - t[0]) >= 1.0 - 1e-9:
         m = metrics.last_cycle(t, motion.frequency_hz)
-        summary["loop_area_j"] = metrics.loop_area_j(x[m], f[m])
+        loop_area_j = metrics.loop_area_j(x[m], f[m])
         spring_force = unit.piston_area_m2 * (result["p_gas_true_pa"] - unit.ambient_pressure_pa)
-        summary["gas_loop_area_j"] = metrics.loop_area_j(x[m], spring_force[m])
-        caveats += _loop_caveats(unit, result, m, summary["gas_loop_area_j"], name)
+        gas_loop_area_j = metrics.loop_area_j(x[m], spring_force[m])
+        caveats += _loop_caveats(unit, result, m, gas_loop_area_j, name)
+    summary = CharacterisationSummary(
+        spring=spring_name(spring_hard),
+        damper=damper_name(damper_on),
+        excitation=excitation,
+        force_min_n=float(f.min()),
+        force_max_n=float(f.max()),
+        peak_p_gas_pa=float(result["p_gas_true_pa"].max()),
+        peak_t_gas_k=float(result["t_gas_k"].max()),
+        loop_area_j=loop_area_j,
+        gas_loop_area_j=gas_loop_area_j,
+    )
     return Experiment(name, record, result, summary, caveats)
 
 
@@ -180,8 +255,8 @@ def sdof_step(
         unit, result, kind="sdof", test=test, name=name, description=f"hpctl simulation: SDOF {height_m * 1e3:g} mm base step",
         ambient_k=unit.static_temperature_k, sprung_mass_kg=sprung_mass_kg,
     )
-    summary: dict[str, Any] = {"spring": spring_name(spring_hard), "damper": damper_name(damper_on)}
-    summary.update(metrics.step_response(result["time_s"], result["body_disp_m"], result["disp_m"], result["p_gas_true_pa"], height_m, start_s, rise_s))
+    response = metrics.step_response(result["time_s"], result["body_disp_m"], result["disp_m"], result["p_gas_true_pa"], height_m, start_s, rise_s)
+    summary = StepSummary(spring=spring_name(spring_hard), damper=damper_name(damper_on), **asdict(response))
     caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, rtol, result.time_s, name)
     return Experiment(name, record, result, summary, caveats)
 
@@ -198,14 +273,15 @@ def seed_experiments(unit: Unit, progress: Callable[[str], Progress | None] | No
     return out
 
 
-def headline(experiments: list[Experiment]) -> dict[str, Any]:
+def headline(experiments: list[Experiment]) -> dict[str, float]:
     """The numbers a summary leads with: natural frequency per spring state
-    (from the damper-off steps, where the response oscillates), in Hz."""
-    out: dict[str, Any] = {}
+    (from the damper-off steps, where the response oscillates), in Hz, as
+    ``natural_frequency_{spring}_hz`` (the JSON summary's keys)."""
+    out: dict[str, float] = {}
     for e in experiments:
         s = e.summary
-        if "natural_frequency_hz" in s and s["damper"] == "off" and s["natural_frequency_hz"] is not None:
-            out[f"natural_frequency_{s['spring']}_hz"] = s["natural_frequency_hz"]
+        if isinstance(s, StepSummary) and s.damper == "off" and s.natural_frequency_hz is not None:
+            out[f"natural_frequency_{s.spring}_hz"] = s.natural_frequency_hz
     return out
 
 
@@ -285,25 +361,27 @@ def heat_buildup(
     e.name = f"heat_buildup_{spring_name(spring_hard)}"
     e.record.name = e.name
     e.record.description = f"hpctl simulation: damper heat build-up, {duration_s / 60:g} min at {frequency_hz:g} Hz, {amplitude_m * 1e3:g} mm"
-    e.summary.update(
-        {
-            "duration_s": duration_s,
-            "damper_energy_j": float(r["e_damper_j"][-1]),
-            "mean_damper_power_w": float(r["e_damper_j"][-1] / duration_s),
-            "gas_temperature_start_k": ambient_k,
-            "gas_temperature_end_k": t_gas_end,
-            "oil_temperature_end_k": t_oil_end,
-            "static_spring_rate_start_n_per_m": k0,
-            "static_spring_rate_end_n_per_m": k1,
-            "static_spring_rate_change": k1 / k0 - 1.0,
-            "dynamic_force_range_start_n": float(np.ptp(r["force_n"][first])),
-            "dynamic_force_range_end_n": float(np.ptp(r["force_n"][last])),
-            "ride_height_change_m": x0 - x1,
-            "ambient_k": ambient_k,
-            "frequency_hz": frequency_hz,
-            "amplitude_m": amplitude_m,
-            "sprung_mass_kg": sprung_mass_kg,
-            "ride_height_change_of_gas_volume": (x0 - x1) * unit.piston_area_m2 / (unit.small_acc_volume_m3 if spring_hard else unit.small_acc_volume_m3 + unit.large_acc_volume_m3),
-        }
+    run = e.summary
+    if not isinstance(run, CharacterisationSummary):  # what characterisation() returns
+        raise TypeError(f"{e.name}: expected a characterisation summary, got {type(run).__name__}")
+    e.summary = HeatBuildupSummary(
+        **{f.name: getattr(run, f.name) for f in fields(run)},
+        duration_s=duration_s,
+        damper_energy_j=float(r["e_damper_j"][-1]),
+        mean_damper_power_w=float(r["e_damper_j"][-1] / duration_s),
+        gas_temperature_start_k=ambient_k,
+        gas_temperature_end_k=t_gas_end,
+        oil_temperature_end_k=t_oil_end,
+        static_spring_rate_start_n_per_m=k0,
+        static_spring_rate_end_n_per_m=k1,
+        static_spring_rate_change=k1 / k0 - 1.0,
+        dynamic_force_range_start_n=float(np.ptp(r["force_n"][first])),
+        dynamic_force_range_end_n=float(np.ptp(r["force_n"][last])),
+        ride_height_change_m=x0 - x1,
+        ambient_k=ambient_k,
+        frequency_hz=frequency_hz,
+        amplitude_m=amplitude_m,
+        sprung_mass_kg=sprung_mass_kg,
+        ride_height_change_of_gas_volume=(x0 - x1) * unit.piston_area_m2 / (unit.small_acc_volume_m3 if spring_hard else unit.small_acc_volume_m3 + unit.large_acc_volume_m3),
     )
     return e

@@ -4,6 +4,7 @@ damping ratio, overshoot, settling time, loop area."""
 from __future__ import annotations
 
 import math
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -128,17 +129,35 @@ def cycle_stats(t: FloatArray, y: FloatArray, frequency_hz: float, every: int = 
     return {"time_s": (t[0] + (np.arange(n) + 0.5) * period)[keep], "mean": mean[keep], "min": lo[keep], "max": hi[keep]}
 
 
+@dataclass(frozen=True)
+class StepResponse:
+    """What the seed's SDOF step test reports (``None``: the response does
+    not show it, e.g. no oscillation for a frequency)."""
+
+    natural_frequency_hz: float | None
+    damping_ratio: float | None
+    overshoot_m: float
+    #: Time to stay within 5 % of the step, s.
+    settling_time_s: float | None
+    peak_p_gas_pa: float
+    #: Static strut compression before the step.
+    static_disp_m: float
+
+    def to_dict(self) -> dict[str, float | None]:
+        return asdict(self)
+
+
 def step_response(t: FloatArray, body_disp_m: FloatArray, strut_disp_m: FloatArray, p_gas_pa: FloatArray,
-                  height_m: float, start_s: float, rise_s: float) -> dict[str, float | None]:
+                  height_m: float, start_s: float, rise_s: float) -> StepResponse:
     """What the seed's SDOF step test reports: natural frequency, damping
     ratio, overshoot, settling time (5 % band), peak gas pressure, and the
     static strut compression before the step."""
     after = start_s + rise_s
-    return {
-        "natural_frequency_hz": natural_frequency_hz(t, body_disp_m, height_m, after),
-        "damping_ratio": damping_ratio(t, body_disp_m, height_m, after),
-        "overshoot_m": overshoot_m(body_disp_m, height_m, height_m),
-        "settling_time_s": settling_time_s(t, body_disp_m, height_m, 0.05 * abs(height_m), start_s),
-        "peak_p_gas_pa": float(np.max(p_gas_pa)),
-        "static_disp_m": float(strut_disp_m[0]),
-    }
+    return StepResponse(
+        natural_frequency_hz=natural_frequency_hz(t, body_disp_m, height_m, after),
+        damping_ratio=damping_ratio(t, body_disp_m, height_m, after),
+        overshoot_m=overshoot_m(body_disp_m, height_m, height_m),
+        settling_time_s=settling_time_s(t, body_disp_m, height_m, 0.05 * abs(height_m), start_s),
+        peak_p_gas_pa=float(np.max(p_gas_pa)),
+        static_disp_m=float(strut_disp_m[0]),
+    )

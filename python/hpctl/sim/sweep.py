@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from hpctl.caveats import Caveat
@@ -18,6 +19,47 @@ COLUMNS = (
     "static_pressure_pa", "tau_s", "damper_on", "spring_hard", "static_disp_m", "natural_frequency_hz",
     "damping_ratio", "overshoot_m", "settling_time_s", "peak_p_gas_pa", "error",
 )
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    """One case of the grid and its step response (None when it failed:
+    ``error`` says why)."""
+
+    static_pressure_pa: float
+    tau_s: float
+    damper_on: bool
+    spring_hard: bool
+    response: metrics.StepResponse | None
+    error: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The row of ``summary.json`` and ``sweep.csv`` (:data:`COLUMNS`;
+        the valve states as 0/1, no step-response keys for a failed case)."""
+        out: dict[str, Any] = {"static_pressure_pa": self.static_pressure_pa, "tau_s": self.tau_s, "damper_on": int(self.damper_on), "spring_hard": int(self.spring_hard)}
+        if self.response is not None:
+            out.update(self.response.to_dict())
+        out["error"] = self.error
+        return out
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """The sweep: one row per case, in grid order."""
+
+    rows: tuple[SweepRow, ...]
+
+    @property
+    def cases(self) -> int:
+        return len(self.rows)
+
+    @property
+    def failed(self) -> int:
+        return sum(1 for r in self.rows if r.response is None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """What ``hpctl simulate --sweep`` writes to ``summary.json``."""
+        return {"test": "sweep", "cases": self.cases, "failed": self.failed, "rows": [r.to_dict() for r in self.rows]}
 
 
 def grid(unit: Unit, pressures_pa: list[float] | None, taus_s: list[float] | None, damper: str) -> list[tuple[float, float, bool]]:
@@ -39,7 +81,7 @@ def run_sweep(
     height_m: float,
     threads: int | None,
     say: Callable[[str], None] | None = None,
-) -> tuple[dict[str, Any], list[Caveat]]:
+) -> tuple[SweepSummary, list[Caveat]]:
     """Runs the grid; returns the summary with one row per case
     (:data:`COLUMNS`) and the caveats: one per failed case, and what the
     checks of :mod:`hpctl.sim.checks` find in the others."""
@@ -59,14 +101,12 @@ def run_sweep(
     failed: dict[str, str] = {}
     for (p, tau, on), sim, r in zip(cases, sims, results):
         name = f"p = {p / 1e6:.4g} MPa, tau = {tau:g} s, damper {'on' if on else 'off'}"
-        row: dict[str, Any] = {"static_pressure_pa": p, "tau_s": tau, "damper_on": int(on), "spring_hard": int(spring_hard)}
         if isinstance(r, Exception):
-            row["error"] = str(r)
+            rows.append(SweepRow(p, tau, on, spring_hard, None, str(r)))
             failed[name] = str(r)
         else:
-            row.update(metrics.step_response(r["time_s"], r["body_disp_m"], r["disp_m"], r["p_gas_true_pa"], height_m, START_S, RISE_S))
-            row["error"] = ""
+            response = metrics.step_response(r["time_s"], r["body_disp_m"], r["disp_m"], r["p_gas_true_pa"], height_m, START_S, RISE_S)
+            rows.append(SweepRow(p, tau, on, spring_hard, response))
             caveats += checks.channels(sim.unit, r.channels, f"sweep case {name}")
-        rows.append(row)
     caveats = checks.failed_cases(failed, "sweep case") + caveats
-    return {"test": "sweep", "cases": len(rows), "failed": len(failed), "rows": rows}, caveats
+    return SweepSummary(tuple(rows)), caveats
