@@ -42,6 +42,27 @@ def test_cases_must_be_a_list() -> None:
         _core.simulate_many(({},), None)  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("runner", [_core.simulate_many, _core.closed_loop_many, _core.vehicle_run_many])
+def test_a_bad_case_is_named_by_its_place_in_the_list(runner: object) -> None:
+    # Every parallel runner reads its list the same way (hp-py exec::parse_cases).
+    with pytest.raises(hpctl.ParameterError, match=r"cases\[0\] must be a dict"):
+        runner([3], None)  # type: ignore[operator]
+    with pytest.raises(hpctl.ParameterError, match=r"missing key cases\[0\]\."):
+        runner([{"no_such_key": 1}], None)  # type: ignore[operator]
+
+
+def test_an_error_inside_a_case_gets_the_case_path() -> None:
+    # The case's own check (no output times) does not know its place in
+    # the list: the runner puts it in front, keeping the exception's class.
+    from hpctl.sim.run import _case, characterisation_rig
+
+    good = _case(hpctl.Unit.seed(), characterisation_rig(hpctl.Sine(0.01, 1.0)), [0.0, 0.1], spring_hard=True, damper_on=True,
+                 dt_s=None, rtol=1e-6, ambient_k=None, channels=["time_s"])
+    empty = dict(good, times_s=[])
+    with pytest.raises(hpctl.ParameterError, match=r"^cases\[1\]: times_s is empty"):
+        _core.simulate_many([good, empty], None)
+
+
 def test_ctrl_c_stops_a_batch_between_cases() -> None:
     script = textwrap.dedent("""
         import time
