@@ -14,6 +14,7 @@ __all__ = [
     "InternalError",
     "simulate",
     "simulate_many",
+    "sensor_lag",
     "static_force_n",
     "static_disp_for_load_m",
     "gas_masses_kg",
