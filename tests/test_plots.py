@@ -38,10 +38,10 @@ def test_cycle_stats_against_a_known_sine() -> None:
     t = np.linspace(0.0, 10.0, 10001)
     y = 3.0 + 2.0 * np.sin(2 * np.pi * 0.5 * t) + 0.1 * t
     s = metrics.cycle_stats(t, y, 0.5)
-    assert len(s.time_s) == 5 and np.allclose(s.time_s, [1, 3, 5, 7, 9])
+    assert len(s["time_s"]) == 5 and np.allclose(s["time_s"], [1, 3, 5, 7, 9])
     # The mean of a whole period of the sine is 0: the trend remains.
-    assert np.allclose(s.mean, 3.0 + 0.1 * s.time_s, atol=2e-4)
-    assert np.all(s.max - s.min > 3.9) and np.all(s.max - s.min < 4.3)
+    assert np.allclose(s["mean"], 3.0 + 0.1 * s["time_s"], atol=2e-4)
+    assert np.all(s["max"] - s["min"] > 3.9) and np.all(s["max"] - s["min"] < 4.3)
     assert len(metrics.cycle_stats(t, y, 0.5, every=2)["time_s"]) == 2
 
 
