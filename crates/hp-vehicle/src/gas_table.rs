@@ -9,16 +9,16 @@
 
 use std::sync::OnceLock;
 
-use hp_core::gas::table::{fill, TableNode, TabulatedGas, SPAN_GRID};
+use hp_core::gas::table::{fill, TableCell, TabulatedGas, SPAN_GRID};
 use hp_core::gas::Span;
 
 /// The reference gas's table, or None if it could not be built (then the
 /// callers evaluate the equation directly).
 pub fn span() -> Option<TabulatedGas<'static, Span>> {
-    static NODES: OnceLock<Option<Box<[TableNode]>>> = OnceLock::new();
-    let nodes = NODES.get_or_init(|| {
-        let mut nodes = vec![TableNode::default(); SPAN_GRID.len()].into_boxed_slice();
-        fill(&SPAN_GRID, &Span, &mut nodes).ok().map(|()| nodes)
+    static NODES: OnceLock<Option<Box<[TableCell]>>> = OnceLock::new();
+    let cells = NODES.get_or_init(|| {
+        let mut cells = vec![TableCell::default(); SPAN_GRID.len()].into_boxed_slice();
+        fill(&SPAN_GRID, &Span, &mut cells).ok().map(|()| cells)
     });
-    nodes.as_deref().map(|nodes| TabulatedGas { grid: SPAN_GRID, nodes, direct: Span })
+    cells.as_deref().map(|cells| TabulatedGas { grid: SPAN_GRID, cells, direct: Span })
 }

@@ -6,12 +6,15 @@
 //! state; a host model that evaluates many units at a fixed step (the
 //! 8x8 vehicle: 64 gas states per 1 ms period) spends most of its time
 //! there. The table replaces it inside its grid by a few dozen
-//! multiply-adds on four nodes:
+//! multiply-adds on one cell:
 //!
-//! - each node holds the pressure and `c_v` with their first derivatives
-//!   and the mixed second derivative (`f, f_rho, f_T, f_rhoT`): the pressure
-//!   derivatives are the equation's own, the others central differences of
-//!   them, so the interpolant is C1 and reproduces cubic polynomials;
+//! - at each node the pressure and `c_v` with their first derivatives and
+//!   the mixed second derivative (`f, f_rho, f_T, f_rhoT`) define a bicubic
+//!   Hermite polynomial per cell (the pressure derivatives are the
+//!   equation's own, the others central differences of them), so the
+//!   interpolant is C1 and reproduces cubic polynomials; each cell stores
+//!   its polynomials' 2 x 16 coefficients, so an evaluation is Horner's
+//!   rule on one cell (about 60 multiply-adds);
 //! - `(dp/drho)_T` and `(dp/dT)_rho` are the derivatives of the pressure
 //!   interpolant (so the density solve and the energy equation see one
 //!   consistent surface);
@@ -24,8 +27,8 @@
 //! `(dp/dT)_rho`, 4.5e-9 in `c_v`): far below the 0.01 % the reference gas is
 //! trusted to.
 //!
-//! `no_std` and no allocator: the caller owns the node storage
-//! ([`TableNode`] slices of [`TableGrid::len`]) and fills it once with
+//! `no_std` and no allocator: the caller owns the cell storage
+//! ([`TableCell`] slices of [`TableGrid::len`]) and fills it once with
 //! [`fill`]. Hand-written because the interpolation crates allocate or
 //! interpolate one value without the derivatives this needs.
 
@@ -50,12 +53,12 @@ pub struct TableGrid {
 }
 
 impl TableGrid {
-    /// Number of nodes (the length of the storage [`fill`] needs).
+    /// Number of cells (the length of the storage [`fill`] needs).
     pub const fn len(&self) -> usize {
-        self.rho_count * self.t_count
+        self.rho_count.saturating_sub(1) * self.t_count.saturating_sub(1)
     }
 
-    /// True for a grid without nodes.
+    /// True for a grid without cells.
     pub const fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -66,112 +69,175 @@ impl TableGrid {
     }
 }
 
+/// Most density nodes a grid can have (the fill keeps two rows of nodes on
+/// the stack).
+pub const MAX_RHO_COUNT: usize = 512;
+
 /// The grid for nitrogen in the unit: 2-802 kg/m^3 (about 0.17 MPa up to
-/// beyond 300 MPa at 233 K) and 200-600 K, 4 kg/m^3 and 4 K apart:
-/// 201 x 101 nodes, 1.3 MB.
+/// beyond 300 MPa at 233 K) and 200-600 K, 8 kg/m^3 and 8 K apart:
+/// 101 x 51 nodes, 5,000 cells of 256 bytes (1.3 MB, so that it stays in
+/// a core's cache; halving the spacing would divide the error by 16 and
+/// cost four times the memory).
 pub const SPAN_GRID: TableGrid =
-    TableGrid { rho_min_kg_m3: 2.0, rho_step_kg_m3: 4.0, rho_count: 201, t_min_k: 200.0, t_step_k: 4.0, t_count: 101 };
+    TableGrid { rho_min_kg_m3: 2.0, rho_step_kg_m3: 8.0, rho_count: 101, t_min_k: 200.0, t_step_k: 8.0, t_count: 51 };
 
 /// One node: pressure and `c_v`, each as value, density derivative,
 /// temperature derivative and mixed derivative (SI).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct TableNode {
-    pub p: [f64; 4],
-    pub cv: [f64; 4],
+struct TableNode {
+    p: [f64; 4],
+    cv: [f64; 4],
 }
 
-/// Fills `nodes` (node `(i, j)` at `i + j * rho_count`) from `gas`.
-/// Fails when the storage has the wrong length or a node is not finite.
-pub fn fill(grid: &TableGrid, gas: &impl EquationOfState, nodes: &mut [TableNode]) -> Result<()> {
-    if nodes.len() != grid.len() || grid.rho_count < 2 || grid.t_count < 2 {
-        return Err(Error::OutOfRange { name: "table_nodes", value: nodes.len() as f64, min: grid.len() as f64, max: grid.len() as f64 });
+/// One cell: the bicubic polynomials of the pressure and `c_v` in the
+/// cell's local coordinates `s, r` in [0, 1) (density, temperature),
+/// coefficient of `s^i r^j` at `4 i + j`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TableCell {
+    pub p: [f64; 16],
+    pub cv: [f64; 16],
+}
+
+impl Default for TableCell {
+    fn default() -> Self {
+        TableCell { p: [0.0; 16], cv: [0.0; 16] }
+    }
+}
+
+/// The node data of `gas` at `(rho, t)`.
+fn node(gas: &impl EquationOfState, rho: f64, t: f64) -> TableNode {
+    // Central differences of the exact first derivatives: steps small
+    // against the grid (truncation ~ (step / scale)^2 ~ 1e-10) and large
+    // against rounding (~ 1e-16 / 1e-5).
+    let (dr, dt) = (1e-5 * rho, 1e-5 * t);
+    let c = gas.props(rho, t);
+    let (r_hi, r_lo) = (gas.props(rho + dr, t), gas.props(rho - dr, t));
+    let (t_hi, t_lo) = (gas.props(rho, t + dt), gas.props(rho, t - dt));
+    let (hh, hl, lh, ll) = (gas.props(rho + dr, t + dt), gas.props(rho + dr, t - dt), gas.props(rho - dr, t + dt), gas.props(rho - dr, t - dt));
+    let p_rt = (t_hi.dp_drho_pa_m3_per_kg - t_lo.dp_drho_pa_m3_per_kg) / (2.0 * dt);
+    let cv_r = (r_hi.cv_j_per_kg_k - r_lo.cv_j_per_kg_k) / (2.0 * dr);
+    let cv_t = (t_hi.cv_j_per_kg_k - t_lo.cv_j_per_kg_k) / (2.0 * dt);
+    let cv_rt = (hh.cv_j_per_kg_k - hl.cv_j_per_kg_k - lh.cv_j_per_kg_k + ll.cv_j_per_kg_k) / (4.0 * dr * dt);
+    TableNode { p: [c.p_pa, c.dp_drho_pa_m3_per_kg, c.dp_dt_pa_per_k, p_rt], cv: [c.cv_j_per_kg_k, cv_r, cv_t, cv_rt] }
+}
+
+/// The bicubic Hermite polynomial's coefficients from the four corners'
+/// `[f, f_rho, f_T, f_rhoT]` (spacings `hr`, `ht`): `A = M F M^T` with `F`
+/// the corner data in local units and `M` the cubic Hermite matrix.
+fn bicubic(c00: [f64; 4], c10: [f64; 4], c01: [f64; 4], c11: [f64; 4], hr: f64, ht: f64) -> [f64; 16] {
+    let local = |[f, fr, ft, frt]: [f64; 4]| (f, fr * hr, ft * ht, frt * hr * ht);
+    let (f00, r00, t00, rt00) = local(c00);
+    let (f10, r10, t10, rt10) = local(c10);
+    let (f01, r01, t01, rt01) = local(c01);
+    let (f11, r11, t11, rt11) = local(c11);
+    let f = [[f00, f01, t00, t01], [f10, f11, t10, t11], [r00, r01, rt00, rt01], [r10, r11, rt10, rt11]];
+    const M: [[f64; 4]; 4] = [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]];
+    let mut mf = [[0.0; 4]; 4];
+    for (row, m) in mf.iter_mut().zip(&M) {
+        for (k, out) in row.iter_mut().enumerate() {
+            *out = m.iter().zip(&f).map(|(a, fr)| a * fr.get(k).copied().unwrap_or(0.0)).sum();
+        }
+    }
+    let mut a = [0.0; 16];
+    for (i, row) in mf.iter().enumerate() {
+        for (j, m) in M.iter().enumerate() {
+            if let Some(out) = a.get_mut(4 * i + j) {
+                *out = row.iter().zip(m).map(|(x, y)| x * y).sum();
+            }
+        }
+    }
+    a
+}
+
+/// Fills `cells` (cell `(i, j)` at `i + j * (rho_count - 1)`) from `gas`.
+/// Fails when the storage has the wrong length, the grid is degenerate or
+/// too wide ([`MAX_RHO_COUNT`]), or a node is not finite.
+pub fn fill(grid: &TableGrid, gas: &impl EquationOfState, cells: &mut [TableCell]) -> Result<()> {
+    if cells.len() != grid.len() || grid.rho_count < 2 || grid.t_count < 2 || grid.rho_count > MAX_RHO_COUNT {
+        return Err(Error::OutOfRange { name: "table_cells", value: cells.len() as f64, min: grid.len() as f64, max: grid.len() as f64 });
     }
     if !(grid.rho_min_kg_m3 > 0.0 && grid.rho_step_kg_m3 > 0.0 && grid.t_min_k > 0.0 && grid.t_step_k > 0.0) {
         return Err(Error::OutOfRange { name: "table_grid", value: grid.rho_step_kg_m3, min: 0.0, max: f64::INFINITY });
     }
-    // Central differences of the exact first derivatives: steps small
-    // against the grid (truncation ~ (step / scale)^2 ~ 1e-10) and large
-    // against rounding (~ 1e-16 / 1e-5).
-    for (k, node) in nodes.iter_mut().enumerate() {
-        let (rho, t) = grid.node(k % grid.rho_count, k / grid.rho_count);
-        let (dr, dt) = (1e-5 * rho, 1e-5 * t);
-        let c = gas.props(rho, t);
-        let (r_hi, r_lo) = (gas.props(rho + dr, t), gas.props(rho - dr, t));
-        let (t_hi, t_lo) = (gas.props(rho, t + dt), gas.props(rho, t - dt));
-        let (rt_hh, rt_hl, rt_lh, rt_ll) =
-            (gas.props(rho + dr, t + dt), gas.props(rho + dr, t - dt), gas.props(rho - dr, t + dt), gas.props(rho - dr, t - dt));
-        let p_rt = (t_hi.dp_drho_pa_m3_per_kg - t_lo.dp_drho_pa_m3_per_kg) / (2.0 * dt);
-        let cv_r = (r_hi.cv_j_per_kg_k - r_lo.cv_j_per_kg_k) / (2.0 * dr);
-        let cv_t = (t_hi.cv_j_per_kg_k - t_lo.cv_j_per_kg_k) / (2.0 * dt);
-        let cv_rt = (rt_hh.cv_j_per_kg_k - rt_hl.cv_j_per_kg_k - rt_lh.cv_j_per_kg_k + rt_ll.cv_j_per_kg_k) / (4.0 * dr * dt);
-        *node = TableNode {
-            p: [c.p_pa, c.dp_drho_pa_m3_per_kg, c.dp_dt_pa_per_k, p_rt],
-            cv: [c.cv_j_per_kg_k, cv_r, cv_t, cv_rt],
-        };
-        if !node.p.iter().chain(&node.cv).all(|x| x.is_finite()) {
-            return Err(Error::NoConvergence { what: "gas table node", target: rho });
+    let (hr, ht) = (grid.rho_step_kg_m3, grid.t_step_k);
+    let row = |j: usize, out: &mut [TableNode; MAX_RHO_COUNT]| -> Result<()> {
+        for (i, n) in out.iter_mut().take(grid.rho_count).enumerate() {
+            let (rho, t) = grid.node(i, j);
+            *n = node(gas, rho, t);
+            if !n.p.iter().chain(&n.cv).all(|x| x.is_finite()) {
+                return Err(Error::NoConvergence { what: "gas table node", target: rho });
+            }
         }
+        Ok(())
+    };
+    let mut below = [TableNode::default(); MAX_RHO_COUNT];
+    let mut above = [TableNode::default(); MAX_RHO_COUNT];
+    row(0, &mut below)?;
+    for (j, cell_row) in cells.chunks_exact_mut(grid.rho_count - 1).enumerate() {
+        row(j + 1, &mut above)?;
+        for ((cell, lo), hi) in cell_row.iter_mut().zip(below.windows(2)).zip(above.windows(2)) {
+            let (Some([n00, n10]), Some([n01, n11])) = (lo.first_chunk::<2>(), hi.first_chunk::<2>()) else { continue };
+            *cell = TableCell { p: bicubic(n00.p, n10.p, n01.p, n11.p, hr, ht), cv: bicubic(n00.cv, n10.cv, n01.cv, n11.cv, hr, ht) };
+        }
+        core::mem::swap(&mut below, &mut above);
     }
     Ok(())
 }
 
-/// `gas` tabulated on `grid` in `nodes` (filled by [`fill`] from the same
+/// `gas` tabulated on `grid` in `cells` (filled by [`fill`] from the same
 /// gas), evaluated directly outside the grid.
 #[derive(Clone, Copy)]
 pub struct TabulatedGas<'a, E> {
     pub grid: TableGrid,
-    pub nodes: &'a [TableNode],
+    pub cells: &'a [TableCell],
     pub direct: E,
 }
 
 impl<E: core::fmt::Debug> core::fmt::Debug for TabulatedGas<'_, E> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("TabulatedGas").field("grid", &self.grid).field("nodes", &self.nodes.len()).field("direct", &self.direct).finish()
+        f.debug_struct("TabulatedGas").field("grid", &self.grid).field("cells", &self.cells.len()).field("direct", &self.direct).finish()
     }
 }
 
 impl<E: PartialEq> PartialEq for TabulatedGas<'_, E> {
     /// Same grid, same gas and the same storage.
     fn eq(&self, other: &Self) -> bool {
-        self.grid == other.grid && self.direct == other.direct && core::ptr::eq(self.nodes, other.nodes)
+        self.grid == other.grid && self.direct == other.direct && core::ptr::eq(self.cells, other.cells)
     }
 }
 
-/// Cubic Hermite basis on [0, 1] with the tangent terms scaled by the
-/// spacing `h`: weights of `(f0, f0', f1, f1')` for the value, and for the
-/// derivative (already divided by `h`).
+/// `sum_j b_j r^j` and its derivative in `r`, for `b = [b0, b1, b2, b3]`.
 #[inline(always)]
-fn hermite(s: f64, h: f64) -> ([f64; 4], [f64; 4]) {
-    let s2 = s * s;
-    let s3 = s2 * s;
-    let value = [2.0 * s3 - 3.0 * s2 + 1.0, (s3 - 2.0 * s2 + s) * h, 3.0 * s2 - 2.0 * s3, (s3 - s2) * h];
-    let inv_h = 1.0 / h;
-    let slope = [(6.0 * s2 - 6.0 * s) * inv_h, 3.0 * s2 - 4.0 * s + 1.0, (6.0 * s - 6.0 * s2) * inv_h, 3.0 * s2 - 2.0 * s];
-    (value, slope)
+fn cubic(b: [f64; 4], r: f64) -> (f64, f64) {
+    let [b0, b1, b2, b3] = b;
+    (b0 + r * (b1 + r * (b2 + r * b3)), b1 + r * (2.0 * b2 + r * 3.0 * b3))
 }
 
+/// `sum_ij a_ij s^i r^j` for the coefficients `a` of a cell.
 #[inline(always)]
-fn dot(w: &[f64; 4], a: f64, b: f64, c: f64, d: f64) -> f64 {
-    let [w0, w1, w2, w3] = *w;
-    w0 * a + w1 * b + w2 * c + w3 * d
+fn value(a: &[f64; 16], s: f64, r: f64) -> f64 {
+    let [a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, a30, a31, a32, a33] = *a;
+    let b = |c0: f64, c1: f64, c2: f64, c3: f64| c0 + s * (c1 + s * (c2 + s * c3));
+    let (b0, b1, b2, b3) = (b(a00, a10, a20, a30), b(a01, a11, a21, a31), b(a02, a12, a22, a32), b(a03, a13, a23, a33));
+    b0 + r * (b1 + r * (b2 + r * b3))
 }
 
-/// The four nodes of a cell and the weights in it.
-struct Cell<'a> {
-    n00: &'a TableNode,
-    n10: &'a TableNode,
-    n01: &'a TableNode,
-    n11: &'a TableNode,
-    wr: [f64; 4],
-    dwr: [f64; 4],
-    wt: [f64; 4],
-    dwt: [f64; 4],
+/// The value and its derivatives in `s` and `r`.
+#[inline(always)]
+fn value_and_slopes(a: &[f64; 16], s: f64, r: f64) -> (f64, f64, f64) {
+    let [a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, a30, a31, a32, a33] = *a;
+    let b = |c0: f64, c1: f64, c2: f64, c3: f64| (c0 + s * (c1 + s * (c2 + s * c3)), c1 + s * (2.0 * c2 + s * 3.0 * c3));
+    let ((b0, d0), (b1, d1), (b2, d2), (b3, d3)) = (b(a00, a10, a20, a30), b(a01, a11, a21, a31), b(a02, a12, a22, a32), b(a03, a13, a23, a33));
+    let (f, f_r) = cubic([b0, b1, b2, b3], r);
+    let (f_s, _) = cubic([d0, d1, d2, d3], r);
+    (f, f_s, f_r)
 }
 
 impl<E: EquationOfState> TabulatedGas<'_, E> {
-    /// The cell containing `(rho, t)`, None outside the grid.
+    /// The cell containing `(rho, t)` and the local coordinates in it,
+    /// None outside the grid.
     #[inline(always)]
-    fn cell(&self, rho_kg_m3: f64, t_k: f64) -> Option<Cell<'_>> {
+    fn cell(&self, rho_kg_m3: f64, t_k: f64) -> Option<(&TableCell, f64, f64)> {
         let g = &self.grid;
         let x = (rho_kg_m3 - g.rho_min_kg_m3) / g.rho_step_kg_m3;
         let y = (t_k - g.t_min_k) / g.t_step_k;
@@ -180,38 +246,8 @@ impl<E: EquationOfState> TabulatedGas<'_, E> {
             return None;
         }
         let (i, j) = (x as usize, y as usize);
-        let k = i + j * g.rho_count;
-        let row = self.nodes.get(k..k + 2)?;
-        let next = self.nodes.get(k + g.rho_count..k + g.rho_count + 2)?;
-        let ([n00, n10], [n01, n11]) = (row.first_chunk::<2>()?, next.first_chunk::<2>()?);
-        let (wr, dwr) = hermite(x - i as f64, g.rho_step_kg_m3);
-        let (wt, dwt) = hermite(y - j as f64, g.t_step_k);
-        Some(Cell { n00, n10, n01, n11, wr, dwr, wt, dwt })
-    }
-}
-
-impl Cell<'_> {
-    /// Value and (when `slopes`) density and temperature derivatives of
-    /// the quantity `q` picks from a node.
-    #[inline(always)]
-    fn interpolate(&self, q: impl Fn(&TableNode) -> [f64; 4]) -> (f64, f64, f64) {
-        let ([f00, r00, t00, rt00], [f10, r10, t10, rt10]) = (q(self.n00), q(self.n10));
-        let ([f01, r01, t01, rt01], [f11, r11, t11, rt11]) = (q(self.n01), q(self.n11));
-        // Along density at both temperatures: the value and its T-derivative.
-        let (g0, gt0) = (dot(&self.wr, f00, r00, f10, r10), dot(&self.wr, t00, rt00, t10, rt10));
-        let (g1, gt1) = (dot(&self.wr, f01, r01, f11, r11), dot(&self.wr, t01, rt01, t11, rt11));
-        let (dg0, dgt0) = (dot(&self.dwr, f00, r00, f10, r10), dot(&self.dwr, t00, rt00, t10, rt10));
-        let (dg1, dgt1) = (dot(&self.dwr, f01, r01, f11, r11), dot(&self.dwr, t01, rt01, t11, rt11));
-        (dot(&self.wt, g0, gt0, g1, gt1), dot(&self.wt, dg0, dgt0, dg1, dgt1), dot(&self.dwt, g0, gt0, g1, gt1))
-    }
-
-    #[inline(always)]
-    fn value(&self, q: impl Fn(&TableNode) -> [f64; 4]) -> f64 {
-        let ([f00, r00, t00, rt00], [f10, r10, t10, rt10]) = (q(self.n00), q(self.n10));
-        let ([f01, r01, t01, rt01], [f11, r11, t11, rt11]) = (q(self.n01), q(self.n11));
-        let (g0, gt0) = (dot(&self.wr, f00, r00, f10, r10), dot(&self.wr, t00, rt00, t10, rt10));
-        let (g1, gt1) = (dot(&self.wr, f01, r01, f11, r11), dot(&self.wr, t01, rt01, t11, rt11));
-        dot(&self.wt, g0, gt0, g1, gt1)
+        let cell = self.cells.get(i + j * (g.rho_count - 1))?;
+        Some((cell, x - i as f64, y - j as f64))
     }
 }
 
@@ -219,9 +255,14 @@ impl<E: EquationOfState> EquationOfState for TabulatedGas<'_, E> {
     #[inline]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         match self.cell(rho_kg_m3, t_k) {
-            Some(c) => {
-                let (p_pa, dp_drho_pa_m3_per_kg, dp_dt_pa_per_k) = c.interpolate(|n| n.p);
-                GasProps { p_pa, dp_dt_pa_per_k, dp_drho_pa_m3_per_kg, cv_j_per_kg_k: c.value(|n| n.cv) }
+            Some((c, s, r)) => {
+                let (p_pa, p_s, p_r) = value_and_slopes(&c.p, s, r);
+                GasProps {
+                    p_pa,
+                    dp_dt_pa_per_k: p_r / self.grid.t_step_k,
+                    dp_drho_pa_m3_per_kg: p_s / self.grid.rho_step_kg_m3,
+                    cv_j_per_kg_k: value(&c.cv, s, r),
+                }
             }
             None => self.direct.props(rho_kg_m3, t_k),
         }
@@ -230,9 +271,9 @@ impl<E: EquationOfState> EquationOfState for TabulatedGas<'_, E> {
     #[inline]
     fn pressure_and_slope(&self, rho_kg_m3: f64, t_k: f64) -> (f64, f64) {
         match self.cell(rho_kg_m3, t_k) {
-            Some(c) => {
-                let (p, p_rho, _) = c.interpolate(|n| n.p);
-                (p, p_rho)
+            Some((c, s, r)) => {
+                let (p, p_s, _) = value_and_slopes(&c.p, s, r);
+                (p, p_s / self.grid.rho_step_kg_m3)
             }
             None => self.direct.pressure_and_slope(rho_kg_m3, t_k),
         }
