@@ -26,7 +26,7 @@ fn worst_errors() -> [f64; 4] {
     for a in 0..97 {
         let p_pa = 1.0e6 * (110.0f64).powf(a as f64 / 96.0);
         for b in 0..61 {
-            let t_k = 233.15 + 240.0 * (b as f64 + 0.318) / 61.0;
+            let t_k = 233.15 + 240.0 * (b as f64 + 0.29) / 61.0;
             let rho = Span.density_kg_m3(p_pa, t_k).unwrap() * (1.0 + 1e-3 * std::f64::consts::SQRT_2 * (b % 7) as f64);
             let (exact, tab) = (Span.props(rho, t_k), g.props(rho, t_k));
             let rel = |x: f64, y: f64| ((y - x) / x).abs();
