@@ -2,7 +2,7 @@
 //! ([`hp_core::gas::table`]): what the vehicles evaluate their units' gas
 //! with. The 8x8 evaluates 64 gas states per 1 ms period at fixed steps;
 //! directly that is three quarters of its time, through the table a few
-//! per cent, for a pressure within 1e-9 of the direct evaluation.
+//! per cent, for a pressure within 1.3e-8 of the direct evaluation.
 //!
 //! Built on first use (about 180,000 evaluations of the equation, some
 //! tens of milliseconds) and shared by every vehicle and thread after that.

@@ -40,7 +40,7 @@ fn at_rest_the_tyres_carry_the_weight_and_nothing_moves() {
     for (name, p) in both() {
         for valves in [Valves::from_modes(true, true), Valves::from_modes(false, false)] {
             // The statics are solved with the gas's equation; the default
-            // plant's table of it (1e-9 in pressure) moves the equilibrium
+            // plant's table of it (1.3e-8 in pressure) moves the equilibrium
             // by about a nanometre, so the exact check runs on the direct gas.
             let tabulated = Vehicle::new(p, T_K, valves).unwrap();
             let s = drive(&tabulated, &Road::FLAT, valves, 2.0, 1e-3, |_| DriveInputs { speed_m_s: 10.0, ..DriveInputs::default() });
