@@ -210,6 +210,7 @@ def vehicle_run(
     record_every: int = 1,
     t_gas_sensor_tau_s: float = 1.0,
     progress: Callable[[int, int], object] | None = None,
+    reference_plant: bool = False,
 ) -> VehicleRunDict: ...
 def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRunDict | HpctlError]: ...
 @final

@@ -14,6 +14,7 @@
 use crate::error::{check_range, Error, Result};
 
 pub mod span;
+pub mod table;
 
 /// Molar mass of nitrogen (N2), g/mol (= kg/kmol).
 pub const N2_MOLAR_MASS_G_PER_MOL: f64 = 28.0134;

@@ -603,6 +603,23 @@ impl Unit {
         ambient_k: f64,
         needs: Needs,
     ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
+        self.evaluate_parts_with(&self.params.gas, state, motion, valves, ambient_k, needs)
+    }
+
+    /// [`Unit::evaluate_parts`] with the gas's properties from `gas`
+    /// instead of the parameters' equation of state: the same gas in a
+    /// faster form (e.g. [`crate::gas::table::TabulatedGas`] of it). The
+    /// caller keeps the two the same gas.
+    #[inline(always)]
+    pub fn evaluate_parts_with(
+        &self,
+        gas: &impl EquationOfState,
+        state: &UnitState,
+        motion: StrutMotion,
+        valves: Valves,
+        ambient_k: f64,
+        needs: Needs,
+    ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
         let p = &self.params;
         let e = &p.effects;
         let area = p.piston_area_m2;
@@ -629,9 +646,9 @@ impl Unit {
         let (rho_s, rho_l) = (state.m_small_kg / state.v_gas_m3, state.m_large_kg / state.v_gas2_m3);
         let gas = |rho: f64, t: f64| {
             if needs.rates {
-                p.gas.props(rho, t)
+                gas.props(rho, t)
             } else {
-                let (p_pa, dp_drho_pa_m3_per_kg) = p.gas.pressure_and_slope(rho, t);
+                let (p_pa, dp_drho_pa_m3_per_kg) = gas.pressure_and_slope(rho, t);
                 GasProps { p_pa, dp_drho_pa_m3_per_kg, ..UNUSED_PROPS }
             }
         };

@@ -16,7 +16,7 @@ use hp_vehicle::drive::{self, Driver, Suspension};
 use hp_vehicle::track::{Road, Track};
 use hp_vehicle::tyre::Tyre;
 use hp_vehicle::vehicle::{
-    Axle, Body, CornerSample, DriveInputs, Seat, Vehicle, VehicleParams, VehicleSample, VehicleState, MAX_AXLES, MAX_CORNERS,
+    Axle, Body, CornerSample, DriveInputs, Seat, Stepping, Vehicle, VehicleParams, VehicleSample, VehicleState, MAX_AXLES, MAX_CORNERS,
 };
 use hp_vehicle::presets;
 use numpy::ndarray::Array2;
@@ -257,6 +257,9 @@ struct VehicleCase {
     max_dt_s: f64,
     record_every: usize,
     sensors: Sensors,
+    /// Run the reference plant (RK4 steps, the gas evaluated directly)
+    /// instead of the fast one (ROS2 steps, the tabulated gas).
+    reference_plant: bool,
 }
 
 /// What a run recorded (row-major per-wheel arrays).
@@ -341,6 +344,7 @@ impl VehicleCase {
             max_dt_s,
             record_every,
             sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s },
+            reference_plant: false,
         })
     }
 
@@ -349,7 +353,10 @@ impl VehicleCase {
             Some(p) => Suspension::SemiActive(p),
             None => Suspension::Passive(self.passive),
         };
-        let vehicle = Vehicle::new(self.vehicle, self.ambient_k, suspension.initial_valves())?;
+        let mut vehicle = Vehicle::new(self.vehicle, self.ambient_k, suspension.initial_valves())?;
+        if self.reference_plant {
+            vehicle = vehicle.with_direct_gas().with_stepping(Stepping::Rk4);
+        }
         let corners = vehicle.corner_count();
         let rows = self.drivers.len().div_ceil(self.record_every);
         let mut rec = VehicleRecord {
@@ -420,8 +427,10 @@ impl VehicleCase {
 /// int64 `driver_mode`) with the `suspension`. Returns `{"vehicle": 1-D
 /// arrays, "corners": (periods, wheels) arrays, "controller": (periods,
 /// wheels) arrays (semi-active only)}` every `record_every`-th period.
+/// `reference_plant` runs RK4 steps with the gas evaluated directly (what
+/// the fast default, ROS2 steps on the tabulated gas, is checked against).
 #[pyfunction]
-#[pyo3(signature = (vehicle, road, drive, suspension, dt_s, ambient_k, max_dt_s=1e-3, record_every=1, t_gas_sensor_tau_s=1.0, progress=None))]
+#[pyo3(signature = (vehicle, road, drive, suspension, dt_s, ambient_k, max_dt_s=1e-3, record_every=1, t_gas_sensor_tau_s=1.0, progress=None, reference_plant=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn vehicle_run<'py>(
     py: Python<'py>,
@@ -435,9 +444,11 @@ pub fn vehicle_run<'py>(
     record_every: usize,
     t_gas_sensor_tau_s: f64,
     progress: Option<Py<PyAny>>,
+    reference_plant: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
-        let case = VehicleCase::from_py(vehicle, road, drive, suspension, dt_s, ambient_k, max_dt_s, record_every, t_gas_sensor_tau_s)?;
+        let mut case = VehicleCase::from_py(vehicle, road, drive, suspension, dt_s, ambient_k, max_dt_s, record_every, t_gas_sensor_tau_s)?;
+        case.reference_plant = reference_plant;
         let total = case.drivers.len();
         let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         case.to_dict(py, result.map_err(to_py)?)

@@ -14,7 +14,7 @@ use hp_vehicle::closed_loop::Sensors;
 use hp_vehicle::drive::{run, Driver, Suspension};
 use hp_vehicle::presets;
 use hp_vehicle::track::{Road, Track};
-use hp_vehicle::vehicle::{Vehicle, VehicleParams, MAX_CORNERS};
+use hp_vehicle::vehicle::{Stepping, Vehicle, VehicleParams, MAX_CORNERS};
 use std::hint::black_box;
 
 /// A rough two-track road (sum of sines, class D-like amplitudes), 2 cm grid.
@@ -65,8 +65,17 @@ fn drive(c: &mut Criterion, name: &str, params: VehicleParams) {
     let mut g = c.benchmark_group(format!("{name}_10s_at_1khz"));
     g.sample_size(10);
     g.throughput(Throughput::Elements((SECONDS * 1000) as u64));
-    for (label, suspension) in [("passive", Suspension::Passive(Valves::from_modes(false, true))), ("semi_active", Suspension::SemiActive(&ctrl))] {
-        let vehicle = Vehicle::new(params, 293.15, suspension.initial_valves()).unwrap();
+    let passive = Suspension::Passive(Valves::from_modes(false, true));
+    let semi = Suspension::SemiActive(&ctrl);
+    // The default plant (ROS2, tabulated gas) and the reference one it
+    // replaced (RK4, the gas evaluated directly), in the same run.
+    for (label, suspension, reference) in
+        [("passive", passive, false), ("semi_active", semi, false), ("passive_reference", passive, true), ("semi_active_reference", semi, true)]
+    {
+        let mut vehicle = Vehicle::new(params, 293.15, suspension.initial_valves()).unwrap();
+        if reference {
+            vehicle = vehicle.with_direct_gas().with_stepping(Stepping::Rk4);
+        }
         g.bench_function(label, |b| {
             b.iter(|| {
                 let mut states = [State::new(); MAX_CORNERS];

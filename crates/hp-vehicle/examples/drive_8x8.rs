@@ -1,7 +1,9 @@
 //! Drives the 8x8 for a few seconds on a rough road (for profiling:
-//! `perf stat` / `valgrind --tool=callgrind`), passive or semi-active.
+//! `perf stat` / `valgrind --tool=callgrind`), passive or semi-active, on
+//! the default plant (ROS2 steps, tabulated gas) or the reference one (RK4
+//! steps, the gas evaluated directly).
 //!
-//!     cargo run -p hp-vehicle --release --example drive_8x8 -- [passive|semi] [seconds]
+//!     cargo run -p hp-vehicle --release --example drive_8x8 -- [passive|semi] [seconds] [fast|reference]
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 use hp_core::unit::Valves;
 use hp_ctrl::{Params, State};
@@ -9,7 +11,7 @@ use hp_vehicle::closed_loop::Sensors;
 use hp_vehicle::drive::{run, Driver, Suspension};
 use hp_vehicle::presets;
 use hp_vehicle::track::{Road, Track};
-use hp_vehicle::vehicle::{Vehicle, MAX_CORNERS};
+use hp_vehicle::vehicle::{Stepping, Vehicle, MAX_CORNERS};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -21,7 +23,11 @@ fn main() {
     let p = presets::armoured_8x8();
     let ctrl = Params::new(presets::controller_config(&p)).unwrap();
     let s = if semi { Suspension::SemiActive(&ctrl) } else { Suspension::Passive(Valves::from_modes(false, true)) };
-    let v = Vehicle::new(p, 293.15, s.initial_valves()).unwrap();
+    let reference = args.get(3).is_some_and(|a| a == "reference");
+    let mut v = Vehicle::new(p, 293.15, s.initial_valves()).unwrap();
+    if reference {
+        v = v.with_direct_gas().with_stepping(Stepping::Rk4);
+    }
     let mut states = [State::new(); MAX_CORNERS];
     let mut sum = 0.0;
     let start = std::time::Instant::now();

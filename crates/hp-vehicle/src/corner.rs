@@ -7,7 +7,8 @@
 //! mounted per wheel): its compression is the static compression plus the
 //! wheel's rise relative to the body above it.
 
-use hp_core::unit::{StrutMotion, Unit, UnitOutputs, UnitState, Valves};
+use hp_core::gas::EquationOfState;
+use hp_core::unit::{Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valve6Coupling, Valves};
 
 use crate::tyre::Tyre;
 
@@ -41,11 +42,18 @@ pub struct CornerForces {
 /// The unit's state rate and the corner's forces.
 ///
 /// `static_disp_m` is the strut compression and `tyre_static_deflection_m`
-/// the tyre deflection at static equilibrium.
+/// the tyre deflection at static equilibrium. The unit's gas properties
+/// come from `gas` (the unit's own equation of state, or a table of it);
+/// with `outputs` false only the rate, the strut force and the pressures
+/// are computed (see [`Needs`]); with `coupling` the valve-6 exchange's
+/// linearisation is returned when valve 6 is open.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn evaluate(
     unit: &Unit,
+    gas: &impl EquationOfState,
+    outputs: bool,
+    coupling: bool,
     tyre: &Tyre,
     state: &UnitState,
     motion: &CornerMotion,
@@ -53,13 +61,13 @@ pub fn evaluate(
     tyre_static_deflection_m: f64,
     valves: Valves,
     ambient_k: f64,
-) -> (UnitState, CornerForces) {
+) -> (UnitState, CornerForces, Option<Valve6Coupling>) {
     let strut = StrutMotion {
         disp_m: static_disp_m + motion.wheel_disp_m - motion.body_disp_m,
         vel_m_s: motion.wheel_vel_m_s - motion.body_vel_m_s,
     };
-    let (rate, unit_out) = unit.evaluate(state, strut, valves, ambient_k);
+    let (rate, unit_out, coupled) = unit.evaluate_parts_with(gas, state, strut, valves, ambient_k, Needs { outputs, coupling, rates: true });
     let deflection = tyre_static_deflection_m + motion.road_m - motion.wheel_disp_m;
     let tyre_force = tyre.force_n(deflection, motion.road_vel_m_s - motion.wheel_vel_m_s);
-    (rate, CornerForces { strut, unit: unit_out, tyre_deflection_m: deflection, tyre_force_n: tyre_force })
+    (rate, CornerForces { strut, unit: unit_out, tyre_deflection_m: deflection, tyre_force_n: tyre_force }, coupled)
 }

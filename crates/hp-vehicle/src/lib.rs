@@ -12,6 +12,8 @@
 //!   acceleration) with any number of axles.
 //! - [`vehicle`]: the rigid body in heave, pitch and roll on 2-4 axles, a
 //!   unit with its own valves per wheel, the handling model.
+//! - [`gas_table`]: the reference gas tabulated once per process for the
+//!   vehicles' fixed steps.
 //! - [`track`]: road height over distance, left and right.
 //! - [`presets`]: an armoured-vehicle class 4x4 and 8x8.
 //! - [`closed_loop`]: the controller (`hp-ctrl`) on the SDOF rig.
@@ -26,6 +28,7 @@
 pub mod closed_loop;
 pub mod corner;
 pub mod drive;
+pub mod gas_table;
 pub mod handling;
 pub mod presets;
 pub mod quarter_car;

@@ -140,8 +140,11 @@ impl<'a> QuarterCar<'a> {
             road_m,
             road_vel_m_s,
         };
-        let (unit_rate, c) = corner::evaluate(
+        let (unit_rate, c, _) = corner::evaluate(
             self.unit,
+            &self.unit.params().gas,
+            true,
+            false,
             &self.params.tyre,
             &s.unit,
             &motion,

@@ -18,19 +18,25 @@ pub fn advance<const N: usize, S: OdeSystem<N>>(
     max_dt_s: f64,
     mut finish: impl FnMut(f64, &mut [f64; N]) -> Result<()>,
 ) -> Result<[f64; N]> {
+    let (n, h) = steps(t_s, t_end_s, max_dt_s)?;
+    let mut next = rk4_step_from(system, t_s, y, h, k1)?;
+    finish(t_s + h, &mut next)?;
+    for k in 1..n {
+        let t = t_s + h * k as f64;
+        next = rk4_step(system, t, &next, h)?;
+        finish(t + h, &mut next)?;
+    }
+    Ok(next)
+}
+
+/// The number of equal steps of at most `max_dt_s` from `t_s` to
+/// `t_end_s`, and their length.
+pub fn steps(t_s: f64, t_end_s: f64, max_dt_s: f64) -> Result<(u64, f64)> {
     check_range("max_dt_s", max_dt_s, 1e-9, 10.0)?;
     let span = t_end_s - t_s;
     let n = libm::ceil(span / max_dt_s);
     if !(1.0..=MAX_SUBSTEPS).contains(&n) {
         return Err(Error::OutOfRange { name: "dt_s", value: span, min: max_dt_s / MAX_SUBSTEPS, max: max_dt_s * MAX_SUBSTEPS });
     }
-    let h = span / n;
-    let mut next = rk4_step_from(system, t_s, y, h, k1)?;
-    finish(t_s + h, &mut next)?;
-    for k in 1..(n as u64) {
-        let t = t_s + h * k as f64;
-        next = rk4_step(system, t, &next, h)?;
-        finish(t + h, &mut next)?;
-    }
-    Ok(next)
+    Ok((n as u64, span / n))
 }

@@ -36,8 +36,10 @@
 //! static position.
 
 use hp_core::error::{check_range, Error, Result};
+use hp_core::gas::table::TabulatedGas;
+use hp_core::gas::{Gas, Span};
 use hp_core::ode::OdeSystem;
-use hp_core::unit::{Unit, UnitParams, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+use hp_core::unit::{Unit, UnitParams, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 use crate::corner::{self, CornerForces, CornerMotion};
 use crate::handling::{self, HandlingAxle, HandlingState};
@@ -153,6 +155,35 @@ pub struct DriveInputs {
     pub steer_angle_rad: f64,
 }
 
+/// How the vehicle is advanced between two control instants.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Stepping {
+    /// Classical RK4, four evaluations a step: the reference the faster
+    /// method is checked against (and what the vehicles used before).
+    Rk4,
+    /// ROS2 (Verwer, Spee, Blom & Hundsdorfer 1999, SIAM J. Sci. Comput.
+    /// 20): a two-stage, second-order, L-stable Rosenbrock-W method, with
+    /// each unit's valve-6 exchange (its one stiff mode,
+    /// [`Valve6Coupling`]) treated linearly implicitly, so that the orifice
+    /// does not limit the step; everything else is integrated explicitly
+    /// (Heun's method). Two evaluations a step instead of RK4's four.
+    #[default]
+    Ros2,
+}
+
+/// ROS2's `gamma = 1 + 1/sqrt(2)` (L-stability).
+const ROS2_GAMMA: f64 = 1.0 + core::f64::consts::FRAC_1_SQRT_2;
+
+/// The state rate at one instant, with each unit's valve-6 linearisation
+/// (present when valve 6 is open and the stepping is implicit in it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rate {
+    pub state: VehicleState,
+    couplings: Couplings,
+}
+
+type Couplings = [Option<Valve6Coupling>; MAX_CORNERS];
+
 /// A validated vehicle with its static equilibrium.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vehicle {
@@ -165,6 +196,10 @@ pub struct Vehicle {
     total_mass_kg: f64,
     roll_arm_m: f64,
     roll_axis_inertia_kg_m2: f64,
+    /// The reference gas's table, used for the units whose gas is the
+    /// reference one (None: every unit evaluates its equation directly).
+    gas_table: Option<TabulatedGas<'static, Span>>,
+    stepping: Stepping,
 }
 
 /// The state of a vehicle: a flat array for the integrator, read through
@@ -346,7 +381,33 @@ impl Vehicle {
             total_mass_kg: b.mass_kg + unsprung_total,
             roll_arm_m,
             roll_axis_inertia_kg_m2: b.roll_inertia_kg_m2 + b.mass_kg * roll_arm_m * roll_arm_m,
+            gas_table: crate::gas_table::span(),
+            stepping: Stepping::default(),
         })
+    }
+
+    /// The same vehicle with every unit's gas evaluated directly from its
+    /// equation of state instead of the table ([`crate::gas_table`]): the
+    /// reference the tabulated runs are checked against.
+    pub fn with_direct_gas(mut self) -> Self {
+        self.gas_table = None;
+        self
+    }
+
+    /// The same vehicle advanced with `stepping`.
+    pub fn with_stepping(mut self, stepping: Stepping) -> Self {
+        self.stepping = stepping;
+        self
+    }
+
+    /// How the vehicle is advanced.
+    pub fn stepping(&self) -> Stepping {
+        self.stepping
+    }
+
+    /// True when the units on the reference gas use its table.
+    pub fn gas_tabulated(&self) -> bool {
+        self.gas_table.is_some()
     }
 
     /// The parameters it was built from.
@@ -426,7 +487,13 @@ fn split_corner(cy: &[f64]) -> (UnitState, f64, f64) {
 impl Dynamics<'_> {
     /// The state rate, and the sample when one is asked for.
     #[inline]
-    fn evaluate(&self, t_s: f64, y: &[f64; VEHICLE_STATES], mut sample: Option<&mut VehicleSample>) -> [f64; VEHICLE_STATES] {
+    fn evaluate(
+        &self,
+        t_s: f64,
+        y: &[f64; VEHICLE_STATES],
+        mut sample: Option<&mut VehicleSample>,
+        mut couplings: Option<&mut Couplings>,
+    ) -> [f64; VEHICLE_STATES] {
         let v = self.vehicle;
         let b = &v.params.body;
         let mut rate = [0.0; VEHICLE_STATES];
@@ -457,8 +524,30 @@ impl Dynamics<'_> {
                 road_m,
                 road_vel_m_s: slope * u,
             };
-            let (unit_rate, f) =
-                corner::evaluate(unit, &c.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, *valves, v.ambient_k);
+            // Every output only for a sample; the stages need the rate and forces.
+            let outputs = sample.is_some();
+            let coupling = couplings.is_some();
+            let (unit_rate, f, coupled) = match &v.gas_table {
+                Some(table) if unit.params().gas == Gas::Span => {
+                    corner::evaluate(unit, table, outputs, coupling, &c.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, *valves, v.ambient_k)
+                }
+                _ => corner::evaluate(
+                    unit,
+                    &unit.params().gas,
+                    outputs,
+                    coupling,
+                    &c.tyre,
+                    &unit_state,
+                    &motion,
+                    c.static_disp_m,
+                    c.tyre_static_deflection_m,
+                    *valves,
+                    v.ambient_k,
+                ),
+            };
+            if let Some(slot) = couplings.as_deref_mut().and_then(|k| k.get_mut(i)) {
+                *slot = coupled;
+            }
             let strut = f.unit.force_true_n;
             let wheel_acc = (f.tyre_force_n - strut - c.lateral_transfer_kg * a_y) / c.unsprung_mass_kg - G;
             force += strut;
@@ -544,11 +633,18 @@ impl Dynamics<'_> {
         for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_chunks(y)) {
             unit.check_state(&split_corner(cy).0, t_s)?;
         }
-        let sum: f64 = y.iter().sum();
-        if sum.is_finite() {
+        // x * 0 is 0 for a finite x, NaN otherwise; four partial sums
+        // (which the compiler vectorises) instead of one chain of 171 adds.
+        let mut lanes = [0.0; 4];
+        for chunk in y.chunks(4) {
+            for (a, x) in lanes.iter_mut().zip(chunk) {
+                *a += x * 0.0;
+            }
+        }
+        if lanes.iter().sum::<f64>() == 0.0 {
             Ok(())
         } else {
-            let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(sum);
+            let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
             Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
         }
     }
@@ -568,32 +664,132 @@ impl Dynamics<'_> {
     /// The state rate at `(t_s, state)`, with the observed quantities
     /// written into `sample`; fails if the state is outside the model's
     /// valid region.
-    pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<VehicleState> {
+    pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        Ok(VehicleState { y: self.evaluate(t_s, &state.y, Some(sample)) })
+        let mut couplings = [None; MAX_CORNERS];
+        let y = self.evaluate(t_s, &state.y, Some(sample), self.couplings_wanted(&mut couplings));
+        Ok(Rate { state: VehicleState { y }, couplings })
     }
 
     /// The state rate at `(t_s, state)`.
-    pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<VehicleState> {
+    pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        Ok(VehicleState { y: self.evaluate(t_s, &state.y, None) })
+        let mut couplings = [None; MAX_CORNERS];
+        let y = self.evaluate(t_s, &state.y, None, self.couplings_wanted(&mut couplings));
+        Ok(Rate { state: VehicleState { y }, couplings })
     }
 
-    /// Advances from `t_s` to `t_end_s` in equal RK4 steps of at most
-    /// `max_dt_s`; `rate` is the state rate at `t_s` with these inputs and
-    /// valves (from [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
-    pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &VehicleState, max_dt_s: f64) -> Result<VehicleState> {
-        let y = stepping::advance(self, t_s, t_end_s, &state.y, &rate.y, max_dt_s, |t, y| {
+    /// Where to put the valve-6 linearisations, if the stepping uses them.
+    fn couplings_wanted<'c>(&self, couplings: &'c mut Couplings) -> Option<&'c mut Couplings> {
+        match self.vehicle.stepping {
+            Stepping::Ros2 => Some(couplings),
+            Stepping::Rk4 => None,
+        }
+    }
+
+    /// Advances from `t_s` to `t_end_s` in equal steps of at most
+    /// `max_dt_s` with the vehicle's [`Stepping`]; `rate` is the state rate
+    /// at `t_s` with these inputs and valves (from
+    /// [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
+    pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &Rate, max_dt_s: f64) -> Result<VehicleState> {
+        let finish = |t: f64, y: &mut [f64; VEHICLE_STATES]| {
             self.project(y);
             self.check(t, y)
-        })?;
+        };
+        let y = match self.vehicle.stepping {
+            Stepping::Rk4 => stepping::advance(self, t_s, t_end_s, &state.y, &rate.state.y, max_dt_s, finish)?,
+            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &state.y, rate, max_dt_s, finish)?,
+        };
         Ok(VehicleState { y })
+    }
+
+    /// ROS2 steps ([`Stepping::Ros2`]): per step, with `W = I - gamma h J`
+    /// and `J` the units' valve-6 linearisations at the step's start,
+    ///
+    /// ```text
+    /// W k1 = f(t, y)
+    /// W k2 = f(t + h, y + h k1) - 2 k1
+    /// y'   = y + h (3/2 k1 + 1/2 k2)
+    /// ```
+    ///
+    /// `J` is block diagonal with a rank-one block `u v^T` per unit, so
+    /// `W^-1` is the Sherman-Morrison formula per unit, O(states).
+    fn advance_ros2(
+        &self,
+        t_s: f64,
+        t_end_s: f64,
+        y0: &[f64; VEHICLE_STATES],
+        rate: &Rate,
+        max_dt_s: f64,
+        mut finish: impl FnMut(f64, &mut [f64; VEHICLE_STATES]) -> Result<()>,
+    ) -> Result<[f64; VEHICLE_STATES]> {
+        let (n, h) = stepping::steps(t_s, t_end_s, max_dt_s)?;
+        let gh = ROS2_GAMMA * h;
+        let mut y = *y0;
+        let mut f = rate.state.y;
+        let mut couplings = rate.couplings;
+        for k in 0..n {
+            let t = t_s + h * k as f64;
+            if k > 0 {
+                f = self.evaluate(t, &y, None, Some(&mut couplings));
+            }
+            let w = w_inverse(&couplings, gh);
+            let mut k1 = f;
+            solve_w(&w, &mut k1);
+            let mut y1 = y;
+            for (a, b) in y1.iter_mut().zip(&k1) {
+                *a += h * b;
+            }
+            let mut k2 = self.evaluate(t + h, &y1, None, None);
+            for (a, b) in k2.iter_mut().zip(&k1) {
+                *a -= 2.0 * b;
+            }
+            solve_w(&w, &mut k2);
+            for ((a, b), c) in y.iter_mut().zip(&k1).zip(&k2) {
+                *a += h * (1.5 * b + 0.5 * c);
+            }
+            finish(t + h, &mut y)?;
+        }
+        Ok(y)
+    }
+}
+
+/// `W^-1 = (I - c J)^-1` for `J` = the units' rank-one valve-6 blocks, by
+/// Sherman-Morrison: `(I - c u v^T)^-1 = I + c u v^T / (1 - c v.u)`, kept
+/// per unit as the vectors `c u / (1 - c v.u)` and `v`. A block whose mode
+/// is not decaying (`v.u >= 0`) is left explicit: a W-method keeps its
+/// order for any `W`, and only a decaying mode needs the implicit treatment.
+type WInverse = [Option<([f64; UNIT_STATES], [f64; UNIT_STATES])>; MAX_CORNERS];
+
+fn w_inverse(couplings: &Couplings, c: f64) -> WInverse {
+    let mut w = [None; MAX_CORNERS];
+    for (out, k) in w.iter_mut().zip(couplings) {
+        let Some(k) = k else { continue };
+        let (u, v) = (k.u.to_array(), k.v.to_array());
+        let vu: f64 = v.iter().zip(&u).map(|(a, b)| a * b).sum();
+        if vu < 0.0 {
+            let scale = c / (1.0 - c * vu);
+            *out = Some((u.map(|x| scale * x), v));
+        }
+    }
+    w
+}
+
+/// `x <- W^-1 x`.
+fn solve_w(w: &WInverse, x: &mut [f64; VEHICLE_STATES]) {
+    let (_, corner_x) = x.split_at_mut(BODY_STATES);
+    for (k, cx) in w.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)) {
+        let (Some((u, v)), Some(xu)) = (k, cx.first_chunk_mut::<UNIT_STATES>()) else { continue };
+        let vx: f64 = v.iter().zip(xu.iter()).map(|(a, b)| a * b).sum();
+        for (a, b) in xu.iter_mut().zip(u) {
+            *a += vx * b;
+        }
     }
 }
 
 impl OdeSystem<VEHICLE_STATES> for Dynamics<'_> {
     #[inline]
     fn derivatives(&self, t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<[f64; VEHICLE_STATES]> {
-        Ok(self.evaluate(t_s, y, None))
+        Ok(self.evaluate(t_s, y, None, None))
     }
 }

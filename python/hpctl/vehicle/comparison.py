@@ -149,18 +149,39 @@ def _warnings(case: Case, sections: Sequence[SectionMetrics]) -> list[Caveat]:
 
 
 def run_case(
-    case: Case, *, route: Route | None = None, trace_step: int = 10, progress: Callable[[int, int], None] | None = None
+    case: Case,
+    *,
+    route: Route | None = None,
+    trace_step: int = 10,
+    progress: Callable[[int, int], None] | None = None,
+    reference_plant: bool = False,
+    driver: Drive | None = None,
 ) -> CaseResult:
-    """Runs one case and reduces it (a failure is kept in the result, not raised)."""
+    """Runs one case and reduces it (a failure is kept in the result, not raised).
+
+    `reference_plant` runs the vehicle with RK4 steps and the gas evaluated
+    directly instead of the default ROS2 steps on the tabulated gas (what
+    the default is checked against; about four times slower). `driver`
+    is the route's drive for this vehicle when the caller has it already
+    (a serial Python loop over the periods: the tuning computes it once
+    per vehicle and route, not once per candidate).
+    """
     result = CaseResult(case)
     try:
         r = build(case.route, case.vehicle) if route is None else route
         result.route = r
         statics = case.vehicle.statics(case.ambient_k, spring_hard=case.setting.spring_hard or case.setting.semi_active)
-        d: Drive = drive(r, case.vehicle, dt_s=case.dt_s, total_mass_kg=statics.total_mass_kg)
+        d: Drive = drive(r, case.vehicle, dt_s=case.dt_s, total_mass_kg=statics.total_mass_kg) if driver is None else driver
         ambient = case.vehicle.axles[0].unit.static_temperature_k if case.ambient_k is None else case.ambient_k
         out = _core.vehicle_run(
-            case.vehicle.to_core(), r.to_core(), d.to_core(), case.setting.to_core(case.vehicle), case.dt_s, ambient, progress=progress
+            case.vehicle.to_core(),
+            r.to_core(),
+            d.to_core(),
+            case.setting.to_core(case.vehicle),
+            case.dt_s,
+            ambient,
+            progress=progress,
+            reference_plant=reference_plant,
         )
         sig, cor, ctl = dict(out["vehicle"]), dict(out["corners"]), dict(out["controller"])
         result.sections = section_metrics(case.vehicle, r.sections, sig, cor, ctl, statics.tyre_static_load_n(case.vehicle))

@@ -44,7 +44,7 @@ from hpctl.control.config import merge
 from hpctl.errors import ParameterError
 from hpctl.vehicle.comparison import PASSIVE, Case, Setting, run_case
 from hpctl.vehicle.model import preset
-from hpctl.vehicle.route import Route, RouteSpec, build
+from hpctl.vehicle.route import Drive, Route, RouteSpec, build, drive
 
 #: The value of a case that failed.
 FAILED_J = 10.0
@@ -133,6 +133,15 @@ def _route(vehicle: str, spec: RouteSpec) -> Route:
     return build(spec, preset(vehicle))
 
 
+@lru_cache(maxsize=16)
+def _drive(vehicle: str, spec: RouteSpec) -> Drive:
+    """The driver's signals along a route: the same for every candidate,
+    and a serial Python loop (holding the GIL) over the periods that cost
+    more than the vehicle run itself, so computed once per worker."""
+    v = preset(vehicle)
+    return drive(_route(vehicle, spec), v, dt_s=Case(v, spec, PASSIVE[0]).dt_s, total_mass_kg=v.statics().total_mass_kg)
+
+
 def references(vehicles: Sequence[str], routes: Sequence[RouteSpec], *, threads: int | None = None) -> tuple[tuple[str, int, float, float], ...]:
     """The passive references: a_v of soft/low on the rough track and the
     roll of hard/high in the lane change, per vehicle and route."""
@@ -172,7 +181,7 @@ def score(problem: Problem, x: Sequence[float]) -> Score:
         vs = preset(v)
         config = apply(problem.start(v), problem.params, x)
         for k, spec in enumerate(problem.routes):
-            r = run_case(Case(vs, spec, Setting("tuned", semi_active=True, config=config)), route=_route(v, spec), trace_step=1000)
+            r = run_case(Case(vs, spec, Setting("tuned", semi_active=True, config=config)), route=_route(v, spec), trace_step=1000, driver=_drive(v, spec))
             if r.error is not None or not (math.isfinite(r.comfort_m_s2) and math.isfinite(r.roll_peak_rad)):
                 failures += 1
                 js.append(FAILED_J)
