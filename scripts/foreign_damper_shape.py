@@ -1,6 +1,6 @@
 """The foreign rig's control case (no effect) fitted with the assumed damper
 curve scaled by one gain, and with the damper characteristic identified
-(``fit(..., damper_shape=True)``): the residual RMS over the noise before
+(``fit(..., flexible=True)``): the residual RMS over the noise before
 and after, per seed (issue 12, item 2).
 
     python scripts/foreign_damper_shape.py --seeds 5 17 123 [--tests short|sweep]
@@ -53,19 +53,22 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, nargs="+", default=[5])
     ap.add_argument("--tests", choices=("short", "sweep"), default="short")
     ap.add_argument("--effects", default=",".join(SEED_MODEL), help="the fitted model's effects")
+    ap.add_argument("--case", default="none", help="the foreign rig's effect (none = the control case)")
     a = ap.parse_args()
     effects = tuple(e for e in a.effects.split(",") if e)
     for seed in a.seeds:
         tests = [t for t in sweep_tests() if a.tests == "sweep" or t.name in SHORT]
-        g = generate(None, seed, tests=tests)
+        g = generate(None if a.case == "none" else a.case, seed, tests=tests)
         datasets = prepare([read_record(p) for p in g.records])
         for shape in (False, True):
             t0 = time.perf_counter()
-            r = fit(datasets, effects, damper_shape=shape)
+            r = fit(datasets, effects, flexible=shape)
             dt = time.perf_counter() - t0
             damper = {k: round(v, 3) for k, v in r.values.items() if k.startswith("damper")}
-            print(f"seed {seed} {'shape' if shape else 'gain '}: hpctl RMS/noise {r.rms_ratio:.2f}, true {true_ratio(r, g.truth):.2f}, "
-                  f"worst {worst(r)}, {dt:.0f} s, {len(r.model.params)} params; {damper}", flush=True)
+            friction = {k: f"{v:.4g} +- {r.stderr[k]:.2g} (truth {g.truth['hpctl_params'].get(k, g.truth.get('foreign_params', {}).get(k))})"
+                        for k, v in r.values.items() if k.startswith("friction")}
+            print(f"seed {seed} {'flexible' if shape else 'gain    '}: hpctl RMS/noise {r.rms_ratio:.2f}, true {true_ratio(r, g.truth):.2f}, "
+                  f"worst {worst(r)}, {dt:.0f} s, {len(r.model.params)} params; {friction} {damper}", flush=True)
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ from hpctl.model.effects import (
     LIBRARY,
     Param,
     build_unit,
-    damper_shape_params,
+    flexible_params,
     model_params,
     shaped_damper,
 )
@@ -42,23 +42,27 @@ class Model:
 
     effects: tuple[str, ...]
     fit_damper: bool
-    #: Damper branches whose characteristic is identified (shape parameters
-    #: of the registry, :func:`hpctl.model.effects.damper_shape_params`)
-    #: instead of one gain on the whole assumed curve; () = the gain.
+    #: The flexible model (:func:`hpctl.model.effects.flexible_params`): the
+    #: damper characteristic identified instead of one gain on the assumed
+    #: curve, the friction's smoothing and Stribeck term fitted.
+    flexible: bool = False
+    #: The damper branches the records exercise (flexible model only).
     damper_branches: tuple[str, ...] = ()
 
     @property
     def params(self) -> list[Param]:
         ps = model_params(self.effects) + [CHARGE]
+        if self.flexible:
+            return ps + flexible_params(self.effects, self.damper_branches if self.fit_damper else ())
         if self.fit_damper:
-            ps += damper_shape_params(self.damper_branches) if self.damper_branches else [DAMPER_GAIN]
+            ps.append(DAMPER_GAIN)
         return ps
 
     def unit_for(self, d: Dataset, values: Mapping[str, float]) -> Unit:
         base = d.base.replace(static_pressure_pa=d.base.static_pressure_pa * values.get("charge_scale", 1.0))
         if "damper_gain" in values:
             base = base.replace(damper=base.damper.scaled(values["damper_gain"]))
-        if self.damper_branches:
+        if self.flexible:
             base = base.replace(damper=shaped_damper(base.damper, values))
         return build_unit(base, self.in_unit, values)
 
@@ -213,16 +217,16 @@ def fit(
     fit_damper: bool | None = None,
     max_nfev: int = 60,
     fold: int | None = None,
-    damper_shape: bool = False,
+    flexible: bool = False,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
-    to the samples of one cross-validation ``fold`` only, if given. With
-    ``damper_shape`` the damper's characteristic is identified per valve
-    state the records use (regularised toward the nominal curve) instead of
-    one gain."""
+    to the samples of one cross-validation ``fold`` only, if given. The
+    ``flexible`` model identifies the damper's characteristic per valve
+    state the records use instead of one gain, and the friction's smoothing
+    and Stribeck term, all regularised toward the nominal values."""
     model = Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper,
-                  damper_branches(datasets) if damper_shape else ())
+                  flexible, damper_branches(datasets) if flexible else ())
     params = model.params
     # Priors (regularisation toward the nominal values) as extra residual
     # rows, so that the Jacobian and the covariance include them.

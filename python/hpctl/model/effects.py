@@ -173,7 +173,12 @@ def _real_gas(u: Unit, p: Mapping[str, float]) -> Unit:
 
 
 def _friction(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.with_effects(friction=Friction(p["friction_coulomb_n"], p["friction_viscous_n_s_per_m"], FRICTION_SMOOTHING_VELOCITY_M_S))
+    # The smoothing and Stribeck parameters are fitted only by the flexible
+    # model (FRICTION_SHAPE); otherwise the fixed smoothing and no peak.
+    return u.with_effects(friction=Friction(
+        p["friction_coulomb_n"], p["friction_viscous_n_s_per_m"],
+        p.get("friction_smoothing_velocity_m_s", FRICTION_SMOOTHING_VELOCITY_M_S),
+        p.get("friction_stribeck_ratio", 1.0), p.get("friction_stribeck_velocity_m_s", FRICTION_STRIBECK_VELOCITY_M_S)))
 
 
 def _oil_compliance(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -234,6 +239,9 @@ def _sensor_lag_step(u: Unit) -> float | None:
 REAL_GAS = DEFAULT_GAS
 #: Velocity over which the Coulomb friction is smoothed, m/s.
 FRICTION_SMOOTHING_VELOCITY_M_S = 2e-3
+#: Stribeck velocity when the flexible model does not fit it, m/s (moot
+#: with the ratio at 1).
+FRICTION_STRIBECK_VELOCITY_M_S = 0.01
 #: Records shorter than these cannot show the slow effects.
 HEAT_BUILDUP_MIN_S = 300.0
 LEAKAGE_MIN_S = 600.0
@@ -348,6 +356,27 @@ def shaped_damper(damper: Damper, values: Mapping[str, float]) -> Damper:
     return Damper(*(shape(b, getattr(damper, b)) for b in DAMPER_BRANCHES))
 
 
+#: The flexible model's friction parameters (with ``friction``): the
+#: velocity over which the Coulomb force builds up and the Stribeck peak
+#: (static over kinetic friction, and the velocity it decays over), hp-core's
+#: `Friction`. The priors tie them to the fixed model's values (a factor
+#: 3.2 per sigma on the velocities, 0.5 on the ratio): a peak the records
+#: cannot see (the ratio near 1 makes its velocity moot) stays there.
+FRICTION_SHAPE: tuple[Param, ...] = (
+    Param("friction_smoothing_velocity_m_s", 1e-4, 2e-2, FRICTION_SMOOTHING_VELOCITY_M_S, FRICTION_SMOOTHING_VELOCITY_M_S, (3e-4, 3e-3),
+          log=True, prior_sigma=0.5),
+    Param("friction_stribeck_ratio", 1.0, 3.0, 1.1, 1.0, (1.0, 1.5), prior_sigma=0.5),
+    Param("friction_stribeck_velocity_m_s", 1e-3, 0.1, FRICTION_STRIBECK_VELOCITY_M_S, FRICTION_STRIBECK_VELOCITY_M_S, (3e-3, 3e-2),
+          log=True, prior_sigma=0.5),
+)
+
+
+def flexible_params(effects: Sequence[str], damper_branches: Sequence[str]) -> list[Param]:
+    """The flexible model's extra parameters: the damper characteristic of
+    ``damper_branches`` and, with friction, its smoothing and Stribeck term."""
+    return damper_shape_params(damper_branches) + (list(FRICTION_SHAPE) if "friction" in effects else [])
+
+
 MODELS: dict[str, tuple[str, ...]] = {
     "classical": (),
     "seed": ("heat_transfer", "real_gas"),
@@ -362,7 +391,7 @@ def _check_against_core() -> None:
     knee_lo, knee_hi = CORE_RANGES["blowoff_knee"]
     if not knee_lo <= DAMPER_KNEE_BOUNDS[0] <= DAMPER_KNEE_BOUNDS[1] <= knee_hi:
         raise ParameterError(f"damper knee bounds {DAMPER_KNEE_BOUNDS} must nest inside the core's range [{knee_lo:g}, {knee_hi:g}]")
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC]:
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, *FRICTION_SHAPE]:
         if p.name not in CORE_RANGES:
             raise ParameterError(f"effect parameter {p.name!r} is not a parameter of the core ({', '.join(CORE_RANGES)})")
         lo, hi = CORE_RANGES[p.name]
@@ -377,7 +406,7 @@ _check_against_core()
 
 def param(name: str) -> Param:
     """A parameter of the registry (or a base parameter) by name."""
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES)]:
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES), *FRICTION_SHAPE]:
         if p.name == name:
             return p
     raise ParameterError(f"unknown parameter {name!r}; expected one of {', '.join(all_param_names())}")
