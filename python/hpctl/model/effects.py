@@ -311,9 +311,11 @@ DAMPER_GAIN = Param("damper_gain", 0.05, 20.0, 1.0, 1.0, (0.7, 1.4), log=True)
 # pressure and of the slope above it, and the width of a smooth blow-off
 # knee (hp_core's `blowoff_knee`; 0 = the sharp nominal knee). Each curve
 # stays monotone for any of these values. A Gaussian prior ties each to the
-# nominal curve (a factor 10^0.5 = 3.2 per sigma on the multipliers, a
-# knee of 0.5 q_b): branches or regimes the records do not exercise stay at
-# the nominal curve with the prior's standard error instead of wandering.
+# nominal curve (a factor 10 per sigma on the multipliers: the assumed
+# curve may be far off, e.g. the foreign rig's bypass wants 12-16 times its
+# quadratic term; a knee of 0.5 q_b): branches or regimes the records do
+# not exercise stay at the nominal curve with the prior's standard error
+# instead of wandering.
 DAMPER_BRANCHES = ("on_compression", "on_rebound", "off_compression", "off_rebound")
 DAMPER_SHAPE_COEFFICIENTS = (
     ("bleed_scale", "bleed_pa_s_per_m3"),
@@ -321,14 +323,14 @@ DAMPER_SHAPE_COEFFICIENTS = (
     ("blowoff_scale", "blowoff_pa"),
     ("slope_scale", "blowoff_slope_pa_s_per_m3"),
 )
-DAMPER_SCALE_PRIOR_DECADES = 0.5
+DAMPER_SCALE_PRIOR_DECADES = 1.0
 DAMPER_KNEE_PRIOR = 0.5
 #: The knee's fit bounds, inside the core's range of `blowoff_knee`.
 DAMPER_KNEE_BOUNDS = (0.0, 1.5)
 
 
 def _damper_shape_params(branch: str) -> tuple[Param, ...]:
-    scales = tuple(Param(f"damper_{branch}_{k}", 0.05, 20.0, 1.0, 1.0, (0.7, 1.4), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES)
+    scales = tuple(Param(f"damper_{branch}_{k}", 0.01, 100.0, 1.0, 1.0, (0.7, 1.4), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES)
                    for k, _ in DAMPER_SHAPE_COEFFICIENTS)
     # The knee starts off its bound (a bound start stalls the trust region's
     # first step) but its prior is centred on the nominal sharp knee.
