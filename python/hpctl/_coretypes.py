@@ -15,6 +15,7 @@ class DamperCurveDict(TypedDict):
     orifice_pa_s2_per_m6: float
     blowoff_pa: float
     blowoff_slope_pa_s_per_m3: float
+    blowoff_knee: float
 
 
 class DamperDict(TypedDict):
@@ -28,6 +29,8 @@ class FrictionDict(TypedDict):
     coulomb_n: float
     viscous_n_s_per_m: float
     smoothing_velocity_m_s: float
+    stribeck_ratio: float
+    stribeck_velocity_m_s: float
 
 
 class OilComplianceDict(TypedDict):

@@ -12,6 +12,17 @@ use crate::error::{check_range, Result};
 /// One branch of the damper characteristic: pressure drop over flow
 /// magnitude `q` (m^3/s): `R q + K q^2` below the blow-off pressure, then
 /// `p_b + S (q - q_b)` above it.
+///
+/// With a `blowoff_knee` `k > 0` the knee is smooth: the sharp curve is
+/// `g(q - r(q - q_b)) + S r(q - q_b)` with `g(q) = R q + K q |q|` and the
+/// ramp `r(x) = max(x, 0)`; the smooth one takes
+/// `r(x) = (x + sqrt(x^2 + w^2)) / 2` with `w = k q_b`, less its value at
+/// `q = 0` so that no flow still means no pressure drop. Its slope
+/// `g'(1 - r') + S r'` is a positive blend of the orifice's and the
+/// blow-off's slopes, so the curve stays monotone for any parameters: what
+/// a fit may try. Far from the knee it is the sharp curve again (offset by
+/// about `S w^2 / (4 q_b)`). `k = 0` takes the sharp curve's own code path,
+/// so existing characteristics are unchanged bit for bit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DamperCurve {
     /// Laminar (bleed) coefficient R, Pa s/m^3.
@@ -22,6 +33,10 @@ pub struct DamperCurve {
     pub blowoff_pa: f64,
     /// Slope above blow-off S, Pa s/m^3.
     pub blowoff_slope_pa_s_per_m3: f64,
+    /// Width of the blow-off knee as a fraction of the blow-off flow `q_b`
+    /// (0 = the sharp knee; about 0.3-1 for a washer that lifts
+    /// progressively).
+    pub blowoff_knee: f64,
 }
 
 impl DamperCurve {
@@ -43,6 +58,7 @@ impl DamperCurve {
             orifice_pa_s2_per_m6: c2_n_s2_per_m2 / (area_m2 * area_m2 * area_m2),
             blowoff_pa: blowoff_n / area_m2,
             blowoff_slope_pa_s_per_m3: slope_n_s_per_m / (area_m2 * area_m2),
+            blowoff_knee: 0.0,
         }
     }
 
@@ -52,6 +68,7 @@ impl DamperCurve {
         check_range("orifice_pa_s2_per_m6", self.orifice_pa_s2_per_m6, 0.0, 1e18)?;
         check_range("blowoff_pa", self.blowoff_pa, 0.0, 1e9)?;
         check_range("blowoff_slope_pa_s_per_m3", self.blowoff_slope_pa_s_per_m3, 1e3, 1e14)?;
+        crate::ranges::DAMPER_BLOWOFF_KNEE.check(self.blowoff_knee)?;
         if self.bleed_pa_s_per_m3 == 0.0 && self.orifice_pa_s2_per_m6 == 0.0 {
             // A curve with no resistance below blow-off cannot be inverted.
             check_range("bleed_pa_s_per_m3", self.bleed_pa_s_per_m3, 1e3, 1e14)?;
@@ -66,6 +83,9 @@ impl DamperCurve {
 
     /// Pressure drop for a flow magnitude `q_m3_s >= 0`, Pa.
     pub fn pressure_drop_pa(&self, q_m3_s: f64) -> f64 {
+        if self.blowoff_knee > 0.0 {
+            return self.smooth_pressure_drop_pa(q_m3_s).0;
+        }
         let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
         if orifice <= self.blowoff_pa {
             orifice
@@ -74,14 +94,92 @@ impl DamperCurve {
         }
     }
 
+    /// The smooth-knee curve (see the type's description) and its slope
+    /// `d(dp)/dq`, at flow `q_m3_s >= 0`.
+    fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
+        let (r, k, s) = (self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, self.blowoff_slope_pa_s_per_m3);
+        let q_b = self.blowoff_flow_m3_s();
+        let w = self.blowoff_knee * q_b;
+        let g = |x: f64| x * (r + k * libm::fabs(x));
+        // (x + sqrt(x^2 + w^2)) / 2, without the cancellation for x < 0.
+        let ramp = |x: f64| {
+            let root = libm::sqrt(x * x + w * w);
+            if x >= 0.0 {
+                0.5 * (x + root)
+            } else if root - x > 0.0 {
+                0.5 * w * w / (root - x)
+            } else {
+                0.0
+            }
+        };
+        let x = q_m3_s - q_b;
+        let ramp_q = ramp(x);
+        let ramp_0 = ramp(-q_b);
+        let dp = g(q_m3_s - ramp_q) + s * ramp_q - (g(-ramp_0) + s * ramp_0);
+        let root = libm::sqrt(x * x + w * w);
+        let ramp_slope = if root > 0.0 { 0.5 * (1.0 + x / root) } else { 0.5 };
+        let inner = q_m3_s - ramp_q;
+        let slope = (r + 2.0 * k * libm::fabs(inner)) * (1.0 - ramp_slope) + s * ramp_slope;
+        (dp, slope)
+    }
+
     /// Flow magnitude for a pressure drop `dp_pa >= 0`, m^3/s (the inverse of
     /// [`DamperCurve::pressure_drop_pa`]).
+    ///
+    /// ```
+    /// use hp_core::damper::DamperCurve;
+    /// let mut c = DamperCurve::from_strut(2e-3, 12_000.0, 64_000.0, 7_000.0, 16_000.0);
+    /// c.blowoff_knee = 0.5;
+    /// for q in [1e-6, 1e-4, 3e-4, 1e-3, 5e-3] {
+    ///     let back = c.flow_m3_s(c.pressure_drop_pa(q));
+    ///     assert!((back - q).abs() < 1e-12 * q.max(1e-3));
+    /// }
+    /// ```
     pub fn flow_m3_s(&self, dp_pa: f64) -> f64 {
+        if self.blowoff_knee > 0.0 {
+            return self.smooth_flow_m3_s(dp_pa);
+        }
         if dp_pa <= self.blowoff_pa {
             solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa)
         } else {
             self.blowoff_flow_m3_s() + (dp_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3
         }
+    }
+
+    /// Inverse of the smooth-knee curve: Newton steps kept inside a
+    /// bracket that bisection shrinks when Newton would leave it (the curve
+    /// is monotone, so the bracket always holds the root).
+    fn smooth_flow_m3_s(&self, dp_pa: f64) -> f64 {
+        if dp_pa <= 0.0 {
+            return 0.0;
+        }
+        let mut lo = 0.0;
+        // A first guess from both limbs; the smooth curve can lie below it
+        // (the knee's offset), so double the upper end until it brackets.
+        let mut hi = self.blowoff_flow_m3_s() + dp_pa / self.blowoff_slope_pa_s_per_m3 + solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa);
+        for _ in 0..64 {
+            if self.smooth_pressure_drop_pa(hi).0 >= dp_pa {
+                break;
+            }
+            lo = hi;
+            hi *= 2.0;
+        }
+        let mut q = 0.5 * (lo + hi);
+        for _ in 0..100 {
+            let (f, slope) = self.smooth_pressure_drop_pa(q);
+            let err = f - dp_pa;
+            if libm::fabs(err) <= 1e-14 * dp_pa || hi - lo <= 1e-15 * hi {
+                break;
+            }
+            if err > 0.0 {
+                hi = q;
+            } else {
+                lo = q;
+            }
+            let newton = if slope > 0.0 { q - err / slope } else { f64::NAN };
+            q = if newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+        }
+        q
     }
 }
 

@@ -57,6 +57,12 @@ pub const POLYTROPIC_EXPONENT: Range = r("polytropic_exponent", 1.0, 2.0);
 pub const FRICTION_COULOMB_N: Range = r("friction_coulomb_n", 0.0, 1e6);
 pub const FRICTION_VISCOUS_N_S_PER_M: Range = r("friction_viscous_n_s_per_m", 0.0, 1e7);
 pub const FRICTION_SMOOTHING_VELOCITY_M_S: Range = r("friction_smoothing_velocity_m_s", 1e-6, 1.0);
+/// Static-to-kinetic friction ratio of the Stribeck term (1 = none).
+pub const FRICTION_STRIBECK_RATIO: Range = r("friction_stribeck_ratio", 1.0, 10.0);
+pub const FRICTION_STRIBECK_VELOCITY_M_S: Range = r("friction_stribeck_velocity_m_s", 1e-5, 1.0);
+/// Width of a damper curve's blow-off knee as a fraction of the blow-off
+/// flow (0 = the sharp knee).
+pub const DAMPER_BLOWOFF_KNEE: Range = r("blowoff_knee", 0.0, 2.0);
 pub const OIL_BULK_MODULUS_PA: Range = r("oil_bulk_modulus_pa", 1e6, 1e11);
 pub const OIL_VOLUME_M3: Range = r("oil_volume_m3", 1e-6, 1.0);
 pub const OIL_HEAT_CAPACITY_J_PER_K: Range = r("oil_heat_capacity_j_per_k", 1.0, 1e9);
@@ -72,7 +78,7 @@ pub const SENSOR_TIME_CONSTANT_S: Range = r("sensor_time_constant_s", 0.0, 10.0)
 pub const SPRUNG_MASS_KG: Range = r("sprung_mass_kg", 1.0, 1e6);
 
 /// Every range above, for the bindings.
-pub const ALL: [Range; 30] = [
+pub const ALL: [Range; 33] = [
     PISTON_AREA_M2,
     SMALL_ACC_VOLUME_M3,
     LARGE_ACC_VOLUME_M3,
@@ -91,6 +97,9 @@ pub const ALL: [Range; 30] = [
     FRICTION_COULOMB_N,
     FRICTION_VISCOUS_N_S_PER_M,
     FRICTION_SMOOTHING_VELOCITY_M_S,
+    FRICTION_STRIBECK_RATIO,
+    FRICTION_STRIBECK_VELOCITY_M_S,
+    DAMPER_BLOWOFF_KNEE,
     OIL_BULK_MODULUS_PA,
     OIL_VOLUME_M3,
     OIL_HEAT_CAPACITY_J_PER_K,

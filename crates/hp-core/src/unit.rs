@@ -36,6 +36,39 @@ pub struct Friction {
     /// Velocity over which the Coulomb force builds up (tanh), m/s: the
     /// seal's pre-sliding compliance, and what keeps the model smooth.
     pub smoothing_velocity_m_s: f64,
+    /// Static over kinetic friction, `F_s / F_c` (1 = no Stribeck peak).
+    pub stribeck_ratio: f64,
+    /// Velocity over which the static excess decays, `exp(-(v/v_s)^2)`, m/s.
+    pub stribeck_velocity_m_s: f64,
+}
+
+impl Friction {
+    /// Coulomb and viscous friction with the seed-era defaults: no Stribeck
+    /// peak.
+    pub fn new(coulomb_n: f64, viscous_n_s_per_m: f64, smoothing_velocity_m_s: f64) -> Self {
+        Friction { coulomb_n, viscous_n_s_per_m, smoothing_velocity_m_s, stribeck_ratio: 1.0, stribeck_velocity_m_s: 0.01 }
+    }
+
+    /// Friction force at strut velocity `vel_m_s`, N:
+    /// `[F_c + (F_s - F_c) exp(-(v/v_s)^2)] tanh(v/v_e) + c v`, the smoothed
+    /// Stribeck curve (with `stribeck_ratio` 1 exactly the smoothed Coulomb
+    /// plus viscous law).
+    ///
+    /// ```
+    /// use hp_core::unit::Friction;
+    /// let mut f = Friction::new(400.0, 300.0, 1e-3);
+    /// let plain = f.force_n(0.5);
+    /// assert!((plain - (400.0 * libm::tanh(500.0) + 150.0)).abs() < 1e-9);
+    /// f.stribeck_ratio = 1.5;
+    /// f.stribeck_velocity_m_s = 0.01;
+    /// assert!(f.force_n(0.005) > Friction::new(400.0, 300.0, 1e-3).force_n(0.005));
+    /// assert!((f.force_n(0.5) - plain).abs() < 1e-6);
+    /// ```
+    pub fn force_n(&self, vel_m_s: f64) -> f64 {
+        let x = vel_m_s / self.stribeck_velocity_m_s;
+        let level = self.coulomb_n * (1.0 + (self.stribeck_ratio - 1.0) * libm::exp(-x * x));
+        level * libm::tanh(vel_m_s / self.smoothing_velocity_m_s) + self.viscous_n_s_per_m * vel_m_s
+    }
 }
 
 /// Oil compressibility and hose compliance between strut and damper.
@@ -378,6 +411,8 @@ impl Unit {
             ranges::FRICTION_COULOMB_N.check(f.coulomb_n)?;
             ranges::FRICTION_VISCOUS_N_S_PER_M.check(f.viscous_n_s_per_m)?;
             ranges::FRICTION_SMOOTHING_VELOCITY_M_S.check(f.smoothing_velocity_m_s)?;
+            ranges::FRICTION_STRIBECK_RATIO.check(f.stribeck_ratio)?;
+            ranges::FRICTION_STRIBECK_VELOCITY_M_S.check(f.stribeck_velocity_m_s)?;
         }
         if let Some(c) = e.oil_compliance {
             ranges::OIL_BULK_MODULUS_PA.check(c.bulk_modulus_pa)?;
@@ -727,7 +762,7 @@ impl Unit {
         let (friction_force, friction_power) = match e.friction {
             Some(f) => {
                 let v = motion.vel_m_s;
-                let force = f.coulomb_n * libm::tanh(v / f.smoothing_velocity_m_s) + f.viscous_n_s_per_m * v;
+                let force = f.force_n(v);
                 (force, force * v)
             }
             None => (0.0, 0.0),

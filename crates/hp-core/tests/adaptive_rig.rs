@@ -161,7 +161,7 @@ fn cavitation_is_followed() {
 #[test]
 fn every_effect_agrees_with_rk4() {
     let unit = unit_with(|p| {
-        p.effects.friction = Some(Friction { coulomb_n: 400.0, viscous_n_s_per_m: 300.0, smoothing_velocity_m_s: 2e-3 });
+        p.effects.friction = Some(Friction::new(400.0, 300.0, 2e-3));
         p.effects.oil_compliance = Some(OilCompliance { bulk_modulus_pa: 1.2e9, oil_volume_m3: 0.3e-3 });
         p.effects.oil_node = Some(OilNode { heat_capacity_j_per_k: 2000.0, oil_to_ambient_tau_s: 300.0, wall_to_oil_tau_s: 60.0, wall_to_ambient_tau_s: 600.0 });
         p.effects.leakage = Some(Leakage { time_constant_s: 50.0 });

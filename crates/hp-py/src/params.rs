@@ -102,6 +102,7 @@ fn curve(r: &mut Reader<'_>, key: &str) -> PyResult<DamperCurve> {
         orifice_pa_s2_per_m6: c.f64("orifice_pa_s2_per_m6")?,
         blowoff_pa: c.f64("blowoff_pa")?,
         blowoff_slope_pa_s_per_m3: c.f64("blowoff_slope_pa_s_per_m3")?,
+        blowoff_knee: c.f64("blowoff_knee")?,
     };
     c.finish()?;
     Ok(curve)
@@ -170,6 +171,8 @@ fn effects(mut e: Reader<'_>) -> PyResult<Effects> {
             coulomb_n: f.f64("coulomb_n")?,
             viscous_n_s_per_m: f.f64("viscous_n_s_per_m")?,
             smoothing_velocity_m_s: f.f64("smoothing_velocity_m_s")?,
+            stribeck_ratio: f.f64("stribeck_ratio")?,
+            stribeck_velocity_m_s: f.f64("stribeck_velocity_m_s")?,
         });
         f.finish()?;
     }
@@ -296,6 +299,7 @@ pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py,
         cd.set_item("orifice_pa_s2_per_m6", c.orifice_pa_s2_per_m6)?;
         cd.set_item("blowoff_pa", c.blowoff_pa)?;
         cd.set_item("blowoff_slope_pa_s_per_m3", c.blowoff_slope_pa_s_per_m3)?;
+        cd.set_item("blowoff_knee", c.blowoff_knee)?;
         Ok(cd)
     };
     d.set_item("piston_area_m2", p.piston_area_m2)?;

@@ -20,7 +20,7 @@ from hpctl.data.output import reading
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
 from hpctl.errors import ParameterError
 from hpctl.identify import virtual_rig
-from hpctl.model.effects import LIBRARY, MODELS, model_params, parse_model
+from hpctl.model.effects import LIBRARY, MODELS, parse_model
 from hpctl.sim import checks
 
 # SciPy (the fit) and matplotlib (the reports) are imported by the
@@ -112,9 +112,12 @@ MODEL_HELP = f"Model: {', '.join(MODELS)}, or effects separated by commas (from:
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-fit"), show_default=True)
 @force_option
 @strict_option
+@click.option("--flexible", is_flag=True,
+              help="Identify the damper characteristic (per valve state and direction) instead of one gain on the assumed curve, "
+                   "and the friction's smoothing and Stribeck term; regularised toward the nominal values.")
 @click.option("--quiet", "-q", is_flag=True)
 @click.option("--json", "as_json", is_flag=True, help="Print parameters and residuals as JSON.")
-def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool) -> None:
+def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, strict: bool, flexible: bool, quiet: bool, as_json: bool) -> None:
     """Fit the model's free parameters to one or more rig records (a
     folder stands for the records in it), with uncertainties and the
     residual per record and channel; writes fit.md, fit.json and plots.
@@ -130,8 +133,8 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         recs = _records(records)
         datasets = prepare(recs)
         with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
-            with status(rep, f"fitting {len(model_params(effects)) + 1} parameters to {len(datasets)} record(s)"):
-                result = fit(datasets, effects)
+            with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
+                result = fit(datasets, effects, flexible=flexible)
             caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result)
             report.fit_report(result, out, caveats)
             document = with_warnings(report.fit_summary(result), caveats)

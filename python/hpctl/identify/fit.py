@@ -26,7 +26,9 @@ from hpctl.model.effects import (
     LIBRARY,
     Param,
     build_unit,
+    flexible_params,
     model_params,
+    shaped_damper,
 )
 from hpctl.model.unit import Unit
 from hpctl.sim.run import Case, run_many
@@ -40,10 +42,18 @@ class Model:
 
     effects: tuple[str, ...]
     fit_damper: bool
+    #: The flexible model (:func:`hpctl.model.effects.flexible_params`): the
+    #: damper characteristic identified instead of one gain on the assumed
+    #: curve, the friction's smoothing and Stribeck term fitted.
+    flexible: bool = False
+    #: The damper branches the records exercise (flexible model only).
+    damper_branches: tuple[str, ...] = ()
 
     @property
     def params(self) -> list[Param]:
         ps = model_params(self.effects) + [CHARGE]
+        if self.flexible:
+            return ps + flexible_params(self.effects, self.damper_branches if self.fit_damper else ())
         if self.fit_damper:
             ps.append(DAMPER_GAIN)
         return ps
@@ -52,6 +62,8 @@ class Model:
         base = d.base.replace(static_pressure_pa=d.base.static_pressure_pa * values.get("charge_scale", 1.0))
         if "damper_gain" in values:
             base = base.replace(damper=base.damper.scaled(values["damper_gain"]))
+        if self.flexible:
+            base = base.replace(damper=shaped_damper(base.damper, values))
         return build_unit(base, self.in_unit, values)
 
     @property
@@ -205,12 +217,20 @@ def fit(
     fit_damper: bool | None = None,
     max_nfev: int = 60,
     fold: int | None = None,
+    flexible: bool = False,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
-    to the samples of one cross-validation ``fold`` only, if given."""
-    model = Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper)
+    to the samples of one cross-validation ``fold`` only, if given. The
+    ``flexible`` model identifies the damper's characteristic per valve
+    state the records use instead of one gain, and the friction's smoothing
+    and Stribeck term, all regularised toward the nominal values."""
+    model = Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper,
+                  flexible, damper_branches(datasets) if flexible else ())
     params = model.params
+    # Priors (regularisation toward the nominal values) as extra residual
+    # rows, so that the Jacobian and the covariance include them.
+    prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in enumerate(params) if p.prior_sigma is not None]
     start = dict(initial or {})
     x0 = np.array([p.to_x(min(max(start.get(p.name, p.initial), p.lower), p.upper)) for p in params])
     lo = np.array([p.x_bounds()[0] for p in params])
@@ -229,8 +249,11 @@ def fit(
             cache[key] = (residual_vector(datasets, sims, fold), ends)
         return cache[key]
 
+    def prior_rows(x: FloatArray) -> FloatArray:
+        return np.array([(x[i] - centre) / sigma for i, centre, sigma in prior])
+
     def fun(x: FloatArray) -> FloatArray:
-        return evaluate(x)[0]
+        return np.concatenate([evaluate(x)[0], prior_rows(x)]) if prior else evaluate(x)[0]
 
     def jac(x: FloatArray) -> FloatArray:
         f0, ends = evaluate(x)
@@ -245,7 +268,13 @@ def fit(
             xs.append(xi)
         sims = simulate_all(model, datasets, [values_from_x(params, xi) for xi in xs], steps=ends)
         cols = [(residual_vector(datasets, s, fold) - f0) / h for s, h in zip(sims, steps)]
-        return np.column_stack(cols) if cols else np.zeros((len(f0), 0))
+        jm = np.column_stack(cols) if cols else np.zeros((len(f0), 0))
+        if prior:
+            rows = np.zeros((len(prior), len(x)))
+            for row, (i, _, sigma) in enumerate(prior):
+                rows[row, i] = 1.0 / sigma
+            jm = np.vstack([jm, rows])
+        return jm
 
     if params:
         sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=1e-8)
@@ -259,6 +288,14 @@ def fit(
     rss = float(r @ r)
     stderr = _stderr(params, x, jmat, rss, len(r))
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
+
+
+def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:
+    """The damper branches the records exercise: both directions of each
+    valve-5 state that occurs while the strut moves."""
+    on = any(bool(d.damper_on.any()) for d in datasets)
+    off = any(bool((~d.damper_on).any()) for d in datasets)
+    return (("on_compression", "on_rebound") if on else ()) + (("off_compression", "off_rebound") if off else ())
 
 
 def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | Exception]) -> None:

@@ -36,7 +36,7 @@ import numpy as np
 
 from hpctl import _core
 from hpctl.errors import ParameterError
-from hpctl.model.unit import DEFAULT_GAS, Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
+from hpctl.model.unit import DEFAULT_GAS, Damper, DamperCurve, Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
 
 #: The core's valid range of every unit parameter (hp_core::ranges).
 CORE_RANGES: Mapping[str, tuple[float, float]] = _core.PARAMETER_RANGES
@@ -68,6 +68,10 @@ class Param:
     #: Draw the magnitude from ``random`` and the sign at random (an offset
     #: too small to matter against the noise is no offset).
     signed: bool = False
+    #: Regularisation: one standard deviation of a Gaussian prior centred on
+    #: ``typical``, in the fit's own coordinate (decades for ``log``
+    #: parameters, the value itself otherwise); None = no prior.
+    prior_sigma: float | None = None
 
     def to_x(self, value: float) -> float:
         return math.log10(value) if self.log else value / self.scale
@@ -170,7 +174,12 @@ def _real_gas(u: Unit, p: Mapping[str, float]) -> Unit:
 
 
 def _friction(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.with_effects(friction=Friction(p["friction_coulomb_n"], p["friction_viscous_n_s_per_m"], FRICTION_SMOOTHING_VELOCITY_M_S))
+    # The smoothing and Stribeck parameters are fitted only by the flexible
+    # model (FRICTION_SHAPE); otherwise the fixed smoothing and no peak.
+    return u.with_effects(friction=Friction(
+        p["friction_coulomb_n"], p["friction_viscous_n_s_per_m"],
+        p.get("friction_smoothing_velocity_m_s", FRICTION_SMOOTHING_VELOCITY_M_S),
+        p.get("friction_stribeck_ratio", 1.0), p.get("friction_stribeck_velocity_m_s", FRICTION_STRIBECK_VELOCITY_M_S)))
 
 
 def _oil_compliance(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -231,6 +240,9 @@ def _sensor_lag_step(u: Unit) -> float | None:
 REAL_GAS = DEFAULT_GAS
 #: Velocity over which the Coulomb friction is smoothed, m/s.
 FRICTION_SMOOTHING_VELOCITY_M_S = 2e-3
+#: Stribeck velocity when the flexible model does not fit it, m/s (moot
+#: with the ratio at 1).
+FRICTION_STRIBECK_VELOCITY_M_S = 0.01
 #: Records shorter than these cannot show the slow effects.
 HEAT_BUILDUP_MIN_S = 300.0
 LEAKAGE_MIN_S = 600.0
@@ -293,6 +305,81 @@ POLYTROPIC = Param("polytropic_exponent", 1.0, 1.8, 1.3, 1.3, (1.1, 1.5))
 CHARGE = Param("charge_scale", 0.7, 1.3, 1.0, 1.0, (0.9, 1.1))
 DAMPER_GAIN = Param("damper_gain", 0.05, 20.0, 1.0, 1.0, (0.7, 1.4), log=True)
 
+# The damper characteristic identified from the data, instead of one gain
+# on the assumed curve: per valve-5 state and flow direction (the four
+# branches of hp_core::damper::Damper), multipliers of the nominal curve's
+# bleed (laminar) and orifice (quadratic) coefficients, of its blow-off
+# pressure and of the slope above it, and the width of a smooth blow-off
+# knee (hp_core's `blowoff_knee`; 0 = the sharp nominal knee). Each curve
+# stays monotone for any of these values. A Gaussian prior ties each to the
+# nominal curve (a factor 10 per sigma on the multipliers: the assumed
+# curve may be far off, e.g. the foreign rig's bypass wants 12-16 times its
+# quadratic term; a knee of 0.5 q_b): branches or regimes the records do
+# not exercise stay at the nominal curve with the prior's standard error
+# instead of wandering.
+DAMPER_BRANCHES = ("on_compression", "on_rebound", "off_compression", "off_rebound")
+DAMPER_SHAPE_COEFFICIENTS = (
+    ("bleed_scale", "bleed_pa_s_per_m3"),
+    ("orifice_scale", "orifice_pa_s2_per_m6"),
+    ("blowoff_scale", "blowoff_pa"),
+    ("slope_scale", "blowoff_slope_pa_s_per_m3"),
+)
+DAMPER_SCALE_PRIOR_DECADES = 1.0
+DAMPER_KNEE_PRIOR = 0.5
+#: The knee's fit bounds, inside the core's range of `blowoff_knee`.
+DAMPER_KNEE_BOUNDS = (0.0, 1.5)
+
+
+def _damper_shape_params(branch: str) -> tuple[Param, ...]:
+    scales = tuple(Param(f"damper_{branch}_{k}", 0.01, 100.0, 1.0, 1.0, (0.7, 1.4), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES)
+                   for k, _ in DAMPER_SHAPE_COEFFICIENTS)
+    # The knee starts off its bound (a bound start stalls the trust region's
+    # first step) but its prior is centred on the nominal sharp knee.
+    knee = Param(f"damper_{branch}_knee", *DAMPER_KNEE_BOUNDS, 0.1, 0.0, (0.0, 1.0), prior_sigma=DAMPER_KNEE_PRIOR)
+    return scales + (knee,)
+
+
+#: The damper-shape parameters per branch.
+DAMPER_SHAPE: dict[str, tuple[Param, ...]] = {b: _damper_shape_params(b) for b in DAMPER_BRANCHES}
+
+
+def damper_shape_params(branches: Sequence[str]) -> list[Param]:
+    """The damper-shape parameters of ``branches`` (names from :data:`DAMPER_BRANCHES`)."""
+    return [p for b in DAMPER_BRANCHES if b in branches for p in DAMPER_SHAPE[b]]
+
+
+def shaped_damper(damper: Damper, values: Mapping[str, float]) -> Damper:
+    """``damper`` with every branch's coefficients multiplied (and its knee
+    set) by the damper-shape ``values`` present; absent ones are nominal."""
+
+    def shape(branch: str, c: DamperCurve) -> DamperCurve:
+        kw = {field_: getattr(c, field_) * values.get(f"damper_{branch}_{k}", 1.0) for k, field_ in DAMPER_SHAPE_COEFFICIENTS}
+        return DamperCurve(**kw, blowoff_knee=values.get(f"damper_{branch}_knee", c.blowoff_knee))
+
+    return Damper(*(shape(b, getattr(damper, b)) for b in DAMPER_BRANCHES))
+
+
+#: The flexible model's friction parameters (with ``friction``): the
+#: velocity over which the Coulomb force builds up and the Stribeck peak
+#: (static over kinetic friction, and the velocity it decays over), hp-core's
+#: `Friction`. The priors tie them to the fixed model's values (a factor
+#: 3.2 per sigma on the velocities, 0.5 on the ratio): a peak the records
+#: cannot see (the ratio near 1 makes its velocity moot) stays there.
+FRICTION_SHAPE: tuple[Param, ...] = (
+    Param("friction_smoothing_velocity_m_s", 1e-4, 2e-2, FRICTION_SMOOTHING_VELOCITY_M_S, FRICTION_SMOOTHING_VELOCITY_M_S, (3e-4, 3e-3),
+          log=True, prior_sigma=0.5),
+    Param("friction_stribeck_ratio", 1.0, 3.0, 1.1, 1.0, (1.0, 1.5), prior_sigma=0.5),
+    Param("friction_stribeck_velocity_m_s", 1e-3, 0.1, FRICTION_STRIBECK_VELOCITY_M_S, FRICTION_STRIBECK_VELOCITY_M_S, (3e-3, 3e-2),
+          log=True, prior_sigma=0.5),
+)
+
+
+def flexible_params(effects: Sequence[str], damper_branches: Sequence[str]) -> list[Param]:
+    """The flexible model's extra parameters: the damper characteristic of
+    ``damper_branches`` and, with friction, its smoothing and Stribeck term."""
+    return damper_shape_params(damper_branches) + (list(FRICTION_SHAPE) if "friction" in effects else [])
+
+
 MODELS: dict[str, tuple[str, ...]] = {
     "classical": (),
     "seed": ("heat_transfer", "real_gas"),
@@ -304,7 +391,10 @@ def _check_against_core() -> None:
     """Every parameter is a core parameter, and its fit bounds and random
     range lie inside the core's valid range (so that nothing a fit or a
     virtual rig tries is refused by the core)."""
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC]:
+    knee_lo, knee_hi = CORE_RANGES["blowoff_knee"]
+    if not knee_lo <= DAMPER_KNEE_BOUNDS[0] <= DAMPER_KNEE_BOUNDS[1] <= knee_hi:
+        raise ParameterError(f"damper knee bounds {DAMPER_KNEE_BOUNDS} must nest inside the core's range [{knee_lo:g}, {knee_hi:g}]")
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, *FRICTION_SHAPE]:
         if p.name not in CORE_RANGES:
             raise ParameterError(f"effect parameter {p.name!r} is not a parameter of the core ({', '.join(CORE_RANGES)})")
         lo, hi = CORE_RANGES[p.name]
@@ -319,7 +409,7 @@ _check_against_core()
 
 def param(name: str) -> Param:
     """A parameter of the registry (or a base parameter) by name."""
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN]:
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES), *FRICTION_SHAPE]:
         if p.name == name:
             return p
     raise ParameterError(f"unknown parameter {name!r}; expected one of {', '.join(all_param_names())}")

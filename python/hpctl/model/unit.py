@@ -31,12 +31,15 @@ DEFAULT_GAS: str = _core.DEFAULT_GAS
 @dataclass(frozen=True)
 class DamperCurve:
     """One branch of the damper pack: pressure drop over flow magnitude ``q``,
-    ``R q + K q^2`` below the blow-off pressure, ``p_b + S (q - q_b)`` above."""
+    ``R q + K q^2`` below the blow-off pressure, ``p_b + S (q - q_b)`` above;
+    ``blowoff_knee`` > 0 rounds the knee over that fraction of the blow-off
+    flow (``hp_core::damper::DamperCurve``; 0 = sharp)."""
 
     bleed_pa_s_per_m3: float
     orifice_pa_s2_per_m6: float
     blowoff_pa: float
     blowoff_slope_pa_s_per_m3: float
+    blowoff_knee: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -52,7 +55,8 @@ class Damper:
         """Every pressure drop multiplied by ``gain`` (same flows)."""
 
         def s(c: DamperCurve) -> DamperCurve:
-            return DamperCurve(c.bleed_pa_s_per_m3 * gain, c.orifice_pa_s2_per_m6 * gain, c.blowoff_pa * gain, c.blowoff_slope_pa_s_per_m3 * gain)
+            return DamperCurve(c.bleed_pa_s_per_m3 * gain, c.orifice_pa_s2_per_m6 * gain, c.blowoff_pa * gain, c.blowoff_slope_pa_s_per_m3 * gain,
+                               c.blowoff_knee)
 
         return Damper(s(self.on_compression), s(self.on_rebound), s(self.off_compression), s(self.off_rebound))
 
@@ -62,6 +66,10 @@ class Friction:
     coulomb_n: float
     viscous_n_s_per_m: float = 0.0
     smoothing_velocity_m_s: float = 1e-3
+    #: Static over kinetic friction (1: no Stribeck peak), and the velocity
+    #: over which the excess decays, ``exp(-(v/v_s)^2)`` (hp_core::unit::Friction).
+    stribeck_ratio: float = 1.0
+    stribeck_velocity_m_s: float = 0.01
 
 
 @dataclass(frozen=True)

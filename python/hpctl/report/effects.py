@@ -4,7 +4,7 @@ the two equal)."""
 
 from __future__ import annotations
 
-from hpctl.model.effects import CORE_RANGES, LIBRARY, MODELS
+from hpctl.model.effects import CORE_RANGES, DAMPER_BRANCHES, LIBRARY, MODELS, flexible_params
 
 
 def _num(x: float) -> str:
@@ -40,6 +40,26 @@ def markdown() -> str:
             rnd = f"±[{_num(p.random[0])}, {_num(p.random[1])}]" if p.signed else f"[{_num(p.random[0])}, {_num(p.random[1])}]"
             lines.append(f"| `{p.name}` | `{name}` | [{_num(p.lower)}, {_num(p.upper)}] | {_num(p.initial)} | {_num(p.typical)} | {rnd} | "
                          f"{'log' if p.log else 'linear'} | [{_num(lo)}, {_num(hi)}] |")
+    lines += [
+        "",
+        "## The flexible model (`hpctl fit --flexible`, `fit(..., flexible=True)`)",
+        "",
+        "For real hardware: instead of one gain on the assumed damper curve, each branch of",
+        "hp-core's damper (valve 5 closed = `on` / open = `off`, compression / rebound) has",
+        "multipliers of its bleed (laminar), orifice (quadratic), blow-off pressure and slope",
+        "above blow-off, and a smooth blow-off knee (hp-core's `blowoff_knee`, a fraction of",
+        "the blow-off flow; 0 = the nominal sharp knee); only the branches of the valve states",
+        "the records use are fitted. With `friction`, its smoothing velocity and a Stribeck",
+        "peak are fitted too. Each has a Gaussian prior centred on the nominal value",
+        "(regularisation: what the records cannot see stays nominal, with the prior's width",
+        "as its standard error); sigma in decades for log parameters.",
+        "",
+        "| parameter | fit bounds | fit start | nominal (prior centre) | prior sigma | scale |",
+        "|---|---|---|---|---|---|",
+    ]
+    for p in flexible_params(("friction",), DAMPER_BRANCHES):
+        lines.append(f"| `{p.name}` | [{_num(p.lower)}, {_num(p.upper)}] | {_num(p.initial)} | {_num(p.typical)} | "
+                     f"{_num(p.prior_sigma or 0.0)} | {'log' if p.log else 'linear'} |")
     return "\n".join(lines) + "\n"
 
 

