@@ -111,6 +111,11 @@ def measure(elf: Path) -> dict[str, float]:
             f = {k: int(v) for k, v in (w.split("=") for w in words[3:])}
             fig[f"frame_{words[1]}_{words[2]}_instr_mean"] = f["sum"] * INSTR_PER_TICK / max(f["n"], 1)
             fig[f"frame_{words[1]}_{words[2]}_instr_max"] = f["max"] * INSTR_PER_TICK
+        # The gas table: `table pressure|offset|build sum=.. max=.. n=..` (ticks).
+        if len(words) == 5 and words[0] == "table":
+            f = {k: int(v) for k, v in (w.split("=") for w in words[2:])}
+            fig[f"table_{words[1]}_instr_mean"] = f["sum"] * INSTR_PER_TICK / max(f["n"], 1)
+            fig[f"table_{words[1]}_instr_max"] = f["max"] * INSTR_PER_TICK
     return fig
 
 
@@ -219,6 +224,11 @@ def main() -> None:
         for key in sorted(k for k in run if k.startswith(f"frame_{direction}_") and k.endswith("_mean")):
             name = key[len(f"frame_{direction}_") : -len("_instr_mean")]
             print(f"    {label} {name:31s} {run[key]:8.0f} / {run[key.replace('_mean', '_max')]:6.0f}")
+    if "table_pressure_instr_mean" in run:
+        print("  gas table of L (reference EOS in single precision), instructions (mean / max over 100 lookups):")
+        print(f"    pressure from volume offset and temperature {run['table_pressure_instr_mean']:8.0f} / {run['table_pressure_instr_max']:6.0f}")
+        print(f"    volume offset from pressure and temperature {run['table_offset_instr_mean']:8.0f} / {run['table_offset_instr_max']:6.0f}")
+        print(f"    start-up (validate the configuration, build the table): {run['table_build_instr_mean']:,.0f}")
     print(
         f"  (safe-state periods {run['safe_periods']:.0f}, valve 5 open {run['valve5_open']:.0f}, "
         f"valve 6 open {run['valve6_open']:.0f}, frames sent {run['frames_sent']:.0f}, dropped {run['tx_dropped']:.0f})"

@@ -24,6 +24,9 @@ __all__ = [
     "seed_sprung_mass_kg",
     "seed_oil_node",
     "CHANNELS",
+    "GAS_MODELS",
+    "DEFAULT_GAS",
+    "DEFAULT_RTOL",
     "STANDARD_GRAVITY_M_S2",
     "PARAMETER_RANGES",
     "load_pressure_pa",
@@ -77,6 +80,9 @@ from hpctl._coretypes import (
 )
 
 CHANNELS: list[str]
+GAS_MODELS: list[str]
+DEFAULT_GAS: str
+DEFAULT_RTOL: float
 STANDARD_GRAVITY_M_S2: float
 #: Every unit parameter's valid range (hp_core::ranges), inclusive.
 PARAMETER_RANGES: dict[str, tuple[float, float]]
@@ -97,6 +103,9 @@ def simulate(
     damper_on: bool | Sequence[bool],
     channels: Sequence[str] | None = None,
     progress: Callable[[int, int], object] | None = None,
+    rtol: float | None = None,
+    steps_s: Sequence[float] | NDArray[np.float64] | None = None,
+    record_steps: bool = False,
 ) -> Channels: ...
 def simulate_many(cases: list[CaseDict], threads: int | None = None) -> list[Channels | HpctlError]: ...
 def static_force_n(unit: UnitDict, disp_m: float, t_k: float, spring_hard: bool) -> float: ...

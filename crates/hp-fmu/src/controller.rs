@@ -165,7 +165,7 @@ fn build_info() -> ModelInfo {
         Var::output("strut_vel_m_s", "m/s", "estimated strut compression rate"),
         Var::output("body_vel_m_s", "m/s", "estimated body vertical velocity"),
         Var::parameter("period_s", 1e-3, "s", 1e-6, 1.0, "control period: the controller ticks at every multiple of it"),
-        Var::enumerated("unit.gas", Causality::Parameter, 3, &crate::unit::GAS, "equation of state of the gas table"),
+        Var::enumerated("unit.gas", Causality::Parameter, crate::unit::gas_value(seed.unit.gas), &crate::unit::GAS, "equation of state of the gas table"),
     ];
     let mut template = seed;
     for (name, field) in config_fields() {
@@ -187,7 +187,7 @@ pub fn config(values: &Values) -> Result<Config, ModelError> {
     c.unit.gas = usize::try_from(gas_index)
         .ok()
         .and_then(|i| hp_core::gas::Gas::ALL.get(i).copied())
-        .ok_or_else(|| ModelError(format!("unit.gas = {} is not a gas model (1..=3)", gas_index + 1)))?;
+        .ok_or_else(|| ModelError(format!("unit.gas = {} is not a gas model (1..=4)", gas_index + 1)))?;
     for (i, (_, field)) in config_fields().into_iter().enumerate() {
         *field(&mut c) = values.get(FIRST_CONFIG_PARAMETER + i);
     }

@@ -30,9 +30,10 @@ use std::sync::OnceLock;
 pub static GAS: Enumeration = Enumeration {
     name: "Gas",
     items: &[
-        ("ideal", 1, "ideal gas"),
-        ("bwr-cg", 2, "Benedict-Webb-Rubin, Cooper & Goldfrank constants (best below 30 MPa)"),
-        ("bwr-textbook", 3, "Benedict-Webb-Rubin, textbook constants (2-110 MPa)"),
+        ("span", 1, "reference equation of state, Span et al. 2000 (the default)"),
+        ("ideal", 2, "ideal gas"),
+        ("bwr-cg", 3, "Benedict-Webb-Rubin, Cooper & Goldfrank constants (best below 30 MPa)"),
+        ("bwr-textbook", 4, "Benedict-Webb-Rubin, textbook constants (2-110 MPa)"),
     ],
 };
 
@@ -152,8 +153,8 @@ fn build_info() -> ModelInfo {
     }
 }
 
-fn gas_value(gas: Gas) -> i32 {
-    Gas::ALL.iter().position(|&g| g == gas).map_or(3, |i| i as i32 + 1)
+pub(crate) fn gas_value(gas: Gas) -> i32 {
+    Gas::ALL.iter().position(|&g| g == gas).map_or(1, |i| i as i32 + 1)
 }
 
 /// The unit's parameters from the FMU's values.
@@ -163,7 +164,7 @@ pub fn unit_params(values: &Values) -> Result<UnitParams, ModelError> {
     p.gas = usize::try_from(gas_index)
         .ok()
         .and_then(|i| Gas::ALL.get(i).copied())
-        .ok_or_else(|| ModelError(format!("gas = {gas_index} is not a gas model (1..=3)")))?;
+        .ok_or_else(|| ModelError(format!("gas = {gas_index} is not a gas model (1..=4)")))?;
     p.heat = HeatTransfer::from_tau_s(values.get(TAU_S))?;
     for (i, (_, _, _, field, _)) in real_parameters().into_iter().enumerate() {
         *field(&mut p) = values.get(FIRST_UNIT_PARAMETER + i);

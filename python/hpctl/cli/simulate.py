@@ -35,7 +35,7 @@ from hpctl.data.records import write_record
 from hpctl.errors import SimulationError
 from hpctl.model.unit import GAS_MODELS, SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim import experiments
-from hpctl.sim.run import Sine, Step, Steps
+from hpctl.sim.run import DEFAULT_RTOL, Sine, Step, Steps
 
 
 @click.command()
@@ -50,8 +50,9 @@ from hpctl.sim.run import Sine, Step, Steps
 @click.option("--gas", type=click.Choice(GAS_MODELS), help="Equation of state.")
 @click.option("--duration-s", type=FINITE, help="Simulated duration, s.")
 @click.option("--dt-s", type=FINITE, default=None,
-              help="Integration step, s (default 1e-3; 2e-3 for the heat run; keep <= 1e-3 with valve 6 open). A step longer than the "
-                   "output interval is not taken: the output interval is, with a warning.")
+              help="Largest integration step, s (default: none; the steps are error-controlled and follow the dynamics). With --fixed-steps, "
+                   "the step (default 1e-3); a fixed step longer than the output interval is not taken: the output interval is, with a warning.")
+@click.option("--fixed-steps", is_flag=True, help="Fixed RK4 steps of --dt-s landing on every output time (as the firmware runs) instead of error-controlled steps.")
 @click.option("--mass-kg", type=FINITE, default=SEED_SPRUNG_MASS_KG, show_default=True, help="Sprung mass for SDOF tests, kg.")
 @click.option("--sweep", is_flag=True, help="Sweep a grid (charge pressure x tau x damper) of SDOF step tests in parallel.")
 @click.option("--sweep-pressure-pa", type=str, help="Comma-separated static charge pressures, Pa (default: the unit's x 0.8..1.2).")
@@ -66,7 +67,7 @@ from hpctl.sim.run import Sine, Step, Steps
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
 def simulate(
     unit_file: Path | None, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
-    tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, mass_kg: float, sweep: bool,
+    tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, fixed_steps: bool, mass_kg: float, sweep: bool,
     sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, fig_format: str, force: bool, strict: bool, quiet: bool, as_json: bool,
 ) -> None:
     """Run the seed's experiments (default) or one test on a unit, and write
@@ -82,7 +83,8 @@ def simulate(
             if sweep:
                 summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out, fig_format)
             else:
-                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, mass_kg, out, fig_format)
+                rtol = None if fixed_steps else DEFAULT_RTOL
+                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, rtol, mass_kg, out, fig_format)
             document = with_warnings(summary, caveats)
             out.write_json("summary.json", document)
         if as_json:
@@ -99,11 +101,11 @@ def simulate(
 # step had been used.
 _READS: dict[str, frozenset[str]] = {
     "seed": frozenset(),
-    "sine": frozenset({"amplitude_m", "frequency_hz", "spring", "damper", "duration_s", "dt_s"}),
-    "steps": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s"}),
-    "step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s"}),
-    "sdof-step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "mass_kg"}),
-    "heat": frozenset({"amplitude_m", "frequency_hz", "spring", "duration_s", "dt_s", "mass_kg"}),
+    "sine": frozenset({"amplitude_m", "frequency_hz", "spring", "damper", "duration_s", "dt_s", "fixed_steps"}),
+    "steps": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "fixed_steps"}),
+    "step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "fixed_steps"}),
+    "sdof-step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "fixed_steps", "mass_kg"}),
+    "heat": frozenset({"amplitude_m", "frequency_hz", "spring", "duration_s", "dt_s", "fixed_steps", "mass_kg"}),
     "sweep": frozenset({"amplitude_m", "spring", "damper", "mass_kg", "sweep_pressure_pa", "sweep_tau_s", "threads"}),
 }
 _RUN_OPTIONS = frozenset().union(*_READS.values(), {"test"})
@@ -155,7 +157,7 @@ def _sweep(
 
 def _simulate(
     rep: Reporter, unit: Unit, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
-    duration_s: float | None, dt_s: float | None, mass_kg: float, out: OutputDir, fig_format: str = "png",
+    duration_s: float | None, dt_s: float | None, rtol: float | None, mass_kg: float, out: OutputDir, fig_format: str = "png",
 ) -> tuple[dict[str, Any], list[Caveat]]:
     def given(value: float | None, default: float) -> float:
         return default if value is None else value
@@ -173,14 +175,14 @@ def _simulate(
                 for on in dampers:
                     runs.append(experiments.sdof_step(
                         unit, spring_hard=hard, damper_on=on, height_m=given(amplitude_m, experiments.SEED_STEP_M),
-                        duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=given(dt_s, 1e-3),
+                        duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=dt_s, rtol=rtol,
                         progress=bar(f"SDOF step ({experiments.spring_name(hard)}, damper {experiments.damper_name(on)})"),
                     ))
         elif test == "heat":
             for hard in springs:
                 runs.append(experiments.heat_buildup(
                     unit, duration_s=given(duration_s, 75 * 60.0), frequency_hz=given(frequency_hz, 0.5), amplitude_m=given(amplitude_m, 0.06),
-                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=given(dt_s, 2e-3), progress=bar(f"heat build-up ({experiments.spring_name(hard)})"),
+                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=dt_s, rtol=rtol, progress=bar(f"heat build-up ({experiments.spring_name(hard)})"),
                 ))
         else:
             for hard in springs:
@@ -197,7 +199,7 @@ def _simulate(
                         motion = Step(given(amplitude_m, 0.05), start_s=1.0, rise_s=0.05)
                         dur = given(duration_s, 30.0)
                     sample = min(0.01, dur / 2000) if dur > 0 else 0.01
-                    runs.append(experiments.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
+                    runs.append(experiments.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=dt_s, rtol=rtol, sample_dt_s=sample, progress=bar(name)))
 
     for e in runs:
         write_record(e.record, out.path(f"records/{e.name}"))

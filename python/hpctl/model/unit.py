@@ -22,7 +22,10 @@ from hpctl import _core
 from hpctl._coretypes import UnitDict
 from hpctl.errors import ParameterError, bad_argument, check_number
 
-GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
+# The gas models by name, from the Rust core: the default (the reference
+# equation of state of Span et al. 2000) first.
+GAS_MODELS: tuple[str, ...] = tuple(_core.GAS_MODELS)
+DEFAULT_GAS: str = _core.DEFAULT_GAS
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from hpctl.data.records import RecordTest, RigRecord
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, OilNode, Unit
 from hpctl.sim import checks, metrics
 from hpctl.sim.run import (
+    DEFAULT_RTOL,
     Motion,
     Progress,
     Result,
@@ -85,7 +86,8 @@ def characterisation(
     *,
     spring_hard: bool,
     damper_on: bool,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     sample_dt_s: float = 1e-2,
     ambient_k: float | None = None,
     progress: Progress | None = None,
@@ -94,7 +96,7 @@ def characterisation(
     whole cycle of a sine, force range."""
     ambient = unit.static_temperature_k if ambient_k is None else ambient_k
     result = run_characterisation(
-        unit, motion, duration_s, sample_dt_s=sample_dt_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient, progress=progress
+        unit, motion, duration_s, sample_dt_s=sample_dt_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient, progress=progress
     )
     test = motion_test(motion, spring_hard=spring_hard, damper_on=damper_on)
     excitation = test.excitation
@@ -110,7 +112,7 @@ def characterisation(
         "peak_p_gas_pa": float(result["p_gas_true_pa"].max()),
         "peak_t_gas_k": float(result["t_gas_k"].max()),
     }
-    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, result.time_s, name)
+    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, rtol, result.time_s, name)
     if isinstance(motion, Sine) and motion.frequency_hz * (t[-1] - t[0]) >= 1.0 - 1e-9:
         m = metrics.last_cycle(t, motion.frequency_hz)
         summary["loop_area_j"] = metrics.loop_area_j(x[m], f[m])
@@ -143,7 +145,7 @@ def _loop_caveats(unit: Unit, result: Result, cycle: Any, gas_loop_area_j: float
 
 def spring_characterisation(
     unit: Unit, *, spring_hard: bool, amplitude_m: float = SEED_AMPLITUDE_M, speed_m_s: float = SEED_SPEED_M_S,
-    cycles: float = 2.0, dt_s: float = 1e-3, progress: Progress | None = None,
+    cycles: float = 2.0, dt_s: float | None = None, progress: Progress | None = None,
 ) -> Experiment:
     """The seed's spring characterisation: a slow sine (damper bypassed)."""
     motion = Sine.with_speed(amplitude_m, speed_m_s)
@@ -160,7 +162,8 @@ def sdof_step(
     height_m: float = SEED_STEP_M,
     duration_s: float = 6.0,
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     start_s: float = 0.5,
     rise_s: float = 0.05,
     progress: Progress | None = None,
@@ -169,7 +172,7 @@ def sdof_step(
     ratio, overshoot, settling time (5 % band), peak pressure."""
     base = Step(height_m, start_s, rise_s)
     result = run_sdof(
-        unit, base, duration_s, sprung_mass_kg=sprung_mass_kg, sample_dt_s=1e-3, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, progress=progress
+        unit, base, duration_s, sprung_mass_kg=sprung_mass_kg, sample_dt_s=1e-3, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, progress=progress
     )
     test = RecordTest(spring=spring_name(spring_hard), damper=damper_name(damper_on), excitation="step", amplitude_m=height_m)
     name = f"sdof_step_{spring_name(spring_hard)}_{damper_name(damper_on)}"
@@ -179,7 +182,7 @@ def sdof_step(
     )
     summary: dict[str, Any] = {"spring": spring_name(spring_hard), "damper": damper_name(damper_on)}
     summary.update(metrics.step_response(result["time_s"], result["body_disp_m"], result["disp_m"], result["p_gas_true_pa"], height_m, start_s, rise_s))
-    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, result.time_s, name)
+    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, rtol, result.time_s, name)
     return Experiment(name, record, result, summary, caveats)
 
 
@@ -232,7 +235,8 @@ def heat_buildup(
     spring_hard: bool = True,
     ambient_k: float = 296.15,
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
-    dt_s: float = 2e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     progress: Progress | None = None,
 ) -> Experiment:
     """The seed's damper heat build-up run: a long sine with the damper on,
@@ -246,7 +250,7 @@ def heat_buildup(
         unit = unit.with_effects(oil_node=seed_oil_node())
     unit = unit.replace(static_temperature_k=ambient_k)
     e = characterisation(
-        unit, Sine(amplitude_m, frequency_hz), duration_s, spring_hard=spring_hard, damper_on=True, dt_s=dt_s,
+        unit, Sine(amplitude_m, frequency_hz), duration_s, spring_hard=spring_hard, damper_on=True, dt_s=dt_s, rtol=rtol,
         sample_dt_s=0.1, ambient_k=ambient_k, progress=progress,
     )
     r = e.result

@@ -6,6 +6,7 @@ the GIL released; :func:`run_many` runs cases in parallel on all cores.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Literal, Union, cast
@@ -17,10 +18,18 @@ from hpctl import _core
 from hpctl._coretypes import CaseDict, CharacterisationRigDict, MotionDict, SampledDict, SdofRigDict
 from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
 from hpctl.errors import bad_argument, check_flags, check_float_array, check_number
+from hpctl.model.effects import max_step_s
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
 CHANNELS: tuple[str, ...] = tuple(_core.CHANNELS)
+# The plant's relative tolerance, the core's one rule for step sizes: the
+# steps follow the dynamics (stiff terms such as valve 6, oil compliance and
+# valve or transducer lags included), so callers do not pick a step.
+DEFAULT_RTOL: float = _core.DEFAULT_RTOL
+#: The fixed step (``rtol=None``) unless a caller or an effect asks for a
+#: shorter one: about valve 6's orifice time constant, s.
+FIXED_STEP_S = 1e-3
 
 
 @dataclass(frozen=True)
@@ -108,6 +117,14 @@ class Result(Mapping[str, "FloatArray"]):
     unit: Unit | None = field(default=None, compare=False, repr=False)
     rig: Rig | None = field(default=None, compare=False, repr=False)
     ambient_k: float | None = field(default=None, compare=False, repr=False)
+    #: With ``record_steps``: the adaptive steps' end times, s.
+    step_end_s: FloatArray | None = field(default=None, compare=False, repr=False)
+
+    @classmethod
+    def from_core(cls, out: Mapping[str, FloatArray], unit: Unit | None = None, rig: Rig | None = None, ambient_k: float | None = None) -> Result:
+        d = dict(out)
+        steps = d.pop("step_end_s", None)
+        return cls(d, unit, rig, ambient_k, steps)
 
     def __getitem__(self, name: str) -> FloatArray:
         try:
@@ -206,9 +223,12 @@ def _case(
     *,
     spring_hard: bool | ArrayLike,
     damper_on: bool | ArrayLike,
-    dt_s: float,
+    dt_s: float | None,
+    rtol: float | None,
     ambient_k: float | None,
     channels: Sequence[str] | None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> CaseDict:
     if not isinstance(unit, Unit):
         raise bad_argument("unit", unit, "an hpctl.Unit")
@@ -216,11 +236,21 @@ def _case(
         raise bad_argument("channels", channels, f"a sequence of channel names ({', '.join(CHANNELS)})")
     if not isinstance(rig, (CharacterisationRig, SdofRig)):
         raise bad_argument("rig", rig, "a rig (hpctl.sim.run.characterisation_rig or sdof_rig)")
+    # Error-controlled steps capped at dt_s, or fixed RK4 steps of dt_s
+    # (default: 1 ms or the fastest dynamics the unit's effects add); the
+    # core checks the ranges.
+    if dt_s is not None:
+        step = check_number(dt_s, "dt_s")
+    else:
+        step = math.inf if rtol is not None else min(FIXED_STEP_S, max_step_s(unit))
     return {
         "unit": unit.to_dict(),
         "rig": rig.to_core(),
         "times_s": check_float_array(times_s, "times_s"),
-        "dt_s": check_number(dt_s, "dt_s"),
+        "dt_s": step,
+        "rtol": None if rtol is None else check_number(rtol, "rtol", finite=False),
+        "steps_s": None if steps_s is None else check_float_array(steps_s, "steps_s"),
+        "record_steps": bool(record_steps),
         "ambient_k": unit.static_temperature_k if ambient_k is None else check_number(ambient_k, "ambient_k"),
         "spring_hard": check_flags(spring_hard, "spring_hard"),
         "damper_on": check_flags(damper_on, "damper_on"),
@@ -291,17 +321,34 @@ def run(
     *,
     spring_hard: bool | ArrayLike = True,
     damper_on: bool | ArrayLike = True,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     ambient_k: float | None = None,
     channels: Sequence[str] | None = None,
     progress: Progress | None = None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> Result:
     """Runs ``rig`` (see :func:`characterisation_rig`, :func:`sdof_rig`)
     with outputs at ``times_s``; ``spring_hard`` / ``damper_on`` are one
-    value or one per output time (holding until the next)."""
-    c = _case(unit, rig, times_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels)
-    out = _core.simulate(c["unit"], c["rig"], c["times_s"], c["dt_s"], c["ambient_k"], c["spring_hard"], c["damper_on"], c["channels"], progress)
-    return Result(dict(out), unit, rig, c["ambient_k"])
+    value or one per output time (holding until the next).
+
+    The steps are error-controlled to the relative tolerance ``rtol`` (and
+    at most ``dt_s`` long, if given), the outputs taken from the dense
+    output; ``rtol=None`` integrates with fixed RK4 steps of at most
+    ``dt_s`` (default 1 ms) that land on every output time.
+
+    ``record_steps`` keeps the adaptive steps' end times
+    (:attr:`Result.step_end_s`); ``steps_s`` replays such a list without
+    error control, so that a finite-difference derivative with respect to
+    a unit parameter does not see the step-size selection change."""
+    c = _case(unit, rig, times_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
+              steps_s=steps_s, record_steps=record_steps)
+    out = _core.simulate(
+        c["unit"], c["rig"], c["times_s"], c["dt_s"], c["ambient_k"], c["spring_hard"], c["damper_on"], c["channels"], progress, c["rtol"],
+        c["steps_s"], c["record_steps"],
+    )
+    return Result.from_core(out, unit, rig, c["ambient_k"])
 
 
 def run_characterisation(
@@ -312,15 +359,19 @@ def run_characterisation(
     sample_dt_s: float = 1e-2,
     spring_hard: bool | ArrayLike = True,
     damper_on: bool | ArrayLike = True,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     ambient_k: float | None = None,
     channels: Sequence[str] | None = None,
     progress: Progress | None = None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> Result:
     """The characterisation rig: prescribed strut compression, outputs
     every ``sample_dt_s`` over ``duration_s``; the other arguments as for
     :func:`run`."""
-    return run(unit, characterisation_rig(strut), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels, progress=progress)
+    return run(unit, characterisation_rig(strut), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
+               progress=progress, steps_s=steps_s, record_steps=record_steps)
 
 
 def run_sdof(
@@ -332,15 +383,19 @@ def run_sdof(
     sample_dt_s: float = 1e-3,
     spring_hard: bool | ArrayLike = True,
     damper_on: bool | ArrayLike = True,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     ambient_k: float | None = None,
     channels: Sequence[str] | None = None,
     progress: Progress | None = None,
+    steps_s: ArrayLike | None = None,
+    record_steps: bool = False,
 ) -> Result:
     """The single-degree-of-freedom rig: a sprung mass over a moving base,
     outputs every ``sample_dt_s`` over ``duration_s``; the other arguments
     as for :func:`run`."""
-    return run(unit, sdof_rig(base, sprung_mass_kg), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient_k, channels=channels, progress=progress)
+    return run(unit, sdof_rig(base, sprung_mass_kg), uniform_times(duration_s, sample_dt_s), spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
+               progress=progress, steps_s=steps_s, record_steps=record_steps)
 
 
 @dataclass(frozen=True)
@@ -352,9 +407,12 @@ class Case:
     times_s: FloatArray
     spring_hard: bool | ArrayLike = True
     damper_on: bool | ArrayLike = True
-    dt_s: float = 1e-3
+    dt_s: float | None = None
+    rtol: float | None = DEFAULT_RTOL
     ambient_k: float | None = None
     channels: Sequence[str] | None = None
+    steps_s: FloatArray | None = None
+    record_steps: bool = False
 
 
 def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result | Exception]:
@@ -366,6 +424,7 @@ def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result |
     for c in cases:
         if not isinstance(c, Case):
             raise bad_argument("cases", c, "a sequence of hpctl.sim.run.Case")
-        dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels))
+        dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, rtol=c.rtol, ambient_k=c.ambient_k,
+                           channels=c.channels, steps_s=c.steps_s, record_steps=c.record_steps))
     results = _core.simulate_many(dicts, threads)
-    return [r if isinstance(r, Exception) else Result(dict(r), c.unit, c.rig, d["ambient_k"]) for c, d, r in zip(cases, dicts, results)]
+    return [r if isinstance(r, Exception) else Result.from_core(r, c.unit, c.rig, d["ambient_k"]) for c, d, r in zip(cases, dicts, results)]

@@ -65,6 +65,11 @@ impl Ecu {
         self.params.is_some()
     }
 
+    /// The compiled parameters, if they passed validation.
+    pub fn params(&self) -> Option<&Params> {
+        self.params.as_ref()
+    }
+
     /// Feeds one received frame to the receiver; returns the tick index if
     /// it was a lock-step tick (`HP_PilTick`).
     pub fn receive<F: Frame>(&mut self, frame: &F) -> Option<u16> {

@@ -29,6 +29,8 @@ const PERIODS: u32 = 6000;
 const WARMUP: u32 = 3000;
 /// Frames timed per message in the per-frame figures.
 const FRAME_REPS: u32 = 100;
+/// Lookups timed per direction in the gas-table figures.
+const TABLE_REPS: u32 = 100;
 
 /// Counts what the ECU sends instead of sending it.
 struct CountingLink {
@@ -173,6 +175,32 @@ fn send_costs(out: &Outputs) {
     }
 }
 
+/// The gas table's cost per lookup, both ways (`LargeTable::pressure_pa`,
+/// `LargeTable::offset_m`): `TABLE_REPS` lookups each at points spread over
+/// the table, each timed alone. Prints `table NAME sum=.. max=.. n=..`.
+fn table_costs(ecu: &Ecu) {
+    let Some(params) = ecu.params() else { return };
+    let table = params.large_table();
+    let (u_min, u_max) = table.offset_range_m();
+    let t_k = params.config().unit.static_temperature_k as f32;
+    let p_pa = params.config().unit.static_pressure_pa as f32;
+    let (mut forward, mut backward) = (Stat::default(), Stat::default());
+    for k in 0..TABLE_REPS {
+        let x = libm::sinf(k as f32 * 0.37);
+        let u = u_min + (u_max - u_min) * 0.5 * (1.0 + x);
+        let t = t_k + 40.0 * x;
+        let t0 = now();
+        black_box(table.pressure_pa(black_box(u), black_box(t)));
+        let t1 = now();
+        black_box(table.offset_m(black_box(p_pa * (1.0 + 0.3 * x)), black_box(t)));
+        let t2 = now();
+        forward.add(elapsed(t0, t1));
+        backward.add(elapsed(t1, t2));
+    }
+    hprintln!("table pressure sum={} max={} n={}", forward.sum, forward.max, TABLE_REPS);
+    hprintln!("table offset sum={} max={} n={}", backward.sum, backward.max, TABLE_REPS);
+}
+
 /// 4000 `nop`s for the calibration (plus the call and return: within the
 /// check's one-tick tolerance). A function of its own, never inlined:
 /// LLVM sizes the inline assembly as one instruction, not 8000 bytes, so in
@@ -203,7 +231,10 @@ fn main() -> ! {
     let calib = elapsed(c0, now());
 
     let cfg = Config::seed_unit();
+    // Start-up: validating the configuration and building the gas table.
+    let b0 = now();
     let mut ecu = Ecu::new();
+    let params_build = elapsed(b0, now());
     let stack_init = stack::high_water_bytes();
     stack::repaint();
     let mut sensors = Transmitter::new();
@@ -238,6 +269,8 @@ fn main() -> ! {
     let stack_loop = stack::high_water_bytes();
     receive_costs(&cfg);
     send_costs(&last);
+    table_costs(&ecu);
+    hprintln!("table build sum={} max={} n=1", params_build, params_build);
     let n = PERIODS - WARMUP;
     hprintln!(
         "figures calib_4000_nops={} stack_init_bytes={} periods={} params_ok={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={}",
