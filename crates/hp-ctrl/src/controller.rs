@@ -105,6 +105,14 @@ impl State {
     }
 }
 
+impl State {
+    /// The ride-height change in progress (`Lowering`, `Raising`) or
+    /// `Holding`.
+    pub fn sequencer_phase(&self) -> crate::SequencerState {
+        self.ride_height.phase()
+    }
+}
+
 impl Default for State {
     fn default() -> Self {
         Self::new()

@@ -36,6 +36,8 @@ use crate::config::{check, check_below, ParamError};
 pub struct UnitConfig {
     /// Strut piston area, m^2.
     pub piston_area_m2: f64,
+    /// Gas volume of S at the nominal static position, m^3.
+    pub small_acc_volume_m3: f64,
     /// Gas volume of L at the nominal static position, m^3.
     pub large_acc_volume_m3: f64,
     /// Gas pressure at the nominal static position, Pa.
@@ -56,6 +58,7 @@ impl UnitConfig {
     pub fn from_unit(unit: &hp_core::unit::UnitParams) -> Self {
         UnitConfig {
             piston_area_m2: unit.piston_area_m2,
+            small_acc_volume_m3: unit.small_acc_volume_m3,
             large_acc_volume_m3: unit.large_acc_volume_m3,
             static_pressure_pa: unit.static_pressure_pa,
             static_temperature_k: unit.static_temperature_k,
@@ -72,6 +75,7 @@ impl UnitConfig {
 
     pub(crate) fn validate(&self) -> Result<(), ParamError> {
         check("unit.piston_area_m2", self.piston_area_m2, 1.0e-5, 0.1)?;
+        check("unit.small_acc_volume_m3", self.small_acc_volume_m3, 1.0e-6, 0.1)?;
         check("unit.large_acc_volume_m3", self.large_acc_volume_m3, 1.0e-6, 0.1)?;
         check("unit.static_pressure_pa", self.static_pressure_pa, 1.0e5, 1.2e8)?;
         check("unit.static_temperature_k", self.static_temperature_k, 200.0, 600.0)?;

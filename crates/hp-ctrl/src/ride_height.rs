@@ -243,6 +243,13 @@ impl RideHeightState {
     }
 }
 
+impl RideHeightState {
+    /// The change in progress: `Lowering`, `Raising` or `Holding`.
+    pub fn phase(&self) -> SequencerState {
+        self.phase
+    }
+}
+
 impl Default for RideHeightState {
     fn default() -> Self {
         Self::new()
