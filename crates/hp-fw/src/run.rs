@@ -21,8 +21,8 @@ pub enum Timing {
 ///
 /// If the loop ever falls behind the timer, the missed ticks are skipped:
 /// one period runs per observed change of the counter.
-pub fn run<L: Link>(
-    ecu: &mut Ecu,
+pub fn run<L: Link, const N: usize>(
+    ecu: &mut Ecu<N>,
     link: &mut L,
     ticks: impl Fn() -> u32,
     service: impl Fn(&mut L),

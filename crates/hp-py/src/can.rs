@@ -77,7 +77,7 @@ fn can_encode<'py>(py: Python<'py>, name: &str, counter: u8, values: &Bound<'py,
         }
         r.finish()?;
         let msg = codec::read_payload(kind, &payload).map_err(rejected)?;
-        let frame = codec::encode(&msg, counter).map_err(|_| parameter(format!("{name}: a value is outside its range")))?;
+        let frame = codec::encode(&msg, counter, kind.def().source).map_err(|_| parameter(format!("{name}: a value is outside its range")))?;
         Ok(frame_to_py(py, &frame))
     })
 }
@@ -86,13 +86,13 @@ fn can_encode<'py>(py: Python<'py>, name: &str, counter: u8, values: &Bound<'py,
 /// reserved bits and signal ranges are checked; the counter sequence is
 /// the receiver's job). Returns `(message name, counter, {signal: value})`.
 #[pyfunction]
-#[pyo3(signature = (id, data, extended=false))]
+#[pyo3(signature = (id, data, extended=true))]
 fn can_decode<'py>(py: Python<'py>, id: u32, data: &[u8], extended: bool) -> PyResult<(&'static str, u8, Bound<'py, PyDict>)> {
     guard(|| {
         let frame = frame_from(id, data, extended)?;
         let (msg, counter) = codec::decode(&frame).map_err(rejected)?;
         let kind = msg.kind();
-        let payload = codec::encode(&msg, counter).map_err(|_| parameter("decoded message does not re-encode"))?;
+        let payload = codec::encode(&msg, counter, kind.def().source).map_err(|_| parameter("decoded message does not re-encode"))?;
         let values = PyDict::new(py);
         for sd in kind.signals() {
             values.set_item(sd.name, sd.signal.get(payload.payload()).unwrap_or(f64::NAN))?;
@@ -115,49 +115,87 @@ impl Link for Sent {
     }
 }
 
-/// The ECU application, `hp_ctrl::can::ecu::Ecu`: the code the firmware
-/// runs, on the host (the reference of processor-in-the-loop tests).
-/// Power-on: the seed unit's parameters, the controller in its safe state,
-/// every input message stale.
-#[pyclass(module = "hpctl._core")]
+/// The ECU application for 4 or 8 corners.
+enum AnyEcu {
+    Four(Box<ecu::Ecu<4>>),
+    Eight(Box<ecu::Ecu<8>>),
+}
+
+/// The ECU application, `hp_ctrl::can::ecu::Ecu<N>` for `corners` = 4 or
+/// 8: the code the firmware runs, on the host (the reference of
+/// processor-in-the-loop tests). Power-on: the seed unit at every corner,
+/// every corner in its safe state, every input message stale, the address
+/// claim due.
+#[pyclass(module = "hpctl._core", unsendable)]
 pub struct Ecu {
-    ecu: Box<ecu::Ecu>,
+    ecu: AnyEcu,
+}
+
+macro_rules! with_ecu {
+    ($self:expr, $e:ident => $body:expr) => {
+        match &mut $self.ecu {
+            AnyEcu::Four($e) => $body,
+            AnyEcu::Eight($e) => $body,
+        }
+    };
 }
 
 #[pymethods]
 impl Ecu {
     #[new]
-    fn new() -> PyResult<Self> {
-        guard(|| Ok(Ecu { ecu: Box::new(ecu::Ecu::new()) }))
+    #[pyo3(signature = (corners=4))]
+    fn new(corners: i64) -> PyResult<Self> {
+        guard(|| {
+            let ecu = match corners {
+                4 => AnyEcu::Four(Box::new(ecu::Ecu::new())),
+                8 => AnyEcu::Eight(Box::new(ecu::Ecu::new())),
+                _ => return Err(parameter(format!("corners = {corners} must be 4 or 8"))),
+            };
+            Ok(Ecu { ecu })
+        })
     }
 
     /// True if the parameters validated (otherwise the outputs stay safe).
     #[getter]
-    fn has_params(&self) -> bool {
-        self.ecu.has_params()
+    fn has_params(&mut self) -> bool {
+        with_ecu!(self, e => e.has_params())
     }
 
     /// Frames that could not be queued for sending.
     #[getter]
-    fn tx_dropped(&self) -> u32 {
-        self.ecu.tx_dropped
+    fn tx_dropped(&mut self) -> u32 {
+        with_ecu!(self, e => e.tx_dropped)
     }
 
-    /// Feeds one received frame to the ECU's receiver (a rejected frame is
-    /// counted in its diagnostics, not raised). Returns the tick index if
-    /// it was an accepted `HP_PilTick`, else None.
-    #[pyo3(signature = (id, data, extended=false))]
+    /// The source address the ECU holds (0xFE once it could not claim one).
+    #[getter]
+    fn address(&mut self) -> u8 {
+        with_ecu!(self, e => e.network().address())
+    }
+
+    /// The active trouble codes as `(spn, fmi, occurrence_count)`.
+    fn dtcs(&mut self) -> Vec<(u32, u8, u8)> {
+        with_ecu!(self, e => e.dtcs().active().map(|d| (d.spn, d.fmi, d.occurrence_count)).collect())
+    }
+
+    /// Feeds one received frame to the ECU (a rejected frame is counted in
+    /// its diagnostics, not raised). Returns the tick index if it was an
+    /// accepted `HP_PilTick`, else None.
+    #[pyo3(signature = (id, data, extended=true))]
     fn receive(&mut self, id: u32, data: &[u8], extended: bool) -> PyResult<Option<u16>> {
-        guard(|| Ok(self.ecu.receive(&frame_from(id, data, extended)?)))
+        guard(|| {
+            let frame = frame_from(id, data, extended)?;
+            Ok(with_ecu!(self, e => e.receive(&frame)))
+        })
     }
 
-    /// Closes one control period: the controller step on what was
-    /// received, and the frames the ECU sends in it, as `(identifier,
-    /// bytes)` in sending order.
+    /// Closes one control period: the vehicle step on what was received,
+    /// and the frames the ECU sends in it, as `(identifier, bytes)` in
+    /// sending order.
     fn period<'py>(&mut self, py: Python<'py>) -> PyResult<Vec<(u32, Bound<'py, PyBytes>)>> {
         guard(|| {
             let mut sent = Sent::default();
-            self.ecu.period(&mut sent);
+            with_ecu!(self, e => { e.period(&mut sent); });
             Ok(sent.0.iter().map(|f| frame_to_py(py, f)).collect())
         })
     }
