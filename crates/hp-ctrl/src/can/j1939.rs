@@ -429,11 +429,11 @@ impl Network {
     fn send_dm1(&mut self, me: u8, dtcs: &DtcTable, send: &mut impl FnMut(CanFrame)) {
         let any = dtcs.count() > 0;
         let on = if any { LampStatus::On } else { LampStatus::Off };
-        let lamps = Lamps::new()
-            .with_status(Lamp::AmberWarning, on)
-            .with_status(Lamp::MalfunctionIndicator, LampStatus::Off)
-            .with_status(Lamp::RedStop, LampStatus::Off)
-            .with_status(Lamp::Protect, LampStatus::Off);
+        // Flash status 0b11 is "do not flash" (0b00 would be a slow flash).
+        let mut lamps = Lamps::new().with_status(Lamp::AmberWarning, on);
+        for lamp in Lamp::ALL {
+            lamps = lamps.with_flash_status(lamp, LampStatus::NotAvailable);
+        }
         self.dm1 = [0xFF; DM1_MAX_BYTES];
         let [l0, l1] = lamps.encode();
         let mut len = 2;
