@@ -72,7 +72,7 @@ fn table() -> String {
         let t = d.timing;
         out += &format!(
             "msg {} {:#x} {:#x} {} {} {} {} {:#x} {} {:#x}\n",
-            d.name,
+            d.kind.name(),
             d.id(),
             d.data_id,
             t.cycle_ms,
@@ -87,7 +87,7 @@ fn table() -> String {
             let g = &s.signal;
             out += &format!(
                 "sig {} {} {} {} {} {:?} {:?} {} {} {}\n",
-                d.name,
+                d.kind.name(),
                 s.name,
                 g.start_bit,
                 g.bit_len,
@@ -145,7 +145,7 @@ fn decode(frame: &CanFrame) -> String {
                 .iter()
                 .map(|s| format!("{}={:?}", s.name, s.signal.get(again.payload()).unwrap_or(f64::NAN)))
                 .collect();
-            format!("message {} {} {}", def.name, counter, values.join(" "))
+            format!("message {} {} {}", def.kind.name(), counter, values.join(" "))
         }
     }
 }
@@ -208,7 +208,7 @@ fn frame_id(f: &CanFrame) -> u32 {
 
 fn main() -> io::Result<()> {
     let mut rx = InputDecoder::<4>::new(LinkParams::default());
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&hp_ctrl::calibration::SEED_4, 1);
     let stdout = io::stdout();
     let mut out = stdout.lock();
     for line in io::stdin().lock().lines() {

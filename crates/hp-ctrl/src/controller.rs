@@ -19,16 +19,16 @@ use crate::{clock, diag, DamperMode, DriveMode, Inputs, Outputs};
 /// never solves the equation of state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Params {
-    config: Config,
-    table: LargeTable,
-    monitor: MonitorParams,
-    estimator: EstimatorParams,
-    mode: ModeParams,
-    damper: DamperParams,
-    ride_height: RideHeightParams,
-    load: LoadParams,
+    pub(crate) config: Config,
+    pub(crate) table: LargeTable,
+    pub(crate) monitor: MonitorParams,
+    pub(crate) estimator: EstimatorParams,
+    pub(crate) mode: ModeParams,
+    pub(crate) damper: DamperParams,
+    pub(crate) ride_height: RideHeightParams,
+    pub(crate) load: LoadParams,
     /// The stroke as ride-height offsets (extension end, compression end), m.
-    stroke_m: (f32, f32),
+    pub(crate) stroke_m: (f32, f32),
 }
 
 impl Params {

@@ -111,18 +111,18 @@ const BLOCK_US: u32 = 1_000_000;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GasChargeParams {
     /// `V_S0 + V_L0`, m^3.
-    v_total_m3: f32,
+    pub(crate) v_total_m3: f32,
     /// `V_S0 / V_L0`.
-    small_over_large: f32,
-    v_large_m3: f32,
-    area_m2: f32,
-    tau_us: u32,
-    settle_us: u32,
-    confirm_us: u32,
-    threshold: f32,
-    clear_below: f32,
-    significant: f32,
-    inv_sigma_sqrt2: f32,
+    pub(crate) small_over_large: f32,
+    pub(crate) v_large_m3: f32,
+    pub(crate) area_m2: f32,
+    pub(crate) tau_us: u32,
+    pub(crate) settle_us: u32,
+    pub(crate) confirm_us: u32,
+    pub(crate) threshold: f32,
+    pub(crate) clear_below: f32,
+    pub(crate) significant: f32,
+    pub(crate) inv_sigma_sqrt2: f32,
 }
 
 impl GasChargeParams {

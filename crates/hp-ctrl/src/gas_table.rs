@@ -107,18 +107,18 @@ pub const TABLE_DENSITIES: usize = 21;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LargeTable {
     /// `p_pa[i][j]` at temperature node `i`, density node `j`.
-    p_pa: [[f32; TABLE_DENSITIES]; TABLE_TEMPERATURES],
-    t0_k: f32,
-    t_step_k: f32,
-    rho0_kg_m3: f32,
-    rho_step_kg_m3: f32,
+    pub(crate) p_pa: [[f32; TABLE_DENSITIES]; TABLE_TEMPERATURES],
+    pub(crate) t0_k: f32,
+    pub(crate) t_step_k: f32,
+    pub(crate) rho0_kg_m3: f32,
+    pub(crate) rho_step_kg_m3: f32,
     /// Gas mass, volume at the static charge and piston area, for the
     /// conversion between volume offsets and densities.
-    mass_kg: f32,
-    v0_m3: f32,
-    area_m2: f32,
+    pub(crate) mass_kg: f32,
+    pub(crate) v0_m3: f32,
+    pub(crate) area_m2: f32,
     /// The tabulated volume offsets, m.
-    u_range_m: (f32, f32),
+    pub(crate) u_range_m: (f32, f32),
 }
 
 /// Position of a value on a regular grid: the lower node and the weight of

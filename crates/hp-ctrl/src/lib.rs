@@ -35,6 +35,7 @@
 //! every diagnostic flag.
 #![no_std]
 
+pub mod calibration;
 pub mod can;
 pub mod clock;
 pub mod closed_loop;

@@ -216,33 +216,33 @@ impl<const N: usize> VehicleConfig<N> {
 
 /// [`LevellingConfig`] compiled.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct LevellingParams {
-    lower_m: f32,
-    raise_m: f32,
-    kneel_m: f32,
-    standstill_speed_m_s: f32,
-    raise_max_speed_m_s: f32,
-    auto_lower_on_m_s: f32,
-    auto_lower_off_m_s: f32,
-    auto_lower_m: f32,
-    slope_tolerance_rad: f32,
-    inclination_max_rad: f32,
-    inv_inclination_tau_per_s: f32,
-    settle_us: u32,
-    request_max_m: f32,
+pub(crate) struct LevellingParams {
+    pub(crate) lower_m: f32,
+    pub(crate) raise_m: f32,
+    pub(crate) kneel_m: f32,
+    pub(crate) standstill_speed_m_s: f32,
+    pub(crate) raise_max_speed_m_s: f32,
+    pub(crate) auto_lower_on_m_s: f32,
+    pub(crate) auto_lower_off_m_s: f32,
+    pub(crate) auto_lower_m: f32,
+    pub(crate) slope_tolerance_rad: f32,
+    pub(crate) inclination_max_rad: f32,
+    pub(crate) inv_inclination_tau_per_s: f32,
+    pub(crate) settle_us: u32,
+    pub(crate) request_max_m: f32,
 }
 
 /// Validated, compiled parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VehicleParams<const N: usize> {
-    corner: Params,
-    gas: GasChargeParams,
-    levelling: LevellingParams,
+    pub(crate) corner: Params,
+    pub(crate) gas: GasChargeParams,
+    pub(crate) levelling: LevellingParams,
     /// Corner positions relative to the centroid, m.
-    x_m: [f32; N],
-    y_m: [f32; N],
+    pub(crate) x_m: [f32; N],
+    pub(crate) y_m: [f32; N],
     /// Kneeling weight of each corner: 1 on the front axle, 0 on the rear.
-    front_weight: [f32; N],
+    pub(crate) front_weight: [f32; N],
 }
 
 impl<const N: usize> VehicleParams<N> {
@@ -358,8 +358,6 @@ pub mod vehicle_diag {
     pub const SLOPE_LIMITED: u32 = 1 << 1;
     /// The requested height mode is not allowed at this speed.
     pub const MODE_REFUSED: u32 = 1 << 2;
-    /// The parameters failed validation: every corner is in its safe state.
-    pub const NO_PARAMS: u32 = 1 << 3;
 }
 
 /// What the vehicle step commands and reports.
@@ -374,13 +372,14 @@ pub struct VehicleOutputs<const N: usize> {
 }
 
 impl<const N: usize> VehicleOutputs<N> {
-    /// Every corner in its safe state (no parameters).
+    /// Every corner in its safe state (what the outputs are before the
+    /// first step).
     pub fn safe() -> Self {
         VehicleOutputs {
             corners: [Outputs { diag: diag::SAFE_STATE, ..Outputs::default() }; N],
             gas: [GasCharge { charge_ratio: 1.0, ..GasCharge::default() }; N],
             height_mode: HeightMode::Normal,
-            diag: vehicle_diag::NO_PARAMS,
+            diag: 0,
         }
     }
 }

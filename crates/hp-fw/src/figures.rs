@@ -15,7 +15,7 @@ use cortex_m_semihosting::{debug, hprintln};
 use hp_ctrl::can::ecu::{Ecu, Link};
 use hp_ctrl::can::messages::{address, Ctrl, Diag, DiagE2e, DiagLink, Driver, Inclination, Motion, PilTick, Pressures, Status, Steering, Valves, Vehicle};
 use hp_ctrl::can::{CanFrame, InputDecoder, LinkParams, Message, Transmitter};
-use hp_ctrl::vehicle::{HeightMode, VehicleOutputs};
+use hp_ctrl::vehicle::{HeightMode, VehicleOutputs, VehicleParams};
 use hp_ctrl::{Config, DriverMode};
 
 use crate::stack;
@@ -134,7 +134,7 @@ fn receive_costs(cfg: &Config) {
     for make in samples {
         let mut rx = InputDecoder::<4>::new(LinkParams::default());
         let mut tx = Transmitter::new();
-        let name = make(p_pa, t_k, 0.0).kind().def().name;
+        let name = make(p_pa, t_k, 0.0).kind().name();
         let (mut stat, mut n) = (Stat::default(), 0u32);
         for k in 0..=FRAME_REPS {
             let x = libm::sin(f64::from(k) * 0.37);
@@ -175,7 +175,7 @@ fn send_costs<const N: usize>(out: &VehicleOutputs<N>) {
                 n += 1;
             }
         }
-        hprintln!("frame tx {} sum={} max={} n={}", msg.kind().def().name, stat.sum, stat.max, n);
+        hprintln!("frame tx {} sum={} max={} n={}", msg.kind().name(), stat.sum, stat.max, n);
     }
 }
 
@@ -190,8 +190,8 @@ fn nops_4000() {
     unsafe { core::arch::asm!(".rept 4000", "nop", ".endr", options(nomem, nostack)) };
 }
 
-/// Runs the figures for `N` corners and exits the emulator.
-pub fn main<const N: usize>() -> ! {
+/// Runs the figures for `N` corners with `params` and exits the emulator.
+pub fn main<const N: usize>(params: &'static VehicleParams<N>) -> ! {
     let Some(mut core) = cortex_m::Peripherals::take() else {
         debug::exit(debug::EXIT_FAILURE);
         loop {
@@ -208,8 +208,8 @@ pub fn main<const N: usize>() -> ! {
     nops_4000();
     let calib = elapsed(c0, now());
 
-    let cfg = Config::seed_unit();
-    let mut ecu = Ecu::<N>::new();
+    let cfg = *params.corner().config();
+    let mut ecu = Ecu::<N>::new(params, 1);
     let stack_init = stack::high_water_bytes();
     stack::repaint();
     let mut sensors = Transmitter::new();
@@ -248,12 +248,11 @@ pub fn main<const N: usize>() -> ! {
     send_costs(&last);
     let n = PERIODS - WARMUP;
     hprintln!(
-        "figures corners={} calib_4000_nops={} stack_init_bytes={} periods={} params_ok={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={}",
+        "figures corners={} calib_4000_nops={} stack_init_bytes={} periods={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={}",
         N,
         calib,
         stack_init,
         n,
-        u8::from(ecu.has_params()),
         rx.sum,
         rx.max,
         step.sum,

@@ -171,9 +171,11 @@ fn SysTick() {
     TICKS.fetch_add(1, core::sync::atomic::Ordering::Relaxed);
 }
 
-/// Boots the board and runs the ECU for `N` corners with `timing`.
-pub fn main<const N: usize>(timing: crate::run::Timing) -> ! {
-    let mut ecu = hp_ctrl::can::ecu::Ecu::<N>::new();
+/// Boots the board and runs the ECU for `N` corners with the parameters
+/// `params` and `timing`.
+pub fn main<const N: usize>(params: &'static hp_ctrl::vehicle::VehicleParams<N>, timing: crate::run::Timing) -> ! {
+    // Identity number 1: the emulator is one ECU.
+    let mut ecu = hp_ctrl::can::ecu::Ecu::<N>::new(params, 1);
     let mut link = SlcanLink::new();
     uart_init();
     if let Some(mut core) = cortex_m::Peripherals::take() {

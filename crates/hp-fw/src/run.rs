@@ -33,17 +33,23 @@ pub fn run<L: Link, const N: usize>(
     loop {
         service(link);
         let mut idle = true;
+        let mut due = false;
         while let Some(frame) = link.receive() {
             idle = false;
             if ecu.receive(&frame).is_some() && timing == Timing::LockStep {
-                ecu.period(link);
                 // Frames after the tick belong to the next period.
+                due = true;
                 break;
             }
         }
         let now = ticks();
         if timing == Timing::Timer && now != done {
             done = now;
+            due = true;
+        }
+        // One call site: the period (the whole vehicle step) is inlined
+        // once, not once per timing.
+        if due {
             ecu.period(link);
             idle = false;
         }

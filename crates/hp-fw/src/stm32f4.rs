@@ -163,11 +163,15 @@ fn SysTick() {
 /// Corners of the vehicle this build controls.
 pub const CORNERS: usize = 8;
 
+/// The identity number in the ECU's J1939 NAME (a production ECU's serial
+/// number; one per unit built).
+const IDENTITY_NUMBER: u32 = 1;
+
 /// Boots the board and runs the ECU on the 1 kHz SysTick. If the
 /// peripherals or the CAN controller cannot be had, it parks with the valve
 /// outputs untouched, i.e. de-energised.
 pub fn main() -> ! {
-    let mut ecu = Ecu::<CORNERS>::new();
+    let mut ecu = Ecu::<CORNERS>::new(&hp_ctrl::calibration::SEED_8, IDENTITY_NUMBER);
     let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         park()
     };

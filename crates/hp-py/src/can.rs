@@ -61,7 +61,7 @@ fn frame_to_py<'py>(py: Python<'py>, f: &CanFrame) -> (u32, Bound<'py, PyBytes>)
 fn can_encode<'py>(py: Python<'py>, name: &str, counter: u8, values: &Bound<'py, PyAny>) -> PyResult<(u32, Bound<'py, PyBytes>)> {
     guard(|| {
         let kind = Kind::from_name(name).ok_or_else(|| {
-            let names: Vec<&str> = Kind::ALL.iter().map(|k| k.def().name).collect();
+            let names: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
             parameter(format!("unknown message {name:?} (one of: {})", names.join(", ")))
         })?;
         if counter > e2e::COUNTER_MAX {
@@ -97,7 +97,7 @@ fn can_decode<'py>(py: Python<'py>, id: u32, data: &[u8], extended: bool) -> PyR
         for sd in kind.signals() {
             values.set_item(sd.name, sd.signal.get(payload.payload()).unwrap_or(f64::NAN))?;
         }
-        Ok((kind.def().name, counter, values))
+        Ok((kind.name(), counter, values))
     })
 }
 
@@ -115,17 +115,19 @@ impl Link for Sent {
     }
 }
 
-/// The ECU application for 4 or 8 corners.
+/// The ECU application for 4 or 8 corners, with a built-in calibration.
 enum AnyEcu {
-    Four(Box<ecu::Ecu<4>>),
-    Eight(Box<ecu::Ecu<8>>),
+    Four(Box<ecu::Ecu<'static, 4>>),
+    Eight(Box<ecu::Ecu<'static, 8>>),
 }
 
 /// The ECU application, `hp_ctrl::can::ecu::Ecu<N>` for `corners` = 4 or
 /// 8: the code the firmware runs, on the host (the reference of
-/// processor-in-the-loop tests). Power-on: the seed unit at every corner,
-/// every corner in its safe state, every input message stale, the address
-/// claim due.
+/// processor-in-the-loop tests), with the calibration the firmware has
+/// (`hp_ctrl::calibration`): `"seed"` (production: `hp-fw-mps2`,
+/// `hp-fw-stm32f4`) or `"pil"` (the gas-charge detector in seconds:
+/// `hp-fw-pil`, `hp-fw-pil8`). Power-on: every corner in its safe state,
+/// every input message stale, the address claim due.
 #[pyclass(module = "hpctl._core", unsendable)]
 pub struct Ecu {
     ecu: AnyEcu,
@@ -143,22 +145,34 @@ macro_rules! with_ecu {
 #[pymethods]
 impl Ecu {
     #[new]
-    #[pyo3(signature = (corners=4))]
-    fn new(corners: i64) -> PyResult<Self> {
+    #[pyo3(signature = (corners=4, calibration="seed", identity_number=1))]
+    fn new(corners: i64, calibration: &str, identity_number: u32) -> PyResult<Self> {
+        use hp_ctrl::calibration::{PIL_4, PIL_8, SEED_4, SEED_8};
         guard(|| {
+            if identity_number >= 1 << 21 {
+                return Err(parameter(format!("identity_number = {identity_number} must be within [0, 2097151] (21 bits)")));
+            }
+            let pil = match calibration {
+                "seed" => false,
+                "pil" => true,
+                _ => return Err(parameter(format!("calibration = {calibration:?} must be \"seed\" or \"pil\""))),
+            };
             let ecu = match corners {
-                4 => AnyEcu::Four(Box::new(ecu::Ecu::new())),
-                8 => AnyEcu::Eight(Box::new(ecu::Ecu::new())),
+                4 => AnyEcu::Four(Box::new(ecu::Ecu::new(if pil { &PIL_4 } else { &SEED_4 }, identity_number))),
+                8 => AnyEcu::Eight(Box::new(ecu::Ecu::new(if pil { &PIL_8 } else { &SEED_8 }, identity_number))),
                 _ => return Err(parameter(format!("corners = {corners} must be 4 or 8"))),
             };
             Ok(Ecu { ecu })
         })
     }
 
-    /// True if the parameters validated (otherwise the outputs stay safe).
+    /// Number of corners.
     #[getter]
-    fn has_params(&mut self) -> bool {
-        with_ecu!(self, e => e.has_params())
+    fn corners(&self) -> usize {
+        match &self.ecu {
+            AnyEcu::Four(_) => 4,
+            AnyEcu::Eight(_) => 8,
+        }
     }
 
     /// Frames that could not be queued for sending.

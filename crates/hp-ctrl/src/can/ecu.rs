@@ -13,7 +13,7 @@ use super::rx::Accepted;
 use super::tx::ecu_message;
 use super::{CanFrame, InputDecoder, LinkParams, Message, Reject, Transmitter};
 use crate::input_group::{BODY, DRIVER, PRESSURES, STEERING, STRUT, TEMPERATURE, VEHICLE};
-use crate::vehicle::{self, vehicle_diag, VehicleConfig, VehicleInputs, VehicleOutputs, VehicleParams, VehicleState};
+use crate::vehicle::{self, vehicle_diag, VehicleInputs, VehicleOutputs, VehicleParams, VehicleState};
 use crate::diag;
 
 /// Control period, s (1 kHz).
@@ -31,26 +31,10 @@ pub trait Link {
     fn transmit(&mut self, frame: &CanFrame) -> bool;
 }
 
-/// The vehicle step: the ECU's only call into [`vehicle::step`].
-///
-/// Without valid parameters (they failed validation at start-up) every
-/// corner is in its safe state: all valves de-energised.
-pub fn control_step<const N: usize>(params: Option<&VehicleParams<N>>, state: &mut VehicleState<N>, inputs: &VehicleInputs<N>) -> VehicleOutputs<N> {
-    match params {
-        Some(p) => vehicle::step(p, state, inputs, PERIOD_S),
-        None => VehicleOutputs::safe(),
-    }
-}
-
-/// The vehicle of the built-in parameters: `N / 2` axles 1.5 m apart, 2 m
-/// track (a 4x4 is 1.5 m, an 8x8 4.5 m from the first to the last axle).
-pub const AXLE_SPACING_M: f64 = 1.5;
-/// Track width of the built-in vehicle, m.
-pub const TRACK_M: f64 = 2.0;
-
-/// Everything the ECU application keeps.
-pub struct Ecu<const N: usize> {
-    params: Option<VehicleParams<N>>,
+/// Everything the ECU application keeps, for `N` corners with the
+/// parameters `params` (in flash on the ECU: [`crate::calibration`]).
+pub struct Ecu<'p, const N: usize> {
+    params: &'p VehicleParams<N>,
     state: VehicleState<N>,
     rx: InputDecoder<N>,
     tx: Transmitter,
@@ -61,18 +45,19 @@ pub struct Ecu<const N: usize> {
     pub tx_dropped: u32,
 }
 
-impl<const N: usize> Ecu<N> {
-    /// Power-on: the seed unit at every corner, the built-in geometry;
-    /// every corner in its safe state, every message stale; the address
-    /// claim goes out in the first period.
-    pub fn new() -> Self {
-        Ecu::with_config(VehicleConfig::seed_vehicle(AXLE_SPACING_M, TRACK_M), 1)
-    }
-
-    /// Power-on with `config` and the NAME's identity number.
-    pub fn with_config(config: VehicleConfig<N>, identity_number: u32) -> Self {
+impl<'p, const N: usize> Ecu<'p, N> {
+    /// Power-on with `params` and the NAME's identity number: every corner
+    /// in its safe state, every message stale; the address claim goes out
+    /// in the first period.
+    ///
+    /// ```
+    /// use hp_ctrl::can::ecu::Ecu;
+    /// let ecu = Ecu::new(&hp_ctrl::calibration::SEED_4, 1);
+    /// assert_eq!(ecu.network().address(), 0x2F);
+    /// ```
+    pub fn new(params: &'p VehicleParams<N>, identity_number: u32) -> Self {
         Ecu {
-            params: VehicleParams::new(config).ok(),
+            params,
             state: VehicleState::new(),
             rx: InputDecoder::new(LinkParams { period_us: PERIOD_US, ..LinkParams::default() }),
             tx: Transmitter::new(),
@@ -83,9 +68,9 @@ impl<const N: usize> Ecu<N> {
         }
     }
 
-    /// True if the parameters validated (otherwise the outputs stay safe).
-    pub fn has_params(&self) -> bool {
-        self.params.is_some()
+    /// The parameters.
+    pub fn params(&self) -> &'p VehicleParams<N> {
+        self.params
     }
 
     /// The J1939 network layer (address, claim state).
@@ -122,7 +107,7 @@ impl<const N: usize> Ecu<N> {
 
     /// Second part: the vehicle step.
     pub fn step(&mut self, inputs: &VehicleInputs<N>) -> VehicleOutputs<N> {
-        control_step(self.params.as_ref(), &mut self.state, inputs)
+        vehicle::step(self.params, &mut self.state, inputs, PERIOD_S)
     }
 
     /// The trouble codes of this period's outputs.
@@ -150,7 +135,6 @@ impl<const N: usize> Ecu<N> {
         }
         self.dtcs.set(vbase + 3, (out.diag & vehicle_diag::INCLINATION_FAULT != 0).then_some(fmi::NETWORK_DATA_IN_ERROR));
         self.dtcs.set(vbase + 4, self.rx.reject_fault().then_some(fmi::NETWORK_DATA_IN_ERROR));
-        self.dtcs.set(vbase + 5, (out.diag & vehicle_diag::NO_PARAMS != 0).then_some(fmi::OUT_OF_CALIBRATION));
     }
 
     /// Third part: the frames of this period, in order: J1939 network
@@ -190,7 +174,7 @@ impl<const N: usize> Ecu<N> {
         // Encoding cannot fail for these messages (values are limited to
         // their ranges, the rest are flags and integers in range); a
         // failure is counted.
-        let sent = self.tx.frame(msg, source).map(|f| link.transmit(&f)).unwrap_or(false);
+        let sent = self.tx.output_frame(msg, source).map(|f| link.transmit(&f)).unwrap_or(false);
         if !sent {
             self.tx_dropped = self.tx_dropped.saturating_add(1);
         }
@@ -205,8 +189,3 @@ impl<const N: usize> Ecu<N> {
     }
 }
 
-impl<const N: usize> Default for Ecu<N> {
-    fn default() -> Self {
-        Self::new()
-    }
-}

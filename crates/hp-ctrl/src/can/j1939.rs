@@ -139,8 +139,6 @@ pub mod fmi {
     pub const ERRATIC: u8 = 2;
     /// Abnormal update rate (stale).
     pub const ABNORMAL_UPDATE_RATE: u8 = 9;
-    /// Out of calibration.
-    pub const OUT_OF_CALIBRATION: u8 = 13;
     /// Data valid but below normal operating range, moderately severe level.
     pub const BELOW_NORMAL_MODERATE: u8 = 18;
     /// Received network data in error.
@@ -152,10 +150,11 @@ pub mod fmi {
 /// Trouble-code slots: per corner 0 pressures, 1 strut position, 2 body
 /// acceleration, 3 gas temperature, 4 gas charge, 5 corner in its safe
 /// state; vehicle-level 0 vehicle motion, 1 steering, 2 driver switches,
-/// 3 inclination, 4 CAN reject window, 5 parameters.
+/// 3 inclination, 4 CAN reject window. (The parameters are compiled in and
+/// validated when they are generated, [`crate::calibration`]: no code.)
 pub const SLOTS_PER_CORNER: usize = 6;
 /// Vehicle-level trouble-code slots.
-pub const VEHICLE_SLOTS: usize = 6;
+pub const VEHICLE_SLOTS: usize = 5;
 /// All slots.
 pub const SLOTS: usize = SLOTS_PER_CORNER * crate::vehicle::MAX_CORNERS + VEHICLE_SLOTS;
 

@@ -53,7 +53,6 @@ pub const fn j1939_id(priority: u8, pgn: u32, source: u8) -> u32 {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MessageDef {
     pub kind: Kind,
-    pub name: &'static str,
     /// Parameter group number (Proprietary B: 0xFF00-0xFFFF).
     pub pgn: u32,
     /// J1939 priority, 0 (highest) to 7.
@@ -243,9 +242,33 @@ impl Kind {
         })
     }
 
+    /// The DBC name. For tools, tests and the figures build: kept out of
+    /// [`MessageDef`] so that the firmware, which never names a message,
+    /// does not link the strings.
+    pub fn name(self) -> &'static str {
+        let corner = |table: usize, k: u8| {
+            CORNER_NAMES.get(table).and_then(|names| names.get(usize::from(k))).copied().unwrap_or("")
+        };
+        match self {
+            Kind::PilTick => "HP_PilTick",
+            Kind::Vehicle => "HP_Vehicle",
+            Kind::Steering => "HP_Steering",
+            Kind::Driver => "HP_Driver",
+            Kind::Inclination => "HP_Inclination",
+            Kind::CornerPressures(k) => corner(0, k),
+            Kind::CornerMotion(k) => corner(1, k),
+            Kind::Valves => "HP_Valves",
+            Kind::CornerStatus(k) => corner(2, k),
+            Kind::CornerCtrl(k) => corner(3, k),
+            Kind::CornerDiag(k) => corner(4, k),
+            Kind::DiagE2e => "HP_DiagE2E",
+            Kind::DiagLink => "HP_DiagLink",
+        }
+    }
+
     /// The message named `name` (DBC spelling).
     pub fn from_name(name: &str) -> Option<Kind> {
-        Kind::ALL.iter().copied().find(|k| k.def().name == name)
+        Kind::ALL.iter().copied().find(|k| k.name() == name)
     }
 
     /// The signals after the E2E header, in DBC order, with their names
@@ -425,7 +448,6 @@ const CORNER_GROUPS_MOTION: u16 = input_group::STRUT | input_group::BODY | input
 #[allow(clippy::too_many_arguments)] // One argument per field of the DBC's BO_ line and attributes.
 const fn def(
     kind: Kind,
-    name: &'static str,
     priority: u8,
     pgn: u32,
     source: u8,
@@ -435,13 +457,13 @@ const fn def(
     group: u16,
     signals: &[SignalDef],
 ) -> MessageDef {
-    MessageDef { kind, name, pgn, priority, source, data_id, timing, timeout_ms, group, defined_bits: defined_bits(signals) }
+    MessageDef { kind, pgn, priority, source, data_id, timing, timeout_ms, group, defined_bits: defined_bits(signals) }
 }
 
 use address::{HPECU, SENSORS, TESTER, VEHICLE as GATEWAY};
 
 pub const PIL_TICK: MessageDef =
-    def(Kind::PilTick, "HP_PilTick", 3, 0xFF00, TESTER, 0x0A0F, Timing::every(0, 0), 0, 0, PIL_TICK_SIGNALS);
+    def(Kind::PilTick, 3, 0xFF00, TESTER, 0x0A0F, Timing::every(0, 0), 0, 0, PIL_TICK_SIGNALS);
 
 const CORNER_NAMES: [[&str; MAX_CORNERS]; 5] = [
     [
@@ -499,12 +521,11 @@ const CORNER_NAMES: [[&str; MAX_CORNERS]; 5] = [
 #[allow(clippy::indexing_slicing)] // Compile-time evaluation: an index out of range fails the build.
 const fn all_defs() -> [MessageDef; KINDS] {
     let mut d = [PIL_TICK; KINDS];
-    d[1] = def(Kind::Vehicle, "HP_Vehicle", 3, 0xFF01, GATEWAY, 0x0A04, Timing::every(10, 0), 50, vehicle_group::VEHICLE, VEHICLE_SIGNALS);
-    d[2] = def(Kind::Steering, "HP_Steering", 3, 0xFF02, GATEWAY, 0x0A05, Timing::every(10, 0), 50, vehicle_group::STEERING, STEERING_SIGNALS);
-    d[3] = def(Kind::Driver, "HP_Driver", 6, 0xFF03, GATEWAY, 0x0A07, Timing::every(100, 0), 500, vehicle_group::DRIVER, DRIVER_SIGNALS);
+    d[1] = def(Kind::Vehicle, 3, 0xFF01, GATEWAY, 0x0A04, Timing::every(10, 0), 50, vehicle_group::VEHICLE, VEHICLE_SIGNALS);
+    d[2] = def(Kind::Steering, 3, 0xFF02, GATEWAY, 0x0A05, Timing::every(10, 0), 50, vehicle_group::STEERING, STEERING_SIGNALS);
+    d[3] = def(Kind::Driver, 6, 0xFF03, GATEWAY, 0x0A07, Timing::every(100, 0), 500, vehicle_group::DRIVER, DRIVER_SIGNALS);
     d[4] = def(
         Kind::Inclination,
-        "HP_Inclination",
         6,
         0xFF04,
         GATEWAY,
@@ -521,7 +542,6 @@ const fn all_defs() -> [MessageDef; KINDS] {
         let c16 = c as u16;
         d[5 + c] = def(
             Kind::CornerPressures(k),
-            CORNER_NAMES[0][c],
             3,
             0xFF10 + c32,
             SENSORS,
@@ -533,7 +553,6 @@ const fn all_defs() -> [MessageDef; KINDS] {
         );
         d[5 + MAX_CORNERS + c] = def(
             Kind::CornerMotion(k),
-            CORNER_NAMES[1][c],
             3,
             0xFF20 + c32,
             SENSORS,
@@ -545,7 +564,6 @@ const fn all_defs() -> [MessageDef; KINDS] {
         );
         d[6 + 2 * MAX_CORNERS + c] = def(
             Kind::CornerStatus(k),
-            CORNER_NAMES[2][c],
             6,
             0xFF90 + c32,
             HPECU,
@@ -557,7 +575,6 @@ const fn all_defs() -> [MessageDef; KINDS] {
         );
         d[6 + 3 * MAX_CORNERS + c] = def(
             Kind::CornerCtrl(k),
-            CORNER_NAMES[3][c],
             6,
             0xFFA0 + c32,
             HPECU,
@@ -569,7 +586,6 @@ const fn all_defs() -> [MessageDef; KINDS] {
         );
         d[6 + 4 * MAX_CORNERS + c] = def(
             Kind::CornerDiag(k),
-            CORNER_NAMES[4][c],
             6,
             0xFFB0 + c32,
             HPECU,
@@ -581,9 +597,9 @@ const fn all_defs() -> [MessageDef; KINDS] {
         );
         c += 1;
     }
-    d[5 + 2 * MAX_CORNERS] = def(Kind::Valves, "HP_Valves", 3, 0xFF80, HPECU, 0x0B01, Timing::every(1, 0), 10, 0, VALVES_SIGNALS);
-    d[KINDS - 2] = def(Kind::DiagE2e, "HP_DiagE2E", 6, 0xFFE0, HPECU, 0x0B03, Timing::every(100, 99), 500, 0, DIAG_E2E_SIGNALS);
-    d[KINDS - 1] = def(Kind::DiagLink, "HP_DiagLink", 6, 0xFFE1, HPECU, 0x0B04, Timing::every(100, 99), 500, 0, DIAG_LINK_SIGNALS);
+    d[5 + 2 * MAX_CORNERS] = def(Kind::Valves, 3, 0xFF80, HPECU, 0x0B01, Timing::every(1, 0), 10, 0, VALVES_SIGNALS);
+    d[KINDS - 2] = def(Kind::DiagE2e, 6, 0xFFE0, HPECU, 0x0B03, Timing::every(100, 99), 500, 0, DIAG_E2E_SIGNALS);
+    d[KINDS - 1] = def(Kind::DiagLink, 6, 0xFFE1, HPECU, 0x0B04, Timing::every(100, 99), 500, 0, DIAG_LINK_SIGNALS);
     d
 }
 
@@ -780,6 +796,17 @@ impl Message {
     /// The signals as the payload's bits (a little-endian `u64`, header
     /// bits zero). Fails on a NaN, infinite or out-of-range value.
     pub fn signal_bits(&self) -> Result<u64, EncodeError> {
+        if self.kind().ecu_sends() {
+            self.output_bits()
+        } else {
+            self.input_bits()
+        }
+    }
+
+    /// [`Message::signal_bits`] of a message to the ECU; `OutOfRange` for
+    /// one the ECU sends. (The halves are separate so that the firmware,
+    /// which encodes only its own messages, links only that half.)
+    pub fn input_bits(&self) -> Result<u64, EncodeError> {
         Ok(match self {
             Message::PilTick(m) => TICK_INDEX.uint_bits(u32::from(m.index))?,
             Message::Vehicle(m) => {
@@ -797,6 +824,14 @@ impl Message {
             Message::Inclination(m) => BODY_PITCH.bits_of(m.pitch_rad)? | BODY_ROLL.bits_of(m.roll_rad)?,
             Message::CornerPressures(_, m) => PRESSURE_SMALL.bits_of(m.p_gas_pa)? | PRESSURE_LARGE.bits_of(m.p_gas2_pa)?,
             Message::CornerMotion(_, m) => STRUT_DISP.bits_of(m.strut_disp_m)? | BODY_ACC.bits_of(m.body_acc_m_s2)? | GAS_TEMP.bits_of(m.t_gas_k)?,
+            _ => return Err(EncodeError::OutOfRange),
+        })
+    }
+
+    /// [`Message::signal_bits`] of a message the ECU sends; `OutOfRange`
+    /// for one to the ECU.
+    pub fn output_bits(&self) -> Result<u64, EncodeError> {
+        Ok(match self {
             Message::Valves(m) => {
                 let mut bits = STEP_INDEX.uint_bits(u32::from(m.step_index))?
                     | DRIVE_MODE.uint_bits(m.drive_mode as u32)?
@@ -837,12 +872,23 @@ impl Message {
                     | VEHICLE_DIAG.uint_bits(u32::from(m.vehicle_diag))?
                     | STALE_CORNERS.uint_bits(u32::from(m.stale_corners))?
             }
+            _ => return Err(EncodeError::OutOfRange),
         })
     }
 
     /// Reads the signals of a `kind` message from `p`; `None` if any signal
     /// is outside its DBC range (the E2E header is not looked at).
     pub fn read(kind: Kind, p: &[u8; 8]) -> Option<Message> {
+        if kind.ecu_sends() {
+            Message::read_output(kind, p)
+        } else {
+            Message::read_input(kind, p)
+        }
+    }
+
+    /// [`Message::read`] of a message to the ECU; `None` for one the ECU
+    /// sends (the receiver links only this half).
+    pub fn read_input(kind: Kind, p: &[u8; 8]) -> Option<Message> {
         let w = u64::from_le_bytes(*p);
         Some(match kind {
             Kind::PilTick => Message::PilTick(PilTick { index: u16::try_from(uint(&TICK_INDEX, w)?).ok()? }),
@@ -871,6 +917,15 @@ impl Message {
                 k,
                 Motion { strut_disp_m: STRUT_DISP.value_in(w)?, body_acc_m_s2: BODY_ACC.value_in(w)?, t_gas_k: GAS_TEMP.value_in(w)? },
             ),
+            _ => return None,
+        })
+    }
+
+    /// [`Message::read`] of a message the ECU sends; `None` for one to the
+    /// ECU.
+    pub fn read_output(kind: Kind, p: &[u8; 8]) -> Option<Message> {
+        let w = u64::from_le_bytes(*p);
+        Some(match kind {
             Kind::Valves => {
                 let mut m = Valves {
                     step_index: u16::try_from(uint(&STEP_INDEX, w)?).ok()?,
@@ -921,6 +976,7 @@ impl Message {
                 vehicle_diag: small(&VEHICLE_DIAG, w)?,
                 stale_corners: u16::try_from(uint(&STALE_CORNERS, w)?).ok()?,
             }),
+            _ => return None,
         })
     }
 }

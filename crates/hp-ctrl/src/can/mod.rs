@@ -77,8 +77,19 @@ pub enum Reject {
 /// Encodes `msg` with alive counter `counter` (taken modulo 15) into a
 /// protected frame from source address `source`.
 pub fn encode(msg: &Message, counter: u8, source: u8) -> Result<CanFrame, EncodeError> {
-    let def = msg.kind().def();
-    let mut payload = msg.signal_bits()?.to_le_bytes();
+    protect(msg.kind(), msg.signal_bits()?, counter, source)
+}
+
+/// [`encode`] for the ECU's sending side: only the messages the ECU sends
+/// (`OutOfRange` for others), so the firmware does not link the encoding
+/// of its inputs.
+pub fn encode_output(msg: &Message, counter: u8, source: u8) -> Result<CanFrame, EncodeError> {
+    protect(msg.kind(), msg.output_bits()?, counter, source)
+}
+
+fn protect(kind: Kind, signal_bits: u64, counter: u8, source: u8) -> Result<CanFrame, EncodeError> {
+    let def = kind.def();
+    let mut payload = signal_bits.to_le_bytes();
     e2e::protect(&mut payload, def.data_id, counter);
     let id = ExtendedId::new(messages::j1939_id(def.priority, def.pgn, source)).ok_or(EncodeError::OutOfRange)?;
     Ok(CanFrame::extended(id, payload))
@@ -110,10 +121,23 @@ pub fn check_frame<F: Frame>(frame: &F) -> Result<(Kind, [u8; 8], u8), Reject> {
 /// Reads the signals of a checked payload: rejects set reserved or unused
 /// bits and out-of-range values.
 pub fn read_payload(kind: Kind, payload: &[u8; 8]) -> Result<Message, Reject> {
+    no_stray_bits(kind, payload)?;
+    Message::read(kind, payload).ok_or(Reject::Range)
+}
+
+/// [`read_payload`] for the ECU's receiver: only the messages sent to the
+/// ECU (a message the ECU sends is [`Reject::Range`]), so the firmware
+/// does not link the decoding of its own messages.
+pub fn read_input_payload(kind: Kind, payload: &[u8; 8]) -> Result<Message, Reject> {
+    no_stray_bits(kind, payload)?;
+    Message::read_input(kind, payload).ok_or(Reject::Range)
+}
+
+fn no_stray_bits(kind: Kind, payload: &[u8; 8]) -> Result<(), Reject> {
     if u64::from_le_bytes(*payload) & !kind.def().defined_bits != 0 {
         return Err(Reject::Range);
     }
-    Message::read(kind, payload).ok_or(Reject::Range)
+    Ok(())
 }
 
 /// Stateless decode of any message of the database: [`check_frame`], then

@@ -29,7 +29,7 @@ use embedded_can::Frame;
 
 use super::e2e::{CounterState, Sequence};
 use super::messages::{DiagE2e, DiagLink, Kind};
-use super::{check_frame, read_payload, Message, Reject};
+use super::{check_frame, read_input_payload, Message, Reject};
 use crate::vehicle::{vehicle_group, CornerInputs, VehicleInputs};
 
 /// Link supervision parameters.
@@ -156,7 +156,7 @@ impl<const N: usize> InputDecoder<N> {
             Sequence::Repeated => return Err(Reject::Repeated),
             Sequence::Skipped => return Err(Reject::Skipped),
         }
-        let msg = read_payload(kind, &payload)?;
+        let msg = read_input_payload(kind, &payload)?;
         slot.age_us = 0;
         slot.stale = false;
         let group = kind.def().group;

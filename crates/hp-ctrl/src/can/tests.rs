@@ -49,7 +49,7 @@ fn every_message_round_trips_from_any_source_address() {
             assert!(f.is_extended());
             let id = J1939Id::of_raw(raw_id(&f));
             assert_eq!((id.pgn, id.source, id.priority), (kind.def().pgn, source, kind.def().priority));
-            assert_eq!(decode(&f).unwrap(), (msg, 7), "{}", kind.def().name);
+            assert_eq!(decode(&f).unwrap(), (msg, 7), "{}", kind.name());
         }
     }
 }
@@ -61,8 +61,8 @@ fn definitions_are_consistent() {
         assert_eq!(kind.index(), i);
         assert_eq!(d.kind, kind);
         assert_eq!(Kind::from_pgn(d.pgn), Some(kind));
-        assert_eq!(Kind::from_name(d.name), Some(kind));
-        assert!((0xFF00..=0xFFFF).contains(&d.pgn), "{}: Proprietary B", d.name);
+        assert_eq!(Kind::from_name(kind.name()), Some(kind));
+        assert!((0xFF00..=0xFFFF).contains(&d.pgn), "{}: Proprietary B", kind.name());
     }
 }
 
@@ -95,7 +95,7 @@ fn good_frames(tx: &mut Transmitter, k: u32, height: HeightMode) -> Vec<CanFrame
 
 #[test]
 fn ecu_claims_its_address_first_and_sends_valves_last() {
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&crate::calibration::SEED_4, 1);
     let mut out = Collect::default();
     ecu.period(&mut out);
     let ids: Vec<J1939Id> = out.0.iter().map(|f| J1939Id::of_raw(raw_id(f))).collect();
@@ -113,7 +113,7 @@ fn ecu_claims_its_address_first_and_sends_valves_last() {
 
 #[test]
 fn a_lower_name_takes_the_address_and_the_ecu_moves_to_a_free_one() {
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&crate::calibration::SEED_4, 1);
     ecu.period(&mut Collect::default());
     // A NAME lower than ours (not arbitrary address capable) claims 0x2F.
     let rival = Name::new().with_identity_number(7).with_manufacturer_code(5);
@@ -136,7 +136,7 @@ fn a_lower_name_takes_the_address_and_the_ecu_moves_to_a_free_one() {
 
 #[test]
 fn a_higher_name_is_answered_by_defending_the_address() {
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&crate::calibration::SEED_4, 1);
     ecu.period(&mut Collect::default());
     let rival = Name::new().with_identity_number(7).with_manufacturer_code(2000).with_arbitrary_address_capable(true).with_industry_group(7);
     ecu.receive(&ext(j1939_id(6, pgn::ADDRESS_CLAIMED | 0xFF, 0x2F), &rival.to_bytes()));
@@ -149,7 +149,7 @@ fn a_higher_name_is_answered_by_defending_the_address() {
 
 #[test]
 fn requests_are_answered_and_unknown_ones_nacked() {
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&crate::calibration::SEED_4, 1);
     let mut tx = Transmitter::new();
     // Good inputs until no trouble code is left and the BAM is over.
     for k in 0..2500 {
@@ -192,7 +192,7 @@ fn requests_are_answered_and_unknown_ones_nacked() {
 
 #[test]
 fn a_failed_corner_sensor_is_one_dtc_and_one_corner_in_its_safe_state() {
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&crate::calibration::SEED_4, 1);
     let mut tx = Transmitter::new();
     let mut last = None;
     let mut dm1 = vec![];
@@ -235,7 +235,7 @@ fn one_code_is_a_single_frame_dm1_with_the_amber_lamp() {
 
 #[test]
 fn tick_closes_a_period_in_lock_step() {
-    let mut ecu = Ecu::<4>::new();
+    let mut ecu = Ecu::new(&crate::calibration::SEED_4, 1);
     let mut tx = Transmitter::new();
     let tick = |tx: &mut Transmitter, i| tx.frame(&Message::PilTick(PilTick { index: i }), address::TESTER).unwrap();
     assert_eq!(ecu.receive(&tick(&mut tx, 0)), None); // synchronises

@@ -2,7 +2,7 @@
 //! frames built from the vehicle step's [`VehicleOutputs`].
 
 use super::messages::{Ctrl, Diag, Kind, Status, Valves, KINDS};
-use super::{e2e, encode, CanFrame, EncodeError, Message};
+use super::{e2e, encode, encode_output, CanFrame, EncodeError, Message};
 use crate::vehicle::{HeightMode, VehicleOutputs};
 use crate::{diag, DriveMode, Outputs};
 
@@ -39,6 +39,15 @@ impl Transmitter {
     pub fn frame(&mut self, msg: &Message, source: u8) -> Result<CanFrame, EncodeError> {
         let counter = self.counters.get_mut(msg.kind().index()).ok_or(EncodeError::OutOfRange)?;
         let frame = encode(msg, *counter, source)?;
+        *counter = e2e::next_counter(*counter);
+        Ok(frame)
+    }
+
+    /// [`Transmitter::frame`] for a message the ECU sends (`OutOfRange`
+    /// for others): the firmware's path ([`super::encode_output`]).
+    pub fn output_frame(&mut self, msg: &Message, source: u8) -> Result<CanFrame, EncodeError> {
+        let counter = self.counters.get_mut(msg.kind().index()).ok_or(EncodeError::OutOfRange)?;
+        let frame = encode_output(msg, *counter, source)?;
         *counter = e2e::next_counter(*counter);
         Ok(frame)
     }

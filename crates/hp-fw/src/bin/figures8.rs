@@ -4,5 +4,5 @@
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    hp_fw::figures::main::<8>()
+    hp_fw::figures::main::<8>(&hp_ctrl::calibration::SEED_8)
 }
