@@ -106,6 +106,11 @@ impl State {
 }
 
 impl State {
+    /// The last valid ride-height estimate (`Outputs::ride_height_m`), m.
+    pub fn ride_height_m(&self) -> f32 {
+        self.ride_height_m
+    }
+
     /// The ride-height change in progress (`Lowering`, `Raising`) or
     /// `Holding`.
     pub fn sequencer_phase(&self) -> crate::SequencerState {

@@ -49,6 +49,7 @@
 use crate::clock::seconds_to_us;
 use crate::config::{check, check_below, ParamError};
 use crate::gas_table::{LargeTable, UnitConfig};
+use crate::{diag, input_group, Inputs};
 
 /// Tuning of the detector.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,7 +88,8 @@ impl Default for GasChargeConfig {
 }
 
 impl GasChargeConfig {
-    pub(crate) fn validate(&self) -> Result<(), ParamError> {
+    /// Checks every field; the first invalid one is reported.
+    pub fn validate(&self) -> Result<(), ParamError> {
         check("gas_charge.tau_s", self.tau_s, 1.0, 1.0e6)?;
         check("gas_charge.settle_s", self.settle_s, 1.0, 1.0e6)?;
         check("gas_charge.loss_threshold", self.loss_threshold, 0.001, 0.9)?;
@@ -167,6 +169,20 @@ impl GasChargeParams {
         let nominal_volume = self.small_over_large * volume(p_gas_pa)? + volume(p_gas2_pa)?;
         let volume_now = self.v_total_m3 - self.area_m2 * strut_disp_m;
         (nominal_volume > 0.0 && volume_now > 0.0).then(|| volume_now / nominal_volume)
+    }
+}
+
+impl GasChargeParams {
+    /// The sample of one control period of a corner: [`Self::sample_ratio`]
+    /// of the controller's inputs, if the controller found the inputs the
+    /// estimate needs usable (no pressure, strut or temperature fault, a
+    /// valid period: `diag`, the controller's flags of this period).
+    pub fn corner_sample(&self, table: &LargeTable, inputs: &Inputs, diag: u32) -> Option<f32> {
+        let needs = diag::group(input_group::PRESSURES) | diag::group(input_group::STRUT) | diag::group(input_group::TEMPERATURE) | diag::BAD_DT;
+        if diag & needs != 0 {
+            return None;
+        }
+        self.sample_ratio(table, inputs.p_gas_pa as f32, inputs.p_gas2_pa as f32, inputs.strut_disp_m as f32, inputs.t_gas_k as f32)
     }
 }
 

@@ -32,7 +32,14 @@
 //!   pitch and roll, each corner's correction `-(x - x0) tan(pitch) - (y -
 //!   y0) tan(roll)` (corner position relative to the centroid), re-latched
 //!   whenever the body is still tilted beyond `slope_tolerance_rad` after
-//!   every corner has finished moving, limited to the sequencer's range.
+//!   every corner has finished moving, from the corners' present heights.
+//!   At rest a pump-free unit can only move towards its zero offset (oil
+//!   flows only down the pressure difference a held offset keeps), so the
+//!   corrections' plane is shifted to lie between each corner's height and
+//!   zero: from a lowered vehicle the low side rises, and the range is the
+//!   lowering (`SLOPE_LIMITED` beyond it, or from the zero height). The
+//!   base offset is not used while levelling: the vehicle levels from
+//!   where it stands.
 //!
 //! **Mode selection from vehicle signals**: kneeling and slope levelling
 //! only at standstill (below `standstill_speed_m_s`; above it they give
@@ -354,7 +361,8 @@ pub mod vehicle_diag {
     /// The inclination is stale, not finite or beyond its plausible range:
     /// slope levelling holds its corrections.
     pub const INCLINATION_FAULT: u32 = 1 << 0;
-    /// A slope-levelling correction reached the sequencer's range.
+    /// Slope levelling needs more than its range (at rest: the base
+    /// offset, see [`step`]): the body is levelled only as far as that.
     pub const SLOPE_LIMITED: u32 = 1 << 1;
     /// The requested height mode is not allowed at this speed.
     pub const MODE_REFUSED: u32 = 1 << 2;
@@ -387,9 +395,12 @@ impl<const N: usize> VehicleOutputs<N> {
 /// Slope-levelling state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Levelling<const N: usize> {
-    correction_m: [f32; N],
+    /// Each corner's ride-height request while levelling, m.
+    request_m: [f32; N],
     pitch_rad: f32,
     roll_rad: f32,
+    /// Time since the last inclination sample, us.
+    inclination_age_us: u32,
     /// Time no corner has been moving, us.
     quiet_us: u32,
     active: bool,
@@ -411,9 +422,10 @@ impl<const N: usize> VehicleState<N> {
             corners: [State::new(); N],
             gas: [GasChargeState::new(); N],
             levelling: Levelling {
-                correction_m: [0.0; N],
+                request_m: [0.0; N],
                 pitch_rad: 0.0,
                 roll_rad: 0.0,
+                inclination_age_us: 0,
                 quiet_us: 0,
                 active: false,
                 auto_lowered: false,
@@ -448,9 +460,49 @@ pub fn tan_small(x: f32) -> f32 {
     x * (1.0 + x2 * (1.0 / 3.0 + x2 * (2.0 / 15.0 + x2 * (17.0 / 315.0))))
 }
 
-/// `x` limited to `[-limit, limit]` (max/min: `clamp` keeps a panic path).
-fn limit(x: f32, limit: f32) -> f32 {
-    x.max(-limit).min(limit)
+/// The body's tilt and the corner positions (relative to the centroid).
+struct Tilt<'a, const N: usize> {
+    tan_pitch: f32,
+    tan_roll: f32,
+    x_m: &'a [f32; N],
+    y_m: &'a [f32; N],
+}
+
+/// Slope levelling's requests from the corners' present ride heights
+/// `heights`: each corner moves by `-x tan(pitch) - y tan(roll)` plus one
+/// shift common to all (the plane keeps its tilt), chosen so that every
+/// corner moves towards its zero offset: at rest a pump-free unit moves oil
+/// only down a pressure difference, and the only one there is what a held
+/// offset keeps (a lowered corner can rise, a raised one sink, neither go
+/// further). So from a lowered vehicle the low side rises and the lowest
+/// corner stays; each request is limited to between its height and zero.
+/// Returns true if that limit (or `request_max`) cut a request: the body
+/// is levelled only as far as the held offsets allow.
+///
+/// ```text
+/// heights -30 mm, moves -8, +4, +10 mm -> shift +8: requests -30, -18, -12 mm
+/// ```
+fn level_towards_zero<const N: usize>(requests: &mut [f32; N], heights: &[f32; N], tilt: &Tilt<'_, N>, request_max: f32) -> bool {
+    let moves = core::array::from_fn::<f32, N, _>(|k| {
+        let (x, y) = (tilt.x_m.get(k).copied().unwrap_or(0.0), tilt.y_m.get(k).copied().unwrap_or(0.0));
+        -(x * tilt.tan_pitch + y * tilt.tan_roll)
+    });
+    let mean_height = heights.iter().sum::<f32>() / N as f32;
+    // Lowered: every corner rises, the one that moves least stays.
+    // Raised: every corner sinks, the one that moves most stays.
+    let shift = if mean_height < 0.0 {
+        -moves.iter().copied().fold(f32::INFINITY, f32::min)
+    } else {
+        -moves.iter().copied().fold(f32::NEG_INFINITY, f32::max)
+    };
+    let mut limited = false;
+    for ((r, &h), m) in requests.iter_mut().zip(heights).zip(moves) {
+        let wanted = h + m + shift;
+        let (lo, hi) = (h.min(0.0).max(-request_max), h.max(0.0).min(request_max));
+        *r = wanted.max(lo).min(hi);
+        limited |= *r != wanted;
+    }
+    limited
 }
 
 /// The applied height mode and the base offset of every corner.
@@ -514,7 +566,6 @@ fn select_mode(p: &LevellingParams, v: &VehicleSignals, driver_ok: bool, flags: 
 pub fn step<const N: usize>(p: &VehicleParams<N>, s: &mut VehicleState<N>, i: &VehicleInputs<N>, dt_s: f64) -> VehicleOutputs<N> {
     let lp = &p.levelling;
     let dt_us = dt_us(dt_s, p.corner.config().monitor.dt_max_s).unwrap_or(0);
-    let dt = crate::clock::us_to_seconds(dt_us);
     let v = &i.vehicle;
     let mut flags = 0;
     let vehicle_fresh = i.fresh & (VEHICLE | STEERING | DRIVER);
@@ -523,8 +574,12 @@ pub fn step<const N: usize>(p: &VehicleParams<N>, s: &mut VehicleState<N>, i: &V
     let (pitch, roll) = (v.pitch_rad as f32, v.roll_rad as f32);
     let inclination_ok = !i.inclination_stale && pitch.abs() <= lp.inclination_max_rad && roll.abs() <= lp.inclination_max_rad;
     let lev = &mut s.levelling;
+    lev.inclination_age_us = lev.inclination_age_us.saturating_add(dt_us);
     if inclination_ok && i.fresh & vehicle_group::INCLINATION != 0 {
-        let k = (dt * lp.inv_inclination_tau_per_s).min(1.0);
+        // Weighted by the time since the previous sample (the inclination
+        // arrives every 10 ms, not every period).
+        let k = (crate::clock::us_to_seconds(lev.inclination_age_us) * lp.inv_inclination_tau_per_s).min(1.0);
+        lev.inclination_age_us = 0;
         lev.pitch_rad += k * (pitch - lev.pitch_rad);
         lev.roll_rad += k * (roll - lev.roll_rad);
     } else if !inclination_ok {
@@ -545,25 +600,30 @@ pub fn step<const N: usize>(p: &VehicleParams<N>, s: &mut VehicleState<N>, i: &V
     let moving = s.corners.iter().any(|c| matches!(c.sequencer_phase(), SequencerState::Lowering | SequencerState::Raising));
     lev.quiet_us = if moving { 0 } else { lev.quiet_us.saturating_add(dt_us) };
     if mode == HeightMode::SlopeLevel {
+        let heights: [f32; N] = core::array::from_fn(|k| s.corners.get(k).map_or(0.0, State::ride_height_m));
         if !lev.active {
+            // Every corner holds where it stands until the first look.
             lev.active = true;
             lev.quiet_us = 0;
+            lev.request_m = heights;
+        }
+        // Never away from zero from where a corner stands, also when its
+        // held offset drifts (L's gas cooling after a drive moves it by
+        // millimetres): a request it cannot reach at rest would keep it
+        // waiting in `Lowering` (or `Raising`) for ever.
+        for (r, &h) in lev.request_m.iter_mut().zip(&heights) {
+            *r = r.max(h.min(0.0)).min(h.max(0.0));
         }
         let tilted = lev.pitch_rad.abs() > lp.slope_tolerance_rad || lev.roll_rad.abs() > lp.slope_tolerance_rad;
         if inclination_ok && tilted && lev.quiet_us >= lp.settle_us {
-            let (tan_pitch, tan_roll) = (tan_small(lev.pitch_rad), tan_small(lev.roll_rad));
-            for ((c, x), y) in lev.correction_m.iter_mut().zip(p.x_m).zip(p.y_m) {
-                let wanted = *c - x * tan_pitch - y * tan_roll;
-                if wanted.abs() > lp.request_max_m {
-                    flags |= vehicle_diag::SLOPE_LIMITED;
-                }
-                *c = limit(wanted, lp.request_max_m);
+            let tilt = Tilt { tan_pitch: tan_small(lev.pitch_rad), tan_roll: tan_small(lev.roll_rad), x_m: &p.x_m, y_m: &p.y_m };
+            if level_towards_zero(&mut lev.request_m, &heights, &tilt, lp.request_max_m) {
+                flags |= vehicle_diag::SLOPE_LIMITED;
             }
             lev.quiet_us = 0;
         }
     } else {
         lev.active = false;
-        lev.correction_m = [0.0; N];
     }
 
     let mut corners = [Outputs::default(); N];
@@ -576,7 +636,7 @@ pub fn step<const N: usize>(p: &VehicleParams<N>, s: &mut VehicleState<N>, i: &V
             HeightMode::KneelRear => -lp.kneel_m * (1.0 - p.front_weight.get(n).copied().unwrap_or(1.0)),
             _ => 0.0,
         };
-        let request = base + kneel + lev.correction_m.get(n).copied().unwrap_or(0.0);
+        let request = if mode == HeightMode::SlopeLevel { lev.request_m.get(n).copied().unwrap_or(base) } else { base + kneel };
         let inputs = Inputs {
             p_gas_pa: c.p_gas_pa,
             p_gas2_pa: c.p_gas2_pa,
@@ -595,11 +655,7 @@ pub fn step<const N: usize>(p: &VehicleParams<N>, s: &mut VehicleState<N>, i: &V
             link_fault: c.link_fault || i.link_fault,
         };
         *out = crate::step(&p.corner, state, &inputs, dt_s);
-        // A sample of the gas charge wherever the gas's inputs are good.
-        let gas_groups = diag::group(PRESSURES) | diag::group(STRUT) | diag::group(TEMPERATURE) | diag::BAD_DT;
-        let sample = (out.diag & gas_groups == 0)
-            .then(|| p.gas.sample_ratio(p.corner.large_table(), c.p_gas_pa as f32, c.p_gas2_pa as f32, c.strut_disp_m as f32, c.t_gas_k as f32))
-            .flatten();
+        let sample = p.gas.corner_sample(p.corner.large_table(), &inputs, out.diag);
         *gas_out = gas_charge::step(&p.gas, gas_state, sample, dt_us);
     }
     VehicleOutputs { corners, gas, height_mode: mode, diag: flags }

@@ -20,10 +20,13 @@ use hp_ctrl::{Config, DriverMode};
 
 use crate::stack;
 
-/// Periods run; the first WARMUP are not timed (power-on safe state,
+/// Periods timed; the first WARMUP are not timed (power-on safe state,
 /// recovery, the handling hold).
 const PERIODS: u32 = 6000;
 const WARMUP: u32 = 3000;
+/// Untimed periods after the timed ones: stopped on a slope with slope
+/// levelling (so the stack high-water covers that path too).
+const SLOPE_PERIODS: u32 = 1500;
 /// Frames timed per message in the per-frame figures.
 const FRAME_REPS: u32 = 100;
 
@@ -73,20 +76,23 @@ const FRAMES: usize = 24;
 
 /// The sensor frames of period `k`: a 10 m/s straight road with a 1.5 Hz
 /// body motion (each corner a little out of phase), a lane change at 4 s,
-/// a lowering request at 4.5 s.
+/// a lowering request at 4.5 s; from period `PERIODS` on, stopped on a
+/// slope (pitch 0.01 rad) with slope levelling on the lowered base.
 fn scenario<const N: usize>(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mut heapless::Vec<CanFrame, FRAMES>) {
     let t_s = k as f32 * 1e-3;
+    let stopped = k >= PERIODS;
     let w = 2.0 * core::f32::consts::PI * 1.5;
     let lane_change = (4.0..5.0).contains(&t_s);
     let steer = if lane_change { 0.8 * libm::sinf(2.0 * core::f32::consts::PI * (t_s - 4.0)) } else { 0.0 };
     let mut msgs: heapless::Vec<Message, FRAMES> = heapless::Vec::new();
     for c in 0..N {
         let phase = 0.3 * c as f32;
-        let sin = libm::sinf(w * t_s + phase);
-        let cos = libm::cosf(w * t_s + phase);
+        let (sin, cos) = if stopped { (0.0, 0.0) } else { (libm::sinf(w * t_s + phase), libm::cosf(w * t_s + phase)) };
         let p_pa = cfg.unit.static_pressure_pa * (1.0 + 0.05 * f64::from(sin));
+        // Stopped: L above S, as in a lowered corner at rest.
+        let p_large_pa = if stopped { 1.1 * p_pa } else { p_pa };
         let c = c as u8;
-        let _ = msgs.push(Message::CornerPressures(c, Pressures { p_gas_pa: p_pa, p_gas2_pa: p_pa }));
+        let _ = msgs.push(Message::CornerPressures(c, Pressures { p_gas_pa: p_pa, p_gas2_pa: p_large_pa }));
         let _ = msgs.push(Message::CornerMotion(
             c,
             Motion { strut_disp_m: 0.01 * f64::from(sin), body_acc_m_s2: -0.8 * f64::from(cos), t_gas_k: cfg.unit.static_temperature_k },
@@ -94,7 +100,7 @@ fn scenario<const N: usize>(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mu
     }
     if k % 10 == 0 {
         let _ = msgs.push(Message::Vehicle(Vehicle {
-            speed_m_s: 10.0,
+            speed_m_s: if stopped { 0.0 } else { 10.0 },
             brake_pressed: false,
             lat_acc_m_s2: f64::from(steer * 2.0),
             long_acc_m_s2: 0.0,
@@ -107,7 +113,8 @@ fn scenario<const N: usize>(k: u32, tx: &mut Transmitter, cfg: &Config, out: &mu
     }
     if k % 100 == 0 {
         let request = if t_s >= 4.5 { -0.02 } else { 0.0 };
-        let _ = msgs.push(Message::Driver(Driver { mode: DriverMode::Auto, height_mode: HeightMode::Normal, ride_height_request_m: request }));
+        let height_mode = if stopped { HeightMode::SlopeLevel } else { HeightMode::Normal };
+        let _ = msgs.push(Message::Driver(Driver { mode: DriverMode::Auto, height_mode, ride_height_request_m: request }));
     }
     out.clear();
     for m in &msgs {
@@ -216,9 +223,9 @@ pub fn main<const N: usize>(params: &'static VehicleParams<N>) -> ! {
     let mut link = CountingLink { frames: 0 };
     let mut frames = heapless::Vec::new();
     let (mut rx, mut step, mut send, mut period) = (Stat::default(), Stat::default(), Stat::default(), Stat::default());
-    let (mut safe, mut valve5, mut valve6) = (0u32, 0u32, 0u32);
+    let (mut safe, mut valve5, mut valve6, mut frames_timed, mut levelling) = (0u32, 0u32, 0u32, 0u32, 0u32);
     let mut last = VehicleOutputs::<N>::safe();
-    for k in 0..PERIODS {
+    for k in 0..PERIODS + SLOPE_PERIODS {
         scenario::<N>(k, &mut sensors, &cfg, &mut frames);
         let t0 = now();
         for f in &frames {
@@ -230,6 +237,15 @@ pub fn main<const N: usize>(params: &'static VehicleParams<N>) -> ! {
         let t3 = now();
         ecu.send(&mut link, &inputs, &out);
         let t4 = now();
+        if k == WARMUP {
+            frames_timed = link.frames;
+        } else if k == PERIODS {
+            frames_timed = link.frames - frames_timed;
+        }
+        if k >= PERIODS {
+            levelling += u32::from(out.height_mode == HeightMode::SlopeLevel);
+            continue;
+        }
         if k >= WARMUP {
             rx.add(elapsed(t0, t2));
             step.add(elapsed(t2, t3));
@@ -248,7 +264,7 @@ pub fn main<const N: usize>(params: &'static VehicleParams<N>) -> ! {
     send_costs(&last);
     let n = PERIODS - WARMUP;
     hprintln!(
-        "figures corners={} calib_4000_nops={} stack_init_bytes={} periods={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={}",
+        "figures corners={} calib_4000_nops={} stack_init_bytes={} periods={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={} slope_level_periods={}",
         N,
         calib,
         stack_init,
@@ -262,11 +278,12 @@ pub fn main<const N: usize>(params: &'static VehicleParams<N>) -> ! {
         period.sum,
         period.max,
         stack_loop,
-        link.frames,
+        frames_timed,
         safe,
         valve5,
         valve6,
-        ecu.tx_dropped
+        ecu.tx_dropped,
+        levelling
     );
     hprintln!(
         "sizes corners={} ecu_bytes={} params_bytes={} state_bytes={}",

@@ -8,6 +8,7 @@ mod can;
 mod ctrl;
 mod errors;
 mod exec;
+mod leak;
 mod params;
 mod plant;
 mod sim;
@@ -18,6 +19,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     sim::register(m)?;
     ctrl::register(m)?;
     can::register(m)?;
+    leak::register(m)?;
     m.add_class::<plant::Plant>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -16,7 +16,7 @@ use crate::Params;
 #[allow(unused_imports)]
 use hp_core::gas::Gas::*;
 
-/// The corner controller every calibration shares.
+/// The production corner controller.
 const CORNER: Params = Params {
     config: Config {
         unit: UnitConfig {
@@ -568,6 +568,13 @@ const CORNER: Params = Params {
     ),
 };
 
+/// The processor-in-the-loop corner controller: what differs from production.
+const CORNER_PIL: Params = Params {
+    config: Config { unit: UnitConfig { piston_area_m2: 0.002, small_acc_volume_m3: 0.0003, large_acc_volume_m3: 0.0007, static_pressure_pa: 14811299.999999998, static_temperature_k: 293.15, gas: BwrTextbook, stroke_compression_m: 0.125, stroke_extension_m: 0.125 }, monitor: MonitorConfig { pressure_min_pa: 100000.0, pressure_max_pa: 120000000.0, temperature_min_k: 223.0, temperature_max_k: 523.0, disp_margin_m: 0.01, body_acc_max_m_s2: 50.0, vehicle_acc_max_m_s2: 30.0, speed_min_m_s: -20.0, speed_max_m_s: 80.0, steer_angle_max_rad: 20.0, steer_rate_max_rad_s: 30.0, pressure_rate_max_pa_s: 20000000000.0, disp_rate_max_m_s: 10.0, temperature_rate_max_k_s: 200.0, timeouts: GroupTimeouts { pressures_s: 0.01, strut_s: 0.01, body_s: 0.01, vehicle_s: 0.1, steering_s: 0.1, temperature_s: 1.0, driver_s: 1.0 }, recovery_s: 0.5, dt_max_s: 0.01 }, estimator: EstimatorConfig { strut_velocity_tau_s: 0.01, body_velocity_tau_s: 1.0, body_acc_bias_tau_s: 10.0 }, mode: ModeConfig { lat_acc_enter_m_s2: 2.5, lat_acc_exit_m_s2: 1.5, steering_ratio: 18.0, wheelbase_m: 3.5, steer_rate_enter_rad_s: 2.0, steer_rate_exit_rad_s: 1.0, steer_min_speed_m_s: 8.0, long_acc_enter_m_s2: 2.5, long_acc_exit_m_s2: 1.5, brake_min_speed_m_s: 8.0, speed_enter_m_s: 33.3, speed_exit_m_s: 30.6, handling_hold_s: 2.0 }, damper: DamperConfig { skyhook_deadband_m2_s2: 0.0001, valve5_min_interval_s: 0.02 }, ride_height: RideHeightConfig { request_max_m: 0.06, request_deadband_m: 0.002, tolerance_m: 0.003, valve6_margin_pa: 200000.0, valve6_min_off_s: 0.02, block_lat_acc_m_s2: 1.5, block_long_acc_m_s2: 1.5, resume_s: 1.0, load_pressure_tau_s: 20.0, load_settle_s: 1.0 } },
+    ride_height: RideHeightParams { request_max_m: 0.06, request_deadband_m: 0.002, tolerance_m: 0.003, valve6_margin_pa: 200000.0, min_off_us: 20000, block_lat_acc_m_s2: 1.5, block_long_acc_m_s2: 1.5, resume_us: 1000000, load_settle_us: 1000000 },
+    ..CORNER
+};
+
 /// The production calibration of a 4x4.
 pub static SEED_4: VehicleParams<4> = VehicleParams {
     corner: CORNER,
@@ -590,9 +597,9 @@ pub static SEED_8: VehicleParams<8> = VehicleParams {
 
 /// The processor-in-the-loop calibration of a 4x4.
 pub static PIL_4: VehicleParams<4> = VehicleParams {
-    corner: CORNER,
-    gas: GasChargeParams { v_total_m3: 0.001, small_over_large: 0.42857143, v_large_m3: 0.0007, area_m2: 0.002, tau_us: 2000000, settle_us: 3000000, confirm_us: 1000000, threshold: 0.035, clear_below: 0.025, significant: 0.02, inv_sigma_sqrt2: 117.85113 },
-    levelling: LevellingParams { lower_m: 0.04, raise_m: 0.04, kneel_m: 0.05, standstill_speed_m_s: 1.0, raise_max_speed_m_s: 15.0, auto_lower_on_m_s: 25.0, auto_lower_off_m_s: 22.0, auto_lower_m: 0.02, slope_tolerance_rad: 0.005, inclination_max_rad: 0.6, inv_inclination_tau_per_s: 2.0, settle_us: 1500000, request_max_m: 0.06 },
+    corner: CORNER_PIL,
+    gas: GasChargeParams { v_total_m3: 0.001, small_over_large: 0.42857143, v_large_m3: 0.0007, area_m2: 0.002, tau_us: 1000000, settle_us: 1000000, confirm_us: 500000, threshold: 0.035, clear_below: 0.025, significant: 0.02, inv_sigma_sqrt2: 117.85113 },
+    levelling: LevellingParams { lower_m: 0.04, raise_m: 0.04, kneel_m: 0.05, standstill_speed_m_s: 1.0, raise_max_speed_m_s: 15.0, auto_lower_on_m_s: 25.0, auto_lower_off_m_s: 22.0, auto_lower_m: 0.02, slope_tolerance_rad: 0.005, inclination_max_rad: 0.6, inv_inclination_tau_per_s: 2.0, settle_us: 500000, request_max_m: 0.06 },
     x_m: [0.75, 0.75, -0.75, -0.75],
     y_m: [1.0, -1.0, 1.0, -1.0],
     front_weight: [1.0, 1.0, 0.0, 0.0],
@@ -600,9 +607,9 @@ pub static PIL_4: VehicleParams<4> = VehicleParams {
 
 /// The processor-in-the-loop calibration of an 8x8.
 pub static PIL_8: VehicleParams<8> = VehicleParams {
-    corner: CORNER,
-    gas: GasChargeParams { v_total_m3: 0.001, small_over_large: 0.42857143, v_large_m3: 0.0007, area_m2: 0.002, tau_us: 2000000, settle_us: 3000000, confirm_us: 1000000, threshold: 0.035, clear_below: 0.025, significant: 0.02, inv_sigma_sqrt2: 117.85113 },
-    levelling: LevellingParams { lower_m: 0.04, raise_m: 0.04, kneel_m: 0.05, standstill_speed_m_s: 1.0, raise_max_speed_m_s: 15.0, auto_lower_on_m_s: 25.0, auto_lower_off_m_s: 22.0, auto_lower_m: 0.02, slope_tolerance_rad: 0.005, inclination_max_rad: 0.6, inv_inclination_tau_per_s: 2.0, settle_us: 1500000, request_max_m: 0.06 },
+    corner: CORNER_PIL,
+    gas: GasChargeParams { v_total_m3: 0.001, small_over_large: 0.42857143, v_large_m3: 0.0007, area_m2: 0.002, tau_us: 1000000, settle_us: 1000000, confirm_us: 500000, threshold: 0.035, clear_below: 0.025, significant: 0.02, inv_sigma_sqrt2: 117.85113 },
+    levelling: LevellingParams { lower_m: 0.04, raise_m: 0.04, kneel_m: 0.05, standstill_speed_m_s: 1.0, raise_max_speed_m_s: 15.0, auto_lower_on_m_s: 25.0, auto_lower_off_m_s: 22.0, auto_lower_m: 0.02, slope_tolerance_rad: 0.005, inclination_max_rad: 0.6, inv_inclination_tau_per_s: 2.0, settle_us: 500000, request_max_m: 0.06 },
     x_m: [2.25, 2.25, 0.75, 0.75, -0.75, -0.75, -2.25, -2.25],
     y_m: [1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0],
     front_weight: [1.0, 1.0, 0.6666667, 0.6666667, 0.33333334, 0.33333334, 0.0, 0.0],
