@@ -463,7 +463,7 @@ impl LoopCase {
             max_dt_s,
             record_every,
             channels,
-            sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s },
+            sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s, ..Sensors::default() },
         })
     }
 

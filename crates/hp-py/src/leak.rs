@@ -114,6 +114,10 @@ impl Drive {
             Some(_) => r.f64("t_gas_sensor_tau_s")?,
             None => Sensors::default().t_gas_tau_s,
         };
+        let t_gas_offset_k = match r.get_opt("t_gas_sensor_offset_k")? {
+            Some(_) => r.f64("t_gas_sensor_offset_k")?,
+            None => 0.0,
+        };
         let gas = gas_config(r.get_opt("gas_charge")?, &format!("{path}.gas_charge"))?;
         r.finish()?;
         for (name, v, lo, hi) in [("duration_s", duration_s, 1.0, 1e7), ("record_dt_s", record_dt_s, DT_S, 1e4), ("max_dt_s", max_dt_s, 1e-6, DT_S)] {
@@ -133,7 +137,7 @@ impl Drive {
             record_every: ((record_dt_s / DT_S).round() as usize).max(1),
             gas,
             max_dt_s,
-            sensors: Sensors { t_gas_tau_s },
+            sensors: Sensors { t_gas_tau_s, t_gas_offset_k },
         })
     }
 
@@ -232,7 +236,9 @@ fn to_dict<'py>(py: Python<'py>, r: Record) -> PyResult<Bound<'py, PyDict>> {
 /// speed and the driver's ride-height request), `duration_s`, and optional
 /// `record_dt_s` (1 s), `gas_charge` (fields of the detector's
 /// configuration; default the production one), `max_dt_s`,
-/// `t_gas_sensor_tau_s` (1 s). The controller and the detector are the
+/// `t_gas_sensor_tau_s` (1 s), `t_gas_sensor_offset_k` (0 K: the
+/// temperature sensor's calibration error; a pressure transducers' offset
+/// is the unit's sensor effect). The controller and the detector are the
 /// ECU's production ones for the seed unit. Returns, per case, a dict of
 /// arrays (one value per record) or the exception the case raised.
 #[pyfunction]
