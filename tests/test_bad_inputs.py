@@ -80,8 +80,11 @@ def test_unknown_and_missing_keys_in_core_dicts(seed_unit: hpctl.Unit) -> None:
     del d["piston_area_m2"]
     with pytest.raises(hpctl.ParameterError, match="missing key unit.piston_area_m2"):
         _core.gas_masses_kg(d)
+    # Rigs are typed (CharacterisationRig, SdofRig); anything else is named.
+    with pytest.raises(hpctl.ParameterError, match=r"rig = \{'kind': 'trampoline'\}: expected a rig"):
+        hpctl.run(seed_unit, {"kind": "trampoline"}, np.array([0.0, 1.0]))  # type: ignore[arg-type]
     with pytest.raises(hpctl.ParameterError, match="rig.kind"):
-        hpctl.run(seed_unit, {"kind": "trampoline"}, np.array([0.0, 1.0]))
+        _core.simulate(seed_unit.to_dict(), {"kind": "trampoline"}, np.array([0.0, 1.0]), 1e-3, 293.15, True, True)  # type: ignore[arg-type, typeddict-item]
 
 
 def test_gas_props_with_mismatched_arrays() -> None:

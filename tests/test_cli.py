@@ -136,9 +136,9 @@ def test_installed_entry_point_and_internal_error_exit_code(tmp_path: Path) -> N
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["runs"][0]["spring"] == "hard"
     # An unwritable output folder is not bad *input* to the model but an
-    # environment failure: exit 1.
+    # environment failure: exit 1, with the path and the reason (no traceback).
     blocker = tmp_path / "file"
     blocker.write_text("x")
     r = subprocess.run([sys.executable, "-m", "hpctl", "simulate", "--test", "sdof-step", "--duration-s", "1", "--out", str(blocker / "sub"), "--quiet"],
                        capture_output=True, text=True, check=False)
-    assert r.returncode == 1 and "internal error" in r.stderr
+    assert r.returncode == 1 and f"error: {blocker / 'sub'}: Not a directory" in r.stderr and "Traceback" not in r.stderr

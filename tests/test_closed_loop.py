@@ -177,7 +177,7 @@ def test_the_closed_loop_command_writes_plots_and_a_summary(tmp_path: Path) -> N
     ("args", "message"),
     [
         (["--lower-m", "-0.01"], "lower_m = -0.01 must be within"),
-        (["--lower-m", "nan"], "lower_m = nan"),
+        (["--lower-m", "nan"], "'nan' is not a finite number"),
         (["--speed-m-s", "0"], "speed_m_s = 0.0 must be within"),
     ],
 )

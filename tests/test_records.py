@@ -118,7 +118,7 @@ def test_write_then_read_is_identical(tmp_path_factory: pytest.TempPathFactory, 
         ("time_s,disp_m,force_n\n0,0,1\n", GOOD_TOML, r"rec\.csv: expected at least two data rows"),
         ("", GOOD_TOML, r"rec\.csv: line 1: expected a header row"),
         ("time_s,disp_m,force_n,spring_hard\n0,0,1,0\n0.1,0,1,2\n", GOOD_TOML, r"line 3, column 'spring_hard': 2\.0, expected 0 or 1"),
-        (GOOD_CSV, GOOD_TOML.replace("pressure_pa = 7.8e6", "pressure_pa = 78"), r"rec\.toml: \[static\] pressure_pa: = 78\.0 is outside \[100000, 3e\+08\] \(SI units"),
+        (GOOD_CSV, GOOD_TOML.replace("pressure_pa = 7.8e6", "pressure_pa = 78"), r"rec\.toml: \[static\] pressure_pa: = 78\.0 is outside \[200000, 3e\+08\] \(SI units"),
         (GOOD_CSV, GOOD_TOML.replace("pressure_pa = 7.8e6", 'pressure_pa = "7.8 MPa"'), r"\[static\] pressure_pa: expected a number in SI units \(pa\), got '7\.8 MPa'"),
         (GOOD_CSV, GOOD_TOML.replace("pressure_pa = 7.8e6", "pressure_mpa = 7.8"), r"\[static\] pressure_mpa: unknown key \(hpctl reads SI units only: use a name ending in _pa\)"),
         (GOOD_CSV, GOOD_TOML.replace('gas = "N2"', 'gas = "N2"\ncolour = "red"'), r"rec\.toml: \[unit\] colour: unknown key; expected one of piston_area_m2"),
@@ -141,3 +141,31 @@ def test_missing_files(tmp_path: Path) -> None:
         read_record(tmp_path / "only.csv")
     with pytest.raises(hpctl.RecordError, match=r"none\.toml: file not found"):
         read_record(tmp_path / "none")
+
+
+def test_the_shipped_format_specification_matches_the_reader() -> None:
+    """The column table and the TOML example of the specification that ships
+    in the package are what the reader implements."""
+    import re
+    import tomllib
+
+    from hpctl.data import RECORD_FORMAT_PATH
+    from hpctl.data.records import _SCHEMA, COLUMNS
+
+    spec = RECORD_FORMAT_PATH.read_text()
+    rows = re.findall(r"^\| `(\w+)` \| ([^|]+) \| ([^|]+) \|", spec, flags=re.M)
+    documented = {name: (unit.strip(), required.strip()) for name, unit, required in rows}
+    assert set(documented) == set(COLUMNS)
+    for name, (unit, kinds) in COLUMNS.items():
+        assert documented[name][0] == unit, name
+        required = documented[name][1]
+        if set(kinds) == {"characterisation", "sdof"}:
+            assert required == "yes", name
+        elif kinds:
+            assert required == f"{kinds[0]} tests".replace("sdof", "SDOF"), name
+        else:
+            assert required == "no", name
+    example = tomllib.loads(spec.split("```toml", 1)[1].split("```", 1)[0])
+    assert set(example) == set(_SCHEMA)
+    for table, keys in example.items():
+        assert set(keys) == set(_SCHEMA[table]), table

@@ -19,14 +19,19 @@ __all__ = [
     "gas_masses_kg",
     "gas_props",
     "gas_density_kg_m3",
+    "gas_validated_range",
     "seed_unit",
     "seed_sprung_mass_kg",
     "seed_oil_node",
     "CHANNELS",
+    "STANDARD_GRAVITY_M_S2",
+    "PARAMETER_RANGES",
+    "load_pressure_pa",
     "Plant",
     "__version__",
     "Controller",
     "ctrl_seed_config",
+    "ctrl_config_for_unit",
     "closed_loop",
     "closed_loop_many",
     "CTRL_DIAG_FLAGS",
@@ -42,8 +47,38 @@ __all__ = [
     "can_encode",
     "can_decode",
     "Ecu",
+    "vehicle_presets",
+    "vehicle_controller_config",
+    "vehicle_statics",
+    "vehicle_run",
+    "vehicle_run_many",
+    "VehiclePlant",
+    "VEHICLE_CHANNELS",
+    "VEHICLE_CORNER_CHANNELS",
+    "VEHICLE_CONTROLLER_CHANNELS",
 ]
+
+# The plain-dict forms the core reads and returns: hpctl._coretypes.
+from hpctl._coretypes import (
+    CaseDict,
+    Channels,
+    ClosedLoopDict,
+    GasPropsDict,
+    OilNodeDict,
+    RigDict,
+    RoadDict,
+    SuspensionDict,
+    UnitDict,
+    ValidatedRangeDict,
+    VehicleDict,
+    VehicleRunDict,
+    VehicleStaticsDict,
+)
+
 CHANNELS: list[str]
+STANDARD_GRAVITY_M_S2: float
+#: Every unit parameter's valid range (hp_core::ranges), inclusive.
+PARAMETER_RANGES: dict[str, tuple[float, float]]
 
 class HpctlError(ValueError): ...
 class ParameterError(HpctlError): ...
@@ -52,30 +87,32 @@ class SimulationError(HpctlError): ...
 class InternalError(RuntimeError): ...
 
 def simulate(
-    unit: dict[str, Any],
-    rig: dict[str, Any],
-    times_s: NDArray[np.float64],
+    unit: UnitDict,
+    rig: RigDict,
+    times_s: NDArray[np.float64] | Sequence[float],
     dt_s: float,
     ambient_k: float,
     spring_hard: bool | Sequence[bool],
     damper_on: bool | Sequence[bool],
     channels: Sequence[str] | None = None,
     progress: Callable[[int, int], object] | None = None,
-) -> dict[str, NDArray[np.float64]]: ...
-def simulate_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[dict[str, NDArray[np.float64]] | HpctlError]: ...
-def static_force_n(unit: dict[str, Any], disp_m: float, t_k: float, spring_hard: bool) -> float: ...
-def static_disp_for_load_m(unit: dict[str, Any], load_n: float, t_k: float, spring_hard: bool) -> float: ...
-def gas_masses_kg(unit: dict[str, Any]) -> tuple[float, float]: ...
-def gas_props(gas: str, rho_kg_m3: NDArray[np.float64], t_k: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]: ...
+) -> Channels: ...
+def simulate_many(cases: list[CaseDict], threads: int | None = None) -> list[Channels | HpctlError]: ...
+def static_force_n(unit: UnitDict, disp_m: float, t_k: float, spring_hard: bool) -> float: ...
+def static_disp_for_load_m(unit: UnitDict, load_n: float, t_k: float, spring_hard: bool) -> float: ...
+def load_pressure_pa(unit: UnitDict, load_n: float) -> float: ...
+def gas_masses_kg(unit: UnitDict) -> tuple[float, float]: ...
+def gas_props(gas: str, rho_kg_m3: NDArray[np.float64] | Sequence[float], t_k: NDArray[np.float64] | Sequence[float]) -> GasPropsDict: ...
 def gas_density_kg_m3(gas: str, p_pa: float, t_k: float) -> float: ...
-def seed_unit() -> dict[str, Any]: ...
+def gas_validated_range(gas: str) -> ValidatedRangeDict: ...
+def seed_unit() -> UnitDict: ...
 def seed_sprung_mass_kg() -> float: ...
-def seed_oil_node() -> dict[str, float]: ...
+def seed_oil_node() -> OilNodeDict: ...
 
 @final
 class Plant:
     def __new__(
-        cls, unit: dict[str, Any], rig: dict[str, Any], ambient_k: float, spring_hard: bool, damper_on: bool, max_dt_s: float = 1e-3
+        cls, unit: UnitDict, rig: RigDict, ambient_k: float, spring_hard: bool, damper_on: bool, max_dt_s: float = 1e-3
     ) -> Plant: ...
     @property
     def time_s(self) -> float: ...
@@ -96,9 +133,10 @@ CTRL_INPUT_FIELDS: list[str]
 CTRL_SCENARIO_FIELDS: list[str]
 
 def ctrl_seed_config() -> dict[str, Any]: ...
+def ctrl_config_for_unit(unit: UnitDict) -> dict[str, Any]: ...
 def closed_loop(
-    unit: dict[str, Any],
-    rig: dict[str, Any],
+    unit: UnitDict,
+    rig: RigDict,
     scenario: dict[str, NDArray[Any]],
     dt_s: float,
     ambient_k: float,
@@ -108,8 +146,8 @@ def closed_loop(
     record_every: int = 1,
     t_gas_sensor_tau_s: float = 1.0,
     progress: Callable[[int, int], object] | None = None,
-) -> dict[str, dict[str, NDArray[Any]]]: ...
-def closed_loop_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[dict[str, dict[str, NDArray[Any]]] | HpctlError]: ...
+) -> ClosedLoopDict: ...
+def closed_loop_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[ClosedLoopDict | HpctlError]: ...
 @final
 class Controller:
     def __new__(cls, config: dict[str, Any] | None = None) -> Controller: ...
@@ -123,7 +161,7 @@ class Controller:
 class CanRejectError(HpctlError): ...
 
 def can_encode(name: str, counter: int, values: dict[str, float]) -> tuple[int, bytes]: ...
-def can_decode(id: int, data: bytes, extended: bool = True) -> tuple[str, int, dict[str, float]]: ...
+def can_decode(id: int, data: bytes | bytearray | memoryview, extended: bool = True) -> tuple[str, int, dict[str, float]]: ...
 @final
 class Ecu:
     def __new__(cls, corners: Literal[4, 8] = 4) -> Ecu: ...
@@ -134,5 +172,46 @@ class Ecu:
     @property
     def address(self) -> int: ...
     def dtcs(self) -> list[tuple[int, int, int]]: ...
-    def receive(self, id: int, data: bytes, extended: bool = True) -> int | None: ...
+    def receive(self, id: int, data: bytes | bytearray | memoryview, extended: bool = True) -> int | None: ...
     def period(self) -> list[tuple[int, bytes]]: ...
+
+# The vehicles (hp-vehicle): see hpctl.vehicle.
+VEHICLE_CHANNELS: list[str]
+VEHICLE_CORNER_CHANNELS: list[str]
+VEHICLE_CONTROLLER_CHANNELS: list[str]
+
+def vehicle_presets() -> dict[str, VehicleDict]: ...
+def vehicle_controller_config(vehicle: VehicleDict) -> dict[str, Any]: ...
+def vehicle_statics(vehicle: VehicleDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True) -> VehicleStaticsDict: ...
+def vehicle_run(
+    vehicle: VehicleDict,
+    road: RoadDict,
+    drive: dict[str, NDArray[Any]],
+    suspension: SuspensionDict,
+    dt_s: float,
+    ambient_k: float,
+    max_dt_s: float = 1e-3,
+    record_every: int = 1,
+    t_gas_sensor_tau_s: float = 1.0,
+    progress: Callable[[int, int], object] | None = None,
+) -> VehicleRunDict: ...
+def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRunDict | HpctlError]: ...
+@final
+class VehiclePlant:
+    def __new__(
+        cls, vehicle: VehicleDict, road: RoadDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True, max_dt_s: float = 1e-3
+    ) -> VehiclePlant: ...
+    @property
+    def corner_count(self) -> int: ...
+    @property
+    def time_s(self) -> float: ...
+    def sample(self) -> dict[str, float | list[float]]: ...
+    def step(
+        self,
+        dt_s: float,
+        valve5_open: Sequence[bool],
+        valve6_open: Sequence[bool],
+        speed_m_s: float,
+        long_acc_m_s2: float = 0.0,
+        steer_angle_rad: float = 0.0,
+    ) -> dict[str, float | list[float]]: ...

@@ -28,6 +28,38 @@ pub const TEMPERATURE_RANGE_K: (f64, f64) = (60.0, 1000.0);
 /// 233 K, and it must be usable there to show how wrong it is.
 pub const DENSITY_RANGE_KG_M3: (f64, f64) = (0.0, 3000.0);
 
+/// Where a model's accuracy has been measured (`docs/accuracy.md`): the
+/// reference grid's 2-110 MPa and 233-473 K, with the pressure range
+/// opened down to [`PRESSURE_RANGE_PA`]'s minimum because every model here
+/// tends to the ideal gas as the density falls, where the ideal gas is
+/// exact. Outside it a model still computes (within the wider ranges the
+/// solver accepts) but nobody has checked how wrong it is: a result that
+/// went there is a warning, not a number to stand behind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValidatedRange {
+    /// Smallest and largest pressure, Pa.
+    pub pressure_pa: (f64, f64),
+    /// Smallest and largest temperature, K.
+    pub temperature_k: (f64, f64),
+}
+
+/// The range over which `gas` has been validated against the reference.
+///
+/// ```
+/// use hp_core::gas::{validated_range, Gas};
+/// let r = validated_range(Gas::BwrTextbook);
+/// assert_eq!(r.pressure_pa.1, 110.0e6);
+/// assert!(r.temperature_k.0 < 293.15 && 293.15 < r.temperature_k.1);
+/// ```
+pub fn validated_range(gas: Gas) -> ValidatedRange {
+    // The accuracy grid of docs/accuracy.md (every model is checked on it
+    // against CoolProp by tests/eos_reference.rs).
+    const GRID: ValidatedRange = ValidatedRange { pressure_pa: (PRESSURE_RANGE_PA.0, 110.0e6), temperature_k: (233.15, 473.15) };
+    match gas {
+        Gas::Ideal | Gas::BwrCooperGoldfrank | Gas::BwrTextbook => GRID,
+    }
+}
+
 /// Thermodynamic properties at one (density, temperature) state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GasProps {

@@ -10,6 +10,7 @@
 //! - [`motion`], [`rig`]: the characterisation and SDOF rigs.
 //! - [`ode`]: fixed-step RK4.
 //! - [`presets`]: the seed's unit.
+//! - [`ranges`]: the valid range of every unit parameter.
 #![no_std]
 // `!(x > y)` is how NaN is rejected together with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -20,6 +21,7 @@ pub mod gas;
 pub mod motion;
 pub mod ode;
 pub mod presets;
+pub mod ranges;
 pub mod rig;
 pub mod thermal;
 pub mod unit;

@@ -40,6 +40,13 @@ pub const SEED_LARGE_VOLUME_M3: f64 = 0.7e-3;
 pub const SEED_STATIC_TEMPERATURE_K: f64 = 293.15;
 /// Thermal time constant of the gas, s.
 pub const SEED_TAU_S: f64 = 2.0;
+/// Strut speed the built-in unit is rated for, m/s. An assumption, like
+/// the damper curves: the seed characterised its damper on a servo-hydraulic
+/// rig through the static position (section 3.4) without giving the speeds;
+/// heavy-vehicle struts are characterised up to piston speeds of 1-2 m/s,
+/// and beyond that the curves here are a straight-line extrapolation of the
+/// blow-off branch, not a description of anything measured.
+pub const SEED_RATED_SPEED_M_S: f64 = 2.0;
 /// Atmospheric pressure, Pa.
 pub const ATMOSPHERIC_PRESSURE_PA: f64 = 101_325.0;
 
@@ -81,6 +88,7 @@ pub fn seed_unit() -> UnitParams {
         stroke_extension_m: 0.125,
         end_stop_stiffness_n_per_m: 1.0e7,
         end_stop_damping_n_s_per_m: 5.0e4,
+        rated_speed_m_s: SEED_RATED_SPEED_M_S,
         effects: Effects::default(),
     }
 }

@@ -110,7 +110,7 @@ impl<'a> Rig<'a> {
                 0.0
             }
             RigKind::Sdof { sprung_mass_kg, base } => {
-                check_range("sprung_mass_kg", sprung_mass_kg, 1.0, 1e6)?;
+                crate::ranges::SPRUNG_MASS_KG.check(sprung_mass_kg)?;
                 base.validate()?;
                 unit.static_disp_for_load_m(sprung_mass_kg * STANDARD_GRAVITY_M_S2, ambient_k, valves)?
             }

@@ -18,7 +18,8 @@
 
 use crate::damper::{Damper, Orifice};
 use crate::error::{check_range, Error, Result};
-use crate::gas::{EquationOfState, Gas, DENSITY_RANGE_KG_M3, PRESSURE_RANGE_PA, TEMPERATURE_RANGE_K};
+use crate::ranges;
+use crate::gas::{EquationOfState, Gas, DENSITY_RANGE_KG_M3, TEMPERATURE_RANGE_K};
 use crate::thermal::{gas_temperature_k, temperature_rate_k_s, HeatTransfer};
 
 /// Standard gravity, m/s^2.
@@ -130,6 +131,11 @@ pub struct UnitParams {
     pub end_stop_stiffness_n_per_m: f64,
     /// Damping of the end stops, N s/m.
     pub end_stop_damping_n_s_per_m: f64,
+    /// Highest strut speed the unit is rated for (its damper
+    /// characterised up to), m/s. The model does not use it: a run beyond
+    /// it is outside what the unit's data describe, which the front ends
+    /// report as a warning.
+    pub rated_speed_m_s: f64,
     /// Optional model terms.
     pub effects: Effects,
 }
@@ -312,24 +318,25 @@ impl Unit {
     /// state. Errors name the parameter, its value and the valid range.
     pub fn new(params: UnitParams) -> Result<Self> {
         let p = &params;
-        check_range("piston_area_m2", p.piston_area_m2, 1e-5, 1.0)?;
-        check_range("small_acc_volume_m3", p.small_acc_volume_m3, 1e-6, 1.0)?;
-        check_range("large_acc_volume_m3", p.large_acc_volume_m3, 1e-6, 1.0)?;
-        check_range("static_pressure_pa", p.static_pressure_pa, 2.0e5, PRESSURE_RANGE_PA.1)?;
-        check_range("static_temperature_k", p.static_temperature_k, 200.0, 600.0)?;
-        check_range("oil_density_kg_m3", p.oil_density_kg_m3, 500.0, 2000.0)?;
-        check_range("vapour_pressure_pa", p.vapour_pressure_pa, 0.0, 1.0e5)?;
-        check_range("ambient_pressure_pa", p.ambient_pressure_pa, 0.0, 2.0e5)?;
-        check_range("stroke_compression_m", p.stroke_compression_m, 1e-3, 2.0)?;
-        check_range("stroke_extension_m", p.stroke_extension_m, 1e-3, 2.0)?;
-        check_range("end_stop_stiffness_n_per_m", p.end_stop_stiffness_n_per_m, 0.0, 1e9)?;
-        check_range("end_stop_damping_n_s_per_m", p.end_stop_damping_n_s_per_m, 0.0, 1e7)?;
+        ranges::PISTON_AREA_M2.check(p.piston_area_m2)?;
+        ranges::SMALL_ACC_VOLUME_M3.check(p.small_acc_volume_m3)?;
+        ranges::LARGE_ACC_VOLUME_M3.check(p.large_acc_volume_m3)?;
+        ranges::STATIC_PRESSURE_PA.check(p.static_pressure_pa)?;
+        ranges::STATIC_TEMPERATURE_K.check(p.static_temperature_k)?;
+        ranges::OIL_DENSITY_KG_M3.check(p.oil_density_kg_m3)?;
+        ranges::VAPOUR_PRESSURE_PA.check(p.vapour_pressure_pa)?;
+        ranges::AMBIENT_PRESSURE_PA.check(p.ambient_pressure_pa)?;
+        ranges::STROKE_COMPRESSION_M.check(p.stroke_compression_m)?;
+        ranges::STROKE_EXTENSION_M.check(p.stroke_extension_m)?;
+        ranges::END_STOP_STIFFNESS_N_PER_M.check(p.end_stop_stiffness_n_per_m)?;
+        ranges::END_STOP_DAMPING_N_S_PER_M.check(p.end_stop_damping_n_s_per_m)?;
+        ranges::RATED_SPEED_M_S.check(p.rated_speed_m_s)?;
         match p.heat {
             HeatTransfer::TimeConstant(tau) => {
-                check_range("tau_s", tau, 1e-6, crate::thermal::MAX_FINITE_TAU_S)?;
+                ranges::TAU_S.check(tau)?;
             }
             HeatTransfer::Polytropic(n) => {
-                check_range("polytropic_exponent", n, 1.0, 2.0)?;
+                ranges::POLYTROPIC_EXPONENT.check(n)?;
             }
             _ => {}
         }
@@ -337,30 +344,30 @@ impl Unit {
         p.damper.validate()?;
         let e = &p.effects;
         if let Some(f) = e.friction {
-            check_range("friction_coulomb_n", f.coulomb_n, 0.0, 1e6)?;
-            check_range("friction_viscous_n_s_per_m", f.viscous_n_s_per_m, 0.0, 1e7)?;
-            check_range("friction_smoothing_velocity_m_s", f.smoothing_velocity_m_s, 1e-6, 1.0)?;
+            ranges::FRICTION_COULOMB_N.check(f.coulomb_n)?;
+            ranges::FRICTION_VISCOUS_N_S_PER_M.check(f.viscous_n_s_per_m)?;
+            ranges::FRICTION_SMOOTHING_VELOCITY_M_S.check(f.smoothing_velocity_m_s)?;
         }
         if let Some(c) = e.oil_compliance {
-            check_range("oil_bulk_modulus_pa", c.bulk_modulus_pa, 1e6, 1e11)?;
-            check_range("oil_volume_m3", c.oil_volume_m3, 1e-6, 1.0)?;
+            ranges::OIL_BULK_MODULUS_PA.check(c.bulk_modulus_pa)?;
+            ranges::OIL_VOLUME_M3.check(c.oil_volume_m3)?;
         }
         if let Some(n) = e.oil_node {
-            check_range("oil_heat_capacity_j_per_k", n.heat_capacity_j_per_k, 1.0, 1e9)?;
-            check_range("oil_to_ambient_tau_s", n.oil_to_ambient_tau_s, 1e-3, 1e9)?;
-            check_range("wall_to_oil_tau_s", n.wall_to_oil_tau_s, 1e-3, 1e9)?;
-            check_range("wall_to_ambient_tau_s", n.wall_to_ambient_tau_s, 1e-3, 1e9)?;
+            ranges::OIL_HEAT_CAPACITY_J_PER_K.check(n.heat_capacity_j_per_k)?;
+            ranges::OIL_TO_AMBIENT_TAU_S.check(n.oil_to_ambient_tau_s)?;
+            ranges::WALL_TO_OIL_TAU_S.check(n.wall_to_oil_tau_s)?;
+            ranges::WALL_TO_AMBIENT_TAU_S.check(n.wall_to_ambient_tau_s)?;
         }
         if let Some(l) = e.leakage {
-            check_range("leak_time_constant_s", l.time_constant_s, 1.0, 1e12)?;
+            ranges::LEAK_TIME_CONSTANT_S.check(l.time_constant_s)?;
         }
         if let Some(v) = e.valve_lag {
-            check_range("valve_time_constant_s", v.time_constant_s, 1e-5, 10.0)?;
+            ranges::VALVE_TIME_CONSTANT_S.check(v.time_constant_s)?;
         }
         if let Some(s) = e.sensor {
-            check_range("sensor_force_offset_n", s.force_offset_n, -1e6, 1e6)?;
-            check_range("sensor_pressure_offset_pa", s.pressure_offset_pa, -1e8, 1e8)?;
-            check_range("sensor_time_constant_s", s.time_constant_s, 0.0, 10.0)?;
+            ranges::SENSOR_FORCE_OFFSET_N.check(s.force_offset_n)?;
+            ranges::SENSOR_PRESSURE_OFFSET_PA.check(s.pressure_offset_pa)?;
+            ranges::SENSOR_TIME_CONSTANT_S.check(s.time_constant_s)?;
         }
         let rho = p.gas.density_kg_m3(p.static_pressure_pa, p.static_temperature_k)?;
         Ok(Unit {
@@ -434,6 +441,14 @@ impl Unit {
     pub fn static_force_n(&self, disp_m: f64, t_k: f64, valves: Valves) -> Result<f64> {
         let s = self.state_at_rest(disp_m, t_k, valves)?;
         Ok(self.params.piston_area_m2 * (s.p_strut_pa - self.params.ambient_pressure_pa))
+    }
+
+    /// The gas pressure that carries `load_n` at rest (the strut oil
+    /// pressure with no flow): ambient pressure plus load over piston
+    /// area, Pa.
+    pub fn load_pressure_pa(&self, load_n: f64) -> Result<f64> {
+        check_range("load_n", load_n, 0.0, 1e8)?;
+        Ok(self.params.ambient_pressure_pa + load_n / self.params.piston_area_m2)
     }
 
     /// The compression at which the static force carries `load_n`, m:

@@ -75,3 +75,21 @@ fn density_solve_inverts_pressure_everywhere_on_the_grid() {
         }
     }
 }
+
+#[test]
+fn the_validated_range_is_the_reference_grid() {
+    // `validated_range` says where the models were checked; it must be the
+    // grid these tests check them on (from the ideal-gas limit up).
+    let rows = fixture("n2_grid.csv");
+    let (mut p_max, mut t_min, mut t_max) = (0.0_f64, f64::INFINITY, 0.0_f64);
+    for row in &rows {
+        p_max = p_max.max(row["p_pa"]);
+        t_min = t_min.min(row["t_k"]);
+        t_max = t_max.max(row["t_k"]);
+    }
+    for gas in Gas::ALL {
+        let r = hp_core::gas::validated_range(gas);
+        assert_eq!(r.pressure_pa, (hp_core::gas::PRESSURE_RANGE_PA.0, p_max), "{gas:?}");
+        assert_eq!(r.temperature_k, (t_min, t_max), "{gas:?}");
+    }
+}

@@ -21,8 +21,8 @@
 //! - [`vehicle`]: one ECU for 4 to 8 corners: per-corner controllers,
 //!   vehicle-level ride height, gas-charge diagnostics.
 //!
-//! [`closed_loop`] runs the controller on the plant model of `hp-core`
-//! (host simulation and tests; not used by the firmware).
+//! The closed loop with the plant model (host simulation) lives in the
+//! host-side crate `hp-vehicle`, so this crate holds only what flies.
 //!
 //! Numerics: the ECU (Cortex-M4F) has a single-precision FPU only, where a
 //! double-precision operation costs about a hundred instructions, so the
@@ -38,7 +38,6 @@
 pub mod calibration;
 pub mod can;
 pub mod clock;
-pub mod closed_loop;
 pub mod config;
 mod controller;
 pub mod damper;

@@ -5,7 +5,8 @@
 //! more than 8 bytes) raise `ParameterError`, a frame the codec rejects
 //! raises `CanRejectError`.
 
-use crate::errors::{guard, parameter, HpctlError};
+use crate::args::{bytes_arg, int_arg};
+use crate::errors::{bad_argument, guard, parameter, HpctlError};
 use crate::params::Reader;
 use hp_ctrl::can::ecu::{self, Link};
 use hp_ctrl::can::embedded_can::{ExtendedId, Frame, Id, StandardId};
@@ -35,6 +36,19 @@ fn rejected(r: Reject) -> PyErr {
     CanRejectError::new_err((format!("frame rejected: {}", reason(r)), reason(r)))
 }
 
+/// Largest extended (29-bit) identifier.
+const EXTENDED_ID_MAX: i64 = 0x1FFF_FFFF;
+
+/// A frame from Python arguments: the identifier (an int), the data
+/// (bytes, bytearray or memoryview) and whether the identifier is extended.
+fn frame_arg(id: &Bound<'_, PyAny>, data: &Bound<'_, PyAny>, extended: bool) -> PyResult<CanFrame> {
+    let max = if extended { EXTENDED_ID_MAX } else { 0x7FF };
+    let what = if extended { "an extended identifier (29 bits)" } else { "a standard identifier (11 bits; extended=True for 29)" };
+    let raw = int_arg(id, "id", 0, max, what)?;
+    let bytes = bytes_arg(data, "data")?;
+    frame_from(u32::try_from(raw).unwrap_or(u32::MAX), &bytes, extended)
+}
+
 /// A frame from its identifier (standard unless `extended`) and data.
 fn frame_from(id: u32, data: &[u8], extended: bool) -> PyResult<CanFrame> {
     let id: Id = if extended {
@@ -54,23 +68,35 @@ fn frame_to_py<'py>(py: Python<'py>, f: &CanFrame) -> (u32, Bound<'py, PyBytes>)
     (id, PyBytes::new(py, f.data()))
 }
 
+/// A signal whose values are whole numbers: a flag, an enumeration, a
+/// counter or a bit set (no unit, raw = physical). Rounding a value of
+/// such a signal would send another state than the caller meant.
+fn is_whole(sd: &codec::messages::SignalDef) -> bool {
+    sd.unit.is_empty() && sd.signal.factor == 1.0 && sd.signal.offset == 0.0
+}
+
 /// Encodes message `name` (DBC spelling) with alive counter `counter`
 /// (0..=14): `values` maps every signal of the message to its physical
-/// value (rounded to the nearest LSB). Returns `(identifier, 8 bytes)`.
+/// value (rounded to the nearest LSB; flags, enumerations and counts must
+/// be whole numbers). Returns `(identifier, 8 bytes)`.
 #[pyfunction]
-fn can_encode<'py>(py: Python<'py>, name: &str, counter: u8, values: &Bound<'py, PyAny>) -> PyResult<(u32, Bound<'py, PyBytes>)> {
+fn can_encode<'py>(py: Python<'py>, name: &str, counter: &Bound<'py, PyAny>, values: &Bound<'py, PyAny>) -> PyResult<(u32, Bound<'py, PyBytes>)> {
     guard(|| {
         let kind = Kind::from_name(name).ok_or_else(|| {
             let names: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
             parameter(format!("unknown message {name:?} (one of: {})", names.join(", ")))
         })?;
-        if counter > e2e::COUNTER_MAX {
-            return Err(parameter(format!("counter = {counter} must be within [0, {}]", e2e::COUNTER_MAX)));
-        }
+        let counter = int_arg(counter, "counter", 0, i64::from(e2e::COUNTER_MAX), "the alive counter")?;
+        let counter = u8::try_from(counter).unwrap_or(u8::MAX);
         let mut r = Reader::new(values, "values")?;
         let mut payload = [0u8; 8];
         for sd in kind.signals() {
             let x = r.f64(sd.name)?;
+            if is_whole(sd) && x.fract() != 0.0 {
+                let path = format!("values.{}", sd.name);
+                let shown = x.into_pyobject(py)?.into_any();
+                return Err(bad_argument(&path, &shown, "a whole number (a flag, an enumeration or a count)"));
+            }
             sd.signal
                 .put(&mut payload, x)
                 .map_err(|_| parameter(format!("values.{} = {x} is not finite or outside the signal's range", sd.name)))?;
@@ -87,9 +113,9 @@ fn can_encode<'py>(py: Python<'py>, name: &str, counter: u8, values: &Bound<'py,
 /// the receiver's job). Returns `(message name, counter, {signal: value})`.
 #[pyfunction]
 #[pyo3(signature = (id, data, extended=true))]
-fn can_decode<'py>(py: Python<'py>, id: u32, data: &[u8], extended: bool) -> PyResult<(&'static str, u8, Bound<'py, PyDict>)> {
+fn can_decode<'py>(py: Python<'py>, id: &Bound<'py, PyAny>, data: &Bound<'py, PyAny>, extended: bool) -> PyResult<(&'static str, u8, Bound<'py, PyDict>)> {
     guard(|| {
-        let frame = frame_from(id, data, extended)?;
+        let frame = frame_arg(id, data, extended)?;
         let (msg, counter) = codec::decode(&frame).map_err(rejected)?;
         let kind = msg.kind();
         let payload = codec::encode(&msg, counter, kind.def().source).map_err(|_| parameter("decoded message does not re-encode"))?;
@@ -196,9 +222,9 @@ impl Ecu {
     /// its diagnostics, not raised). Returns the tick index if it was an
     /// accepted `HP_PilTick`, else None.
     #[pyo3(signature = (id, data, extended=true))]
-    fn receive(&mut self, id: u32, data: &[u8], extended: bool) -> PyResult<Option<u16>> {
+    fn receive(&mut self, id: &Bound<'_, PyAny>, data: &Bound<'_, PyAny>, extended: bool) -> PyResult<Option<u16>> {
         guard(|| {
-            let frame = frame_from(id, data, extended)?;
+            let frame = frame_arg(id, data, extended)?;
             Ok(with_ecu!(self, e => e.receive(&frame)))
         })
     }

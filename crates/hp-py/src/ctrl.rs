@@ -6,13 +6,13 @@
 //! types, undefined enum values, arrays of unequal length) raise
 //! `ParameterError`.
 
-use crate::errors::{guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel};
+use crate::errors::{bad_argument, guard, parameter, to_py};
+use crate::exec::{detached_with_progress, run_parallel, threads_arg};
 use crate::params::{self, MotionSpec, Reader, RigSpec};
 use crate::sim::{channel_values, CHANNELS};
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
-use hp_ctrl::closed_loop::{Sensors, Vehicle};
+use hp_vehicle::closed_loop::{Sensors, VehicleSignals};
 use hp_ctrl::{diag, input_group, Config, DriverMode, Inputs, Outputs, ParamError, Params, State};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -92,7 +92,7 @@ fn config_from_dict(obj: &Bound<'_, PyAny>) -> PyResult<Config> {
     Ok(c)
 }
 
-fn config_to_dict<'py>(py: Python<'py>, c: &Config) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn config_to_dict<'py>(py: Python<'py>, c: &Config) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let unit = write_unit(py, &c.unit)?;
     unit.set_item("gas", c.unit.gas.name())?;
@@ -115,7 +115,7 @@ fn param_error(e: ParamError) -> PyErr {
 }
 
 /// Compiled parameters from an optional config dict (None: the seed unit).
-fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
+pub(crate) fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
     let config = match config {
         Some(c) if !c.is_none() => config_from_dict(c)?,
         _ => Config::seed_unit(),
@@ -127,6 +127,20 @@ fn params_from(config: Option<&Bound<'_, PyAny>>) -> PyResult<Params> {
 #[pyfunction]
 pub fn ctrl_seed_config(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     guard(|| config_to_dict(py, &Config::seed_unit()))
+}
+
+/// The controller configuration for the plant unit `unit` (a unit dict as
+/// `simulate` takes): its `unit` block derived from the unit
+/// (`hp_ctrl::gas_table::UnitConfig::from_unit`), every other block the
+/// default calibration. For the seed unit it equals `ctrl_seed_config()`.
+#[pyfunction]
+pub fn ctrl_config_for_unit<'py>(py: Python<'py>, unit: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let params = params::unit(unit)?;
+        let config = Config { unit: hp_ctrl::gas_table::UnitConfig::from_unit(&params), ..Config::seed_unit() };
+        Params::new(config).map_err(param_error)?;
+        config_to_dict(py, &config)
+    })
 }
 
 // ---------------------------------------------------------- inputs/outputs
@@ -158,7 +172,7 @@ const INPUT_FLOATS: [FloatField<Inputs>; 11] = [
 const INPUT_BOOLS: [BoolField<Inputs>; 2] = [("brake_pressed", |i| &mut i.brake_pressed), ("link_fault", |i| &mut i.link_fault)];
 
 /// The scenario's per-period fields of the closed loop.
-const VEHICLE_FLOATS: [FloatField<Vehicle>; 6] = [
+const VEHICLE_FLOATS: [FloatField<VehicleSignals>; 6] = [
     ("speed_m_s", |v| &mut v.speed_m_s),
     ("lat_acc_m_s2", |v| &mut v.lat_acc_m_s2),
     ("long_acc_m_s2", |v| &mut v.long_acc_m_s2),
@@ -174,7 +188,7 @@ const SPRING_MODES: [&str; 2] = ["hard", "soft"];
 const DAMPER_MODES: [&str; 2] = ["high", "low"];
 const SEQUENCER_STATES: [&str; 5] = ["idle", "lowering", "raising", "holding", "blocked"];
 
-fn driver_mode(value: i64, path: &str) -> PyResult<DriverMode> {
+pub(crate) fn driver_mode(value: i64, path: &str) -> PyResult<DriverMode> {
     match value {
         0 => Ok(DriverMode::Auto),
         1 => Ok(DriverMode::Comfort),
@@ -190,7 +204,7 @@ fn fresh_mask(value: i64, path: &str) -> PyResult<u16> {
         .ok_or_else(|| parameter(format!("{path} = {value} is not a set of input groups (0..={})", input_group::ALL)))
 }
 
-fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
+pub(crate) fn extract<'a, 'py, T: pyo3::FromPyObject<'a, 'py>>(v: &'a Bound<'py, PyAny>, path: &str, what: &str) -> PyResult<T> {
     v.extract::<T>().map_err(|_| parameter(format!("{path} must be {what}, got {v}")))
 }
 
@@ -210,7 +224,7 @@ fn inputs_from_dict(obj: &Bound<'_, PyAny>) -> PyResult<Inputs> {
     Ok(i)
 }
 
-fn array<'py, T: numpy::Element + Copy>(r: &mut Reader<'py>, name: &str, path: &str, dtype: &str, n: &mut Option<usize>) -> PyResult<Vec<T>> {
+pub(crate) fn array<'py, T: numpy::Element + Copy>(r: &mut Reader<'py>, name: &str, path: &str, dtype: &str, n: &mut Option<usize>) -> PyResult<Vec<T>> {
     let v = r.get(name)?;
     let a: PyReadonlyArray1<'_, T> = extract(&v, &format!("{path}.{name}"), &format!("a 1-D numpy array of {dtype}"))?;
     let values = a.as_array().to_vec();
@@ -254,7 +268,7 @@ fn inputs_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Inputs>> {
 }
 
 /// The scenario of a closed loop: `periods` values of each vehicle field.
-fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vehicle>> {
+fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<VehicleSignals>> {
     let mut r = Reader::new(obj, "scenario")?;
     let mut n = None;
     let floats: Vec<Vec<f64>> = VEHICLE_FLOATS
@@ -264,7 +278,7 @@ fn vehicles_from_arrays(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vehicle>> {
     let brake: Vec<bool> = array(&mut r, "brake_pressed", "scenario", "bool", &mut n)?;
     let modes: Vec<i64> = array(&mut r, "driver_mode", "scenario", "int64", &mut n)?;
     r.finish()?;
-    let mut out = vec![Vehicle::default(); n.unwrap_or(0)];
+    let mut out = vec![VehicleSignals::default(); n.unwrap_or(0)];
     for (k, v) in out.iter_mut().enumerate() {
         for ((_, field), column) in VEHICLE_FLOATS.iter().zip(&floats) {
             *field(v) = column.get(k).copied().unwrap_or(f64::NAN);
@@ -401,7 +415,7 @@ struct LoopCase {
     base: MotionSpec,
     sprung_mass_kg: f64,
     params: Params,
-    vehicles: Vec<Vehicle>,
+    vehicles: Vec<VehicleSignals>,
     dt_s: f64,
     ambient_k: f64,
     max_dt_s: f64,
@@ -481,7 +495,7 @@ impl LoopCase {
         };
         let mut state = State::new();
         let vehicles = &self.vehicles;
-        hp_ctrl::closed_loop::run(
+        hp_vehicle::closed_loop::run(
             &rig,
             &self.params,
             &self.sensors,
@@ -558,8 +572,10 @@ pub fn closed_loop<'py>(
 /// result dict or the exception it raised.
 #[pyfunction]
 #[pyo3(signature = (cases, threads=None))]
-pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: Option<usize>) -> PyResult<Bound<'py, PyList>> {
+pub fn closed_loop_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
+        let threads = threads_arg(threads)?;
+        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
         let mut specs = Vec::with_capacity(cases.len());
         for (i, c) in cases.iter().enumerate() {
             let path = format!("cases[{i}]");
@@ -649,6 +665,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_class::<Controller>()?;
     m.add_function(wrap_pyfunction!(ctrl_seed_config, m)?)?;
+    m.add_function(wrap_pyfunction!(ctrl_config_for_unit, m)?)?;
     m.add_function(wrap_pyfunction!(closed_loop, m)?)?;
     m.add_function(wrap_pyfunction!(closed_loop_many, m)?)?;
     let flags = PyDict::new(py);

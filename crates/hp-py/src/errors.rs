@@ -16,20 +16,51 @@ pyo3::create_exception!(_core, SimulationError, HpctlError, "The simulated state
 pyo3::create_exception!(_core, InternalError, PyRuntimeError, "A bug in hpctl's Rust core: please report it.");
 
 /// The Python exception for a core error, with the core's message (which
-/// names the parameter, its value and the valid range).
+/// names the parameter, its value and the valid range). A parameter error
+/// also carries them as attributes (`parameter`, `value`, `expected`), like
+/// the ones `hpctl.errors` raises.
 pub fn to_py(e: hp_core::Error) -> PyErr {
     let message = e.to_string();
     match e {
-        hp_core::Error::OutOfRange { .. } => ParameterError::new_err(message),
+        hp_core::Error::OutOfRange { name, value, min, max } => {
+            let value = move |py: Python<'_>| pyo3::types::PyFloat::new(py, value).into_any().unbind();
+            with_fields(ParameterError::new_err(message), name, value, &format!("a finite number within [{min:e}, {max:e}]"))
+        }
         hp_core::Error::NoConvergence { .. } => ConvergenceError::new_err(message),
         hp_core::Error::StateOutOfRange { .. } => SimulationError::new_err(message),
     }
+}
+
+/// Sets the `parameter`, `value` and `expected` attributes of an error.
+fn with_fields(err: PyErr, name: &str, value: impl FnOnce(Python<'_>) -> Py<PyAny>, expected: &str) -> PyErr {
+    Python::attach(|py| {
+        let v = err.value(py);
+        // Attributes on a fresh exception instance cannot fail; if they
+        // did, the message still says everything.
+        let _ = v.setattr("parameter", name);
+        let _ = v.setattr("value", value(py));
+        let _ = v.setattr("expected", expected);
+    });
+    err
 }
 
 /// An error about an input the binding itself checks (missing or unknown
 /// key, wrong type).
 pub fn parameter(message: impl Into<String>) -> PyErr {
     ParameterError::new_err(message.into())
+}
+
+/// A bad argument: `name = value: expected ...`, with the attributes
+/// `parameter`, `value` and `expected` (the message says the same).
+pub fn bad_argument(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyErr {
+    let repr = value.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".to_owned());
+    // One line, at most about 80 characters, whatever the repr.
+    let mut shown = repr.split_whitespace().collect::<Vec<_>>().join(" ");
+    if shown.chars().count() > 80 {
+        shown = shown.chars().take(77).collect::<String>() + "...";
+    }
+    let err = ParameterError::new_err(format!("{name} = {shown}: expected {expected}"));
+    with_fields(err, name, |_| value.clone().unbind(), expected)
 }
 
 /// Runs `f`, turning a panic into `InternalError`.

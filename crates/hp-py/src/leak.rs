@@ -1,6 +1,6 @@
 //! Long drives for the gas-charge detector: one corner's unit on an SDOF
 //! rig in closed loop with the production corner controller
-//! (`hp_ctrl::closed_loop`), and the ECU's gas-charge detector
+//! (`hp_vehicle::closed_loop`), and the ECU's gas-charge detector
 //! (`hp_ctrl::gas_charge`) on the same samples the vehicle step gives it.
 //! Many drives run in parallel; each returns one record per `record_dt_s`.
 
@@ -9,7 +9,7 @@ use crate::exec::run_parallel;
 use crate::params::{self, MotionSpec, Reader};
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
-use hp_ctrl::closed_loop::{Sensors, Vehicle};
+use hp_vehicle::closed_loop::{Sensors, VehicleSignals};
 use hp_ctrl::gas_charge::{self, GasChargeConfig, GasChargeParams, GasChargeState};
 use hp_ctrl::{diag, Params, State};
 use numpy::IntoPyArray;
@@ -155,7 +155,7 @@ impl Drive {
         let mut out = Record::default();
         let (mut segment, mut sampled, mut open, mut safe) = (0usize, 0usize, 0usize, 0usize);
         let dt_us = (DT_S * 1e6).round() as u32;
-        hp_ctrl::closed_loop::run(
+        hp_vehicle::closed_loop::run(
             &rig,
             params,
             &self.sensors,
@@ -168,7 +168,7 @@ impl Drive {
                     segment += 1;
                 }
                 let at = |v: &Vec<f64>| v.get(segment).copied().unwrap_or(0.0);
-                Vehicle { speed_m_s: at(&self.speed_m_s), ride_height_request_m: at(&self.request_m), ..Vehicle::default() }
+                VehicleSignals { speed_m_s: at(&self.speed_m_s), ride_height_request_m: at(&self.request_m), ..VehicleSignals::default() }
             },
             |p| {
                 let sample = gas.corner_sample(params.large_table(), p.inputs, p.outputs.diag);

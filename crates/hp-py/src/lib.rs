@@ -4,6 +4,7 @@
 
 use pyo3::prelude::*;
 
+mod args;
 mod can;
 mod ctrl;
 mod errors;
@@ -12,6 +13,7 @@ mod leak;
 mod params;
 mod plant;
 mod sim;
+mod vehicle;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -20,6 +22,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     ctrl::register(m)?;
     can::register(m)?;
     leak::register(m)?;
+    vehicle::register(m)?;
     m.add_class::<plant::Plant>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

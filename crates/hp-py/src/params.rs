@@ -156,6 +156,7 @@ pub fn unit(obj: &Bound<'_, PyAny>) -> PyResult<UnitParams> {
         stroke_extension_m: r.f64("stroke_extension_m")?,
         end_stop_stiffness_n_per_m: r.f64("end_stop_stiffness_n_per_m")?,
         end_stop_damping_n_s_per_m: r.f64("end_stop_damping_n_s_per_m")?,
+        rated_speed_m_s: r.f64("rated_speed_m_s")?,
         effects,
     };
     r.finish()?;
@@ -325,6 +326,7 @@ pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py,
     d.set_item("stroke_extension_m", p.stroke_extension_m)?;
     d.set_item("end_stop_stiffness_n_per_m", p.end_stop_stiffness_n_per_m)?;
     d.set_item("end_stop_damping_n_s_per_m", p.end_stop_damping_n_s_per_m)?;
+    d.set_item("rated_speed_m_s", p.rated_speed_m_s)?;
     // The built-in presets carry no optional effects; `effects` stays absent.
     Ok(d)
 }

@@ -1,12 +1,13 @@
 //! Running the rigs from Python: one run, or many in parallel (rayon).
 
-use crate::errors::{guard, parameter, to_py};
-use crate::exec::{detached_with_progress, run_parallel};
+use crate::args::f64_array;
+use crate::errors::{bad_argument, guard, parameter, to_py};
+use crate::exec::{detached_with_progress, run_parallel, threads_arg};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
 use hp_core::rig::{run, Rig, RigKind, RigSample};
 use hp_core::unit::{Unit, UnitParams, Valves};
-use numpy::{IntoPyArray, PyReadonlyArray1};
+use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -194,7 +195,7 @@ pub fn simulate<'py>(
     py: Python<'py>,
     unit: &Bound<'py, PyAny>,
     rig: &Bound<'py, PyAny>,
-    times_s: PyReadonlyArray1<'py, f64>,
+    times_s: &Bound<'py, PyAny>,
     dt_s: f64,
     ambient_k: f64,
     spring_hard: &Bound<'py, PyAny>,
@@ -203,7 +204,7 @@ pub fn simulate<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
-        let times = times_s.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| times_s.as_array().to_vec());
+        let times = f64_array(times_s, "times_s")?;
         let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels)?;
         let total = case.times_s.len();
         let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
@@ -218,8 +219,10 @@ pub fn simulate<'py>(
 /// exception that case raised, so one bad case does not lose the others.
 #[pyfunction]
 #[pyo3(signature = (cases, threads=None))]
-pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: Option<usize>) -> PyResult<Bound<'py, PyList>> {
+pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
+        let threads = threads_arg(threads)?;
+        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of case dicts"))?;
         let mut specs = Vec::with_capacity(cases.len());
         for (i, c) in cases.iter().enumerate() {
             let mut r = params::Reader::new(&c, &format!("cases[{i}]"))?;
@@ -251,6 +254,12 @@ pub fn static_force_n(unit: &Bound<'_, PyAny>, disp_m: f64, t_k: f64, spring_har
     })
 }
 
+/// The gas pressure that carries `load_n` at rest, Pa.
+#[pyfunction]
+pub fn load_pressure_pa(unit: &Bound<'_, PyAny>, load_n: f64) -> PyResult<f64> {
+    guard(|| Unit::new(params::unit(unit)?).map_err(to_py)?.load_pressure_pa(load_n).map_err(to_py))
+}
+
 /// Strut compression at which the unit carries `load_n` at rest with the
 /// gas at `t_k`, m.
 #[pyfunction]
@@ -269,18 +278,27 @@ pub fn gas_masses_kg(unit: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
 
 /// Equation-of-state properties at arrays of density and temperature:
 /// `p_pa`, `dp_dt_pa_per_k`, `dp_drho_pa_m3_per_kg`, `cv_j_per_kg_k`.
+/// Densities and temperatures outside the ranges the models are evaluated
+/// on (`hp_core::gas`) raise `ParameterError` naming the first bad element.
 #[pyfunction]
 pub fn gas_props<'py>(
     py: Python<'py>,
     gas: &str,
-    rho_kg_m3: PyReadonlyArray1<'py, f64>,
-    t_k: PyReadonlyArray1<'py, f64>,
+    rho_kg_m3: &Bound<'py, PyAny>,
+    t_k: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    use hp_core::gas::{DENSITY_RANGE_KG_M3, TEMPERATURE_RANGE_K};
     guard(|| {
         let g = params::gas(gas)?;
-        let (rho, t) = (rho_kg_m3.as_array(), t_k.as_array());
+        let (rho, t) = (f64_array(rho_kg_m3, "rho_kg_m3")?, f64_array(t_k, "t_k")?);
         if rho.len() != t.len() {
             return Err(parameter(format!("rho_kg_m3 has {} values but t_k has {}", rho.len(), t.len())));
+        }
+        for (name, values, (min, max)) in [("rho_kg_m3", &rho, DENSITY_RANGE_KG_M3), ("t_k", &t, TEMPERATURE_RANGE_K)] {
+            if let Some((i, &v)) = values.iter().enumerate().find(|(_, &v)| !(v.is_finite() && v >= min && v <= max)) {
+                let element = format!("{name}[{i}]");
+                return Err(bad_argument(&element, &v.into_pyobject(py)?.into_any(), &format!("a number within [{min}, {max}]")));
+            }
         }
         let props: Vec<_> = rho.iter().zip(t.iter()).map(|(&r, &tk)| g.props(r, tk)).collect();
         let d = PyDict::new(py);
@@ -288,6 +306,21 @@ pub fn gas_props<'py>(
         d.set_item("dp_dt_pa_per_k", props.iter().map(|p| p.dp_dt_pa_per_k).collect::<Vec<_>>().into_pyarray(py))?;
         d.set_item("dp_drho_pa_m3_per_kg", props.iter().map(|p| p.dp_drho_pa_m3_per_kg).collect::<Vec<_>>().into_pyarray(py))?;
         d.set_item("cv_j_per_kg_k", props.iter().map(|p| p.cv_j_per_kg_k).collect::<Vec<_>>().into_pyarray(py))?;
+        Ok(d)
+    })
+}
+
+/// Where the gas model `gas` has been validated against the reference
+/// (`hp_core::gas::validated_range`): `{"pressure_pa": (min, max),
+/// "temperature_k": (min, max)}`. A simulated state outside it is not
+/// wrong by construction, but unchecked: the front ends warn.
+#[pyfunction]
+pub fn gas_validated_range<'py>(py: Python<'py>, gas: &str) -> PyResult<Bound<'py, PyDict>> {
+    guard(|| {
+        let r = hp_core::gas::validated_range(params::gas(gas)?);
+        let d = PyDict::new(py);
+        d.set_item("pressure_pa", r.pressure_pa)?;
+        d.set_item("temperature_k", r.temperature_k)?;
         Ok(d)
     })
 }
@@ -333,9 +366,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gas_masses_kg, m)?)?;
     m.add_function(wrap_pyfunction!(gas_props, m)?)?;
     m.add_function(wrap_pyfunction!(gas_density_kg_m3, m)?)?;
+    m.add_function(wrap_pyfunction!(gas_validated_range, m)?)?;
     m.add_function(wrap_pyfunction!(seed_unit, m)?)?;
     m.add_function(wrap_pyfunction!(seed_sprung_mass_kg, m)?)?;
     m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
+    m.add_function(wrap_pyfunction!(load_pressure_pa, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
+    m.add("STANDARD_GRAVITY_M_S2", hp_core::unit::STANDARD_GRAVITY_M_S2)?;
+    let ranges = PyDict::new(m.py());
+    for r in hp_core::ranges::ALL {
+        ranges.set_item(r.name, (r.min, r.max))?;
+    }
+    m.add("PARAMETER_RANGES", ranges)?;
     Ok(())
 }

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from hpctl.cli import calibrate, closed_loop, simulate
+from hpctl.cli import calibrate, closed_loop, simulate, vehicle
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -22,7 +22,7 @@ def main() -> None:
 
 main.add_command(simulate.simulate)
 main.add_command(closed_loop.closed_loop_cmd)
-for command in calibrate.COMMANDS:
+for command in calibrate.COMMANDS + vehicle.COMMANDS:
     main.add_command(command)
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,12 +1,17 @@
-"""What every command shares: output (tables, progress, errors), JSON
-conversion, and the options that load a unit."""
+"""What every command shares: output (tables, progress, warnings,
+errors), JSON conversion, exit codes, and the options every command has.
+
+Everything a command prints that comes from outside the program (paths,
+record names, messages that quote a user's file) is printed as rich
+``Text``, never as markup: ``[static]`` must survive and a ``[/x]`` in a
+user's cell must not crash the printer."""
 
 from __future__ import annotations
 
 import math
 import sys
 import traceback
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -16,10 +21,17 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.text import Text
 
+from hpctl.caveats import Caveat
+from hpctl.caveats import to_json as caveats_json
 from hpctl.errors import HpctlError
 from hpctl.model.unit import Unit
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
+#: Exit codes: 0 ok; 1 internal error or the environment failed (an
+#: output that cannot be written: disk full, no permission); 2 bad input
+#: (usage, parameters, records, an output folder that cannot be used as
+#: asked); 3 warnings under --strict (the outputs are written, warnings
+#: included); 130 interrupted (Ctrl-C; the previous outputs are kept).
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_WARNINGS, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
 
 class Reporter:
@@ -57,6 +69,72 @@ class Reporter:
                 return update
 
             yield make
+
+    def say(self, *parts: str | tuple[str, str]) -> None:
+        """A line of human output on stdout (nothing with --quiet or
+        --json), as text: parts are plain strings or (text, style)."""
+        self.out.print(Text.assemble(*parts), soft_wrap=True, highlight=False)
+
+    def note(self, *parts: str | tuple[str, str]) -> None:
+        """A line of human output on stderr (nothing with --quiet)."""
+        self.err.print(Text.assemble(*parts), soft_wrap=True, highlight=False)
+
+    def warn(self, caveats: Sequence[Caveat]) -> None:
+        """Prints warnings on stderr (even with --quiet: they are part of
+        the result, like errors)."""
+        for c in caveats:
+            self.errors.print(Text.assemble(("warning", "yellow"), f" [{c.code}]: ", c.message), soft_wrap=True, highlight=False)
+
+
+def finish(rep: Reporter, caveats: Sequence[Caveat], strict: bool) -> None:
+    """The end of a command whose outputs are written: the warnings on
+    stderr, and with ``--strict`` exit code 3 if there are any."""
+    rep.warn(caveats)
+    if caveats and strict:
+        rep.errors.print(Text(f"{len(caveats)} warning(s) and --strict: exit code {EXIT_WARNINGS}"), soft_wrap=True, highlight=False)
+        sys.exit(EXIT_WARNINGS)
+
+
+def with_warnings(summary: dict[str, Any], caveats: Sequence[Caveat]) -> dict[str, Any]:
+    """The summary as JSON data, with its ``"warnings"`` list."""
+    document: dict[str, Any] = jsonable({**summary, "warnings": caveats_json(caveats)})
+    return document
+
+
+def strict_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    return click.option("--strict", is_flag=True, help=f"Exit with code {EXIT_WARNINGS} if there is any warning (the outputs are still written).")(f)
+
+
+def force_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    return click.option("--force", is_flag=True,
+                        help="Overwrite files in the output folder that hpctl did not write (or that were changed since).")(f)
+
+
+class FiniteFloat(click.ParamType):  # type: ignore[type-arg]
+    """A finite number (NaN and infinities refused), optionally within a
+    range: click's FLOAT and FloatRange let NaN through (every comparison
+    with NaN is false)."""
+
+    name = "number"
+
+    def __init__(self, lo: float | None = None, hi: float | None = None) -> None:
+        self.lo, self.hi = lo, hi
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(v):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if (self.lo is not None and v < self.lo) or (self.hi is not None and v > self.hi):
+            lo = "-inf" if self.lo is None else f"{self.lo:g}"
+            hi = "inf" if self.hi is None else f"{self.hi:g}"
+            self.fail(f"{v:g} is not within [{lo}, {hi}]", param, ctx)
+        return v
+
+
+FINITE = FiniteFloat()
 
 
 class _Status:
@@ -151,8 +229,15 @@ def errors(rep: Reporter) -> Iterator[None]:
         rep.errors.print(Text.assemble(("error: ", "red"), str(e)), soft_wrap=True, highlight=False)
         sys.exit(EXIT_BAD_INPUT)
     except KeyboardInterrupt:
-        rep.errors.print("interrupted")
-        sys.exit(130)
+        rep.errors.print(Text("interrupted; the previous outputs are kept"), soft_wrap=True, highlight=False)
+        sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:
+        # The environment, not the input: a disk full, a folder that
+        # cannot be created, no permission.
+        notes = "".join(f"; {n}" for n in getattr(e, "__notes__", ()))
+        what = f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e)
+        rep.errors.print(Text.assemble(("error: ", "red"), f"{what}{notes}"), soft_wrap=True, highlight=False)
+        sys.exit(EXIT_INTERNAL)
     except Exception as e:  # noqa: BLE001 - the last line of defence
         rep.errors.print(Text.assemble(("internal error: ", "red"), f"{type(e).__name__}: {e}"), soft_wrap=True, highlight=False)
         if rep.errors.is_terminal:

@@ -3,15 +3,20 @@ and ``hpctl demo``."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import click
 import numpy as np
 from rich.table import Table
+from rich.text import Text
 
-from hpctl.cli._ui import Reporter, errors, jsonable, status
+from hpctl.caveats import Caveat, Code
+from hpctl.cli._ui import FiniteFloat, Reporter, errors, finish, force_option, status, strict_option, with_warnings
 from hpctl.data import DEMO_DIR
+from hpctl.data.output import OutputDir, reading
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
 from hpctl.errors import ParameterError
 from hpctl.identify import diagnose, virtual_rig
@@ -19,12 +24,22 @@ from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
 from hpctl.model.effects import LIBRARY, MODELS, model_params, parse_model
 from hpctl.report import calibration as report
+from hpctl.sim import checks
 
 
 def _records(paths: tuple[Path, ...]) -> list[RigRecord]:
+    """The records named (a folder stands for the records in it), read
+    while no hpctl run writes into their folders."""
     if not paths:
         raise click.UsageError("give at least one rig record (NAME, NAME.csv or NAME.toml)")
-    recs = [read_record(p) for p in paths]
+    folders = sorted({p if p.is_dir() else p.parent for p in paths})
+    with contextlib.ExitStack() as stack:
+        for folder in folders:
+            stack.enter_context(reading(folder))
+        for folder in (p for p in paths if p.is_dir()):
+            if not any(folder.glob("*.toml")):
+                raise click.UsageError(f"no rig records (NAME.csv with NAME.toml) in {folder}")
+        recs = [read_record(p) for p in _expand(paths)]
     names = [r.name for r in recs]
     if len(set(names)) != len(names):
         raise ParameterError(f"records given twice: {sorted({n for n in names if names.count(n) > 1})}")
@@ -32,7 +47,8 @@ def _records(paths: tuple[Path, ...]) -> list[RigRecord]:
 
 
 def _expand(paths: tuple[Path, ...]) -> tuple[Path, ...]:
-    """Folders stand for the records in them."""
+    """Folders stand for the records in them (those with a TOML: a CSV
+    alone is not a record)."""
     out: list[Path] = []
     for p in paths:
         if p.is_dir():
@@ -40,6 +56,33 @@ def _expand(paths: tuple[Path, ...]) -> tuple[Path, ...]:
         else:
             out.append(p)
     return tuple(out)
+
+
+def _record_caveats(recs: Sequence[RigRecord], gas: str) -> list[Caveat]:
+    """Measured gas states outside the range the model's gas was validated on."""
+    return [c for r in recs for c in checks.eos_range(gas, r.data, f"record {r.name}")]
+
+
+def _fit_caveats(result: FitResult) -> list[Caveat]:
+    """A fit that did not converge, or left more than noise."""
+    out = []
+    if not result.success:
+        out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}", {"message": result.message}))
+    analysis = diagnose.analyse(result)
+    if analysis.structured:
+        worst = [r for r in analysis.rows if r["structured"]]
+        where = ", ".join(f"{r['record']}/{r['channel']}" for r in worst[:6]) + (" ..." if len(worst) > 6 else "")
+        out.append(Caveat(
+            Code.RESIDUAL_STRUCTURED,
+            f"the residual is more than noise (RMS / noise {result.rms_ratio:.3g}; structured in {where or 'the pooled residual'}): "
+            "the model misses something (hpctl diagnose looks for what)",
+            {"rms_ratio": result.rms_ratio, "structured": [f"{r['record']}/{r['channel']}" for r in worst]},
+        ))
+    return out
+
+
+def _model_gas(result: FitResult) -> str:
+    return result.model.unit_for(result.datasets[0], result.values).gas
 
 
 def _print_fit(rep: Reporter, result: FitResult) -> None:
@@ -54,7 +97,8 @@ def _print_fit(rep: Reporter, result: FitResult) -> None:
         t.add_column(col, justify="right")
     for s in result.stats:
         loop = "-" if s.loop_area_error_j is None else f"{s.loop_area_error_j:.2f}"
-        t.add_row(s.record, s.channel, f"{s.noise:.3g}", f"{s.rms:.3g}", f"{s.nrms:.2e}", f"{s.max_abs:.3g}", loop)
+        # Record names come from file names: text, never markup.
+        t.add_row(Text(s.record), s.channel, f"{s.noise:.3g}", f"{s.rms:.3g}", f"{s.nrms:.2e}", f"{s.max_abs:.3g}", loop)
     rep.out.print(t)
 
 
@@ -64,27 +108,34 @@ MODEL_HELP = f"Model: {', '.join(MODELS)}, or effects separated by commas (from:
 @click.argument("records", nargs=-1, type=click.Path(path_type=Path))
 @click.option("--model", "model", default="seed", show_default=True, help=MODEL_HELP)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-fit"), show_default=True)
+@force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True)
 @click.option("--json", "as_json", is_flag=True, help="Print parameters and residuals as JSON.")
-def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, quiet: bool, as_json: bool) -> None:
+def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool) -> None:
     """Fit the model's free parameters to one or more rig records (a
     folder stands for the records in it), with uncertainties and the
-    residual per record and channel; writes fit.md, fit.json and plots."""
+    residual per record and channel; writes fit.md, fit.json and plots.
+    A record the model cannot be simulated on is an error; a fit that did
+    not converge or left more than noise is a warning."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
         effects = parse_model(model)
-        datasets = prepare(_records(_expand(records)))
-        with status(rep, f"fitting {len(model_params(effects)) + 1} parameters to {len(datasets)} record(s)"):
-            result = fit(datasets, effects)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        report.fit_report(result, out_dir)
-        summary = report.fit_summary(result)
-        (out_dir / "fit.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+        recs = _records(records)
+        datasets = prepare(recs)
+        with OutputDir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
+            with status(rep, f"fitting {len(model_params(effects)) + 1} parameters to {len(datasets)} record(s)"):
+                result = fit(datasets, effects)
+            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result)
+            report.fit_report(result, out, caveats)
+            document = with_warnings(report.fit_summary(result), caveats)
+            out.write_json("fit.json", document)
         if as_json:
-            click.echo(json.dumps(jsonable(summary), indent=2))
+            click.echo(json.dumps(document, indent=2))
         else:
             _print_fit(rep, result)
-            rep.out.print(f"Wrote fit.md, fit.json and plots to {out_dir}/")
+            rep.say(f"Wrote fit.md, fit.json and plots to {out_dir}/")
+        finish(rep, caveats, strict)
 
 @click.command("diagnose")
 @click.argument("records", nargs=-1, type=click.Path(path_type=Path))
@@ -92,24 +143,26 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, quiet: bool, a
 @click.option("--list-effects", is_flag=True, help="List the effect library and exit.")
 @click.option("--max-rounds", type=click.IntRange(1, 20), default=6, show_default=True)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-diagnosis"), show_default=True)
+@force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the conclusion as JSON.")
-def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_rounds: int, out_dir: Path, quiet: bool, as_json: bool) -> None:
+def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_rounds: int, out_dir: Path, force: bool, strict: bool,
+                 quiet: bool, as_json: bool) -> None:
     """Find what the declared model lacks: fit it, analyse the residual,
     try each effect of the library, keep what the evidence supports,
     repeat; writes report.md (with plots) and diagnosis.json."""
     rep = Reporter(quiet, as_json)
     if list_effects:
         if as_json:
-            click.echo(json.dumps({n: {"description": e.description, "params": [p.name for p in e.params], "revealed_by": e.needs}
-                                   for n, e in LIBRARY.items()}, indent=2))
+            click.echo(json.dumps({n: e.to_json() for n, e in LIBRARY.items()}, indent=2))
         else:
             for n, e in LIBRARY.items():
                 click.echo(f"{n:16} {e.description} [{', '.join(p.name for p in e.params) or 'no parameters'}]")
         return
     with errors(rep):
         effects = parse_model(model)
-        _run_diagnosis(rep, _records(_expand(records)), effects, max_rounds, out_dir, as_json)
+        _run_diagnosis(rep, _records(records), effects, max_rounds, out_dir, as_json, "diagnose", force, strict)
 
 @click.command("rig")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-rig"), show_default=True)
@@ -119,10 +172,13 @@ def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_
               help="Effect present in the rig's unit (repeatable); real gas and heat transfer always are.")
 @click.option("--set", "sets", multiple=True, metavar="PARAM=VALUE", help="Effect parameter value, SI (repeatable).")
 @click.option("--random", "random_values", is_flag=True, help="Draw effect parameters at random (see --seed).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the noise and of --random.")
-@click.option("--noise-scale", type=click.FloatRange(0.0, 100.0), default=1.0, show_default=True)
+@click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True, help="Seed of the noise and of --random.")
+@click.option("--noise-scale", type=FiniteFloat(0.0, 100.0), default=1.0, show_default=True, help="Noise relative to the rig's standard noise, 0-100.")
+@force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True)
-def rig_cmd(out_dir: Path, program: str, effects: tuple[str, ...], sets: tuple[str, ...], random_values: bool, seed: int, noise_scale: float, quiet: bool) -> None:
+def rig_cmd(out_dir: Path, program: str, effects: tuple[str, ...], sets: tuple[str, ...], random_values: bool, seed: int, noise_scale: float,
+            force: bool, strict: bool, quiet: bool) -> None:
     """A virtual test rig: write rig records from a unit with the chosen
     effects and noise on every channel. The records do not say which
     effects they contain; truth.json beside them does."""
@@ -133,29 +189,33 @@ def rig_cmd(out_dir: Path, program: str, effects: tuple[str, ...], sets: tuple[s
         values = virtual_rig.effect_values(effects, rng if random_values else None, overrides)
         unit = virtual_rig.truth_unit(effects, values)
         tests = virtual_rig.tests_for(effects, program)
-        recs = virtual_rig.make_records(unit, tests=tests, noise=virtual_rig.Noise().scaled(noise_scale), seed=seed)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        for r in recs:
-            write_record(r, out_dir / r.name)
-        truth = {"effects": ["heat_transfer", "real_gas", *effects], "params": {"tau_s": unit.tau_s, **values}, "seed": seed,
-                 "noise": vars(virtual_rig.Noise().scaled(noise_scale))}
-        (out_dir / "truth.json").write_text(json.dumps(truth, indent=2) + "\n")
-        rep.out.print(f"Wrote {len(recs)} records and truth.json to {out_dir}/")
+        with OutputDir(out_dir, "rig", force=force, protect=("truth.json",)) as out:
+            recs = virtual_rig.make_records(unit, tests=tests, noise=virtual_rig.Noise().scaled(noise_scale), seed=seed)
+            caveats = [c for r in recs for c in checks.channels(unit, r.data, f"record {r.name}")]
+            for r in recs:
+                write_record(r, out.path(r.name))
+            truth = {"effects": ["heat_transfer", "real_gas", *effects], "params": {"tau_s": unit.tau_s, **values}, "seed": seed,
+                     "noise": vars(virtual_rig.Noise().scaled(noise_scale))}
+            out.write_json("truth.json", with_warnings(truth, caveats))
+        rep.say(f"Wrote {len(recs)} records and truth.json to {out_dir}/")
+        finish(rep, caveats, strict)
 
 @click.command("demo")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-demo"), show_default=True)
+@force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True)
 @click.option("--json", "as_json", is_flag=True)
-def demo_cmd(out_dir: Path, quiet: bool, as_json: bool) -> None:
+def demo_cmd(out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool) -> None:
     """The whole story on bundled rig data: start from the classical
     polytropic ideal-gas model, find heat transfer, then real gas, then
     whatever else is hidden, and print the errors before and after."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
         recs = [read_record(p) for p in sorted(DEMO_DIR.glob("*.toml"))]
-        rep.err.print(f"{len(recs)} bundled records from a rig unit with undeclared effects; declared model: classical polytropic ideal gas")
-        rep.err.print("(each step fits the model with the Rust simulator in the loop; about 15 s in all)")
-        _run_diagnosis(rep, recs, (), 6, out_dir, as_json)
+        rep.note(f"{len(recs)} bundled records from a rig unit with undeclared effects; declared model: classical polytropic ideal gas")
+        rep.note("(each step fits the model with the Rust simulator in the loop; about 15 s in all)")
+        _run_diagnosis(rep, recs, (), 6, out_dir, as_json, "demo", force, strict)
 
 
 def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
@@ -172,16 +232,36 @@ def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
     return out
 
 
-def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool) -> None:
-
-    with status(rep, "diagnosing") as spinner:
-        diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
-    path = report.diagnosis_report(diag, out_dir)
-    summary = diagnose.summary(diag)
-    (out_dir / "diagnosis.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool,
+                   command: str, force: bool, strict: bool) -> None:
+    with OutputDir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
+        with status(rep, "diagnosing") as spinner:
+            diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
+        caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
+        path = report.diagnosis_report(diag, out, caveats)
+        document = with_warnings(diagnose.summary(diag), caveats)
+        out.write_json("diagnosis.json", document)
     if as_json:
-        click.echo(json.dumps(jsonable(summary), indent=2))
-        return
+        click.echo(json.dumps(document, indent=2))
+    else:
+        _print_diagnosis(rep, diag, path)
+    finish(rep, caveats, strict)
+
+
+def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
+    out = []
+    if not diag.final.success:
+        out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
+    if diag.verdict == "unexplained_structure":
+        out.append(Caveat(
+            Code.RESIDUAL_STRUCTURED,
+            f"structured residual remains that no effect in the library explains (RMS / noise {diag.final.rms_ratio:.3g})",
+            {"rms_ratio": diag.final.rms_ratio, "verdict": diag.verdict},
+        ))
+    return out
+
+
+def _print_diagnosis(rep: Reporter, diag: diagnose.Diagnosis, path: Path) -> None:
     t = Table(title=f"Diagnosis: {diag.verdict.replace('_', ' ')}")
     for col in ("step", "model", "RMS / noise", "BIC", "added", "BIC gain", "parameters"):
         t.add_column(col, justify="right")
@@ -192,7 +272,7 @@ def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...],
                   "-" if c is None else c.effect, "-" if c is None else f"{c.delta_bic:.0f}", params)
     t.add_row("final", ", ".join(diag.final.model.effects) or "classical", f"{diag.final.rms_ratio:.3g}", f"{diag.final.bic:.0f}", "", "", "")
     rep.out.print(t)
-    rep.out.print(f"Report: {path}")
+    rep.say(f"Report: {path}")
 
 
 COMMANDS = (fit_cmd, diagnose_cmd, rig_cmd, demo_cmd)

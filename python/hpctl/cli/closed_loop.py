@@ -4,42 +4,52 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import click
 from rich.table import Table
 
-from hpctl.cli._ui import Reporter, errors, fmt, jsonable, load_unit
+from hpctl.cli._ui import FINITE, Reporter, errors, finish, fmt, force_option, load_unit, strict_option, with_warnings
+from hpctl.data.output import OutputDir
 
 
 @click.command("closed-loop")
 @click.option("--unit", "unit_file", type=click.Path(exists=True, dir_okay=False, path_type=Path), help="Unit description (TOML, [unit] table); default: the built-in seed unit.")
 @click.option("--road-class", type=click.Choice(list("ABCDEFGH"), case_sensitive=False), default="C", show_default=True, help="ISO 8608 road class.")
-@click.option("--speed-m-s", type=float, default=10.0, show_default=True, help="Vehicle speed, m/s.")
-@click.option("--lower-m", type=float, default=0.03, show_default=True, help="How far to lower the ride height (then raise it back), m.")
-@click.option("--seed", type=int, default=1, show_default=True, help="Road seed (same seed, same road).")
+@click.option("--speed-m-s", type=FINITE, default=10.0, show_default=True, help="Vehicle speed, m/s.")
+@click.option("--lower-m", type=FINITE, default=0.03, show_default=True, help="How far to lower the ride height (then raise it back), m.")
+@click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=1, show_default=True, help="Road seed (same seed, same road).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out/closed-loop"), show_default=True, help="Output folder.")
+@force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True, help="No tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
-def closed_loop_cmd(unit_file: Path | None, road_class: str, speed_m_s: float, lower_m: float, seed: int, out_dir: Path, quiet: bool, as_json: bool) -> None:
+def closed_loop_cmd(unit_file: Path | None, road_class: str, speed_m_s: float, lower_m: float, seed: int, out_dir: Path, force: bool, strict: bool,
+                    quiet: bool, as_json: bool) -> None:
     """Run the controller in closed loop with the unit (3000 kg SDOF) over a
     random road: lower the ride height without a pump and raise it back,
-    then switch modes on a lane change and a braking burst. Writes PNG plots
-    and summary.json into the output folder."""
+    then switch modes on a lane change and a braking burst. The controller
+    is configured for the unit (--unit). Writes PNG plots and summary.json
+    into the output folder; what did not go as requested (a blocked
+    sequencer, a missed target, end stops, the gas model's range, the safe
+    state) is printed as a warning and listed under "warnings"."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
         from hpctl.control import closed_loop
         from hpctl.report.closed_loop import plot_height_change, plot_modes
 
         unit = load_unit(unit_file, None, None)
-        height, modes, summary = closed_loop.demo(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        where = f"ISO 8608 class {road_class.upper()} road at {speed_m_s:g} m/s, seed {seed}"
-        plot_height_change(height, out_dir / "ride_height.png", f"Pump-free lowering by {1e3 * lower_m:g} mm and back ({where})")
-        plot_modes(modes, out_dir / "modes.png", f"Mode switching: lane change at 8 s, braking at 18 s ({where})")
-        summary["plots"] = ["ride_height.png", "modes.png"]
-        (out_dir / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+        with OutputDir(out_dir, "closed-loop", force=force, protect=("summary.json", "ride_height.png", "modes.png")) as out:
+            height, modes, summary = closed_loop.demo(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
+            caveats = closed_loop.demo_caveats(height, modes, summary)
+            where = f"ISO 8608 class {road_class.upper()} road at {speed_m_s:g} m/s, seed {seed}"
+            plot_height_change(height, out.path("ride_height.png"), _height_title(summary, lower_m, where))
+            plot_modes(modes, out.path("modes.png"), f"Mode switching: lane change at 8 s, braking at 18 s ({where})")
+            summary["plots"] = ["ride_height.png", "modes.png"]
+            document = with_warnings(summary, caveats)
+            out.write_json("summary.json", document)
         if as_json:
-            click.echo(json.dumps(jsonable(summary), indent=2))
+            click.echo(json.dumps(document, indent=2))
         else:
             t = Table(title=f"Pump-free ride height (class {summary['road_class']}, {speed_m_s:g} m/s), mm")
             for col in ("change", "target", "held at rest", "estimate", "on the road", "time [s]", "valve-6 openings"):
@@ -59,5 +69,16 @@ def closed_loop_cmd(unit_file: Path | None, road_class: str, speed_m_s: float, l
             m = summary["modes"]
             rep.out.print(f"Handling entered at {', '.join(f'{x:.2f}' for x in m['handling_entered_s']) or '-'} s, Ride again at "
                           f"{', '.join(f'{x:.2f}' for x in m['ride_returned_s']) or '-'} s; triggers: {', '.join(m['triggers']) or '-'}")
-            rep.out.print(f"[bold]Wrote[/bold] plots and summary.json to {out_dir}/")
+            rep.say(("Wrote", "bold"), f" plots and summary.json to {out_dir}/")
+        finish(rep, caveats, strict)
+
+
+def _height_title(summary: dict[str, Any], lower_m: float, where: str) -> str:
+    """The ride-height plot's title says what happened, not what was asked."""
+    low, back = summary["lowering"], summary["raising"]
+    if low["reached"] and back["reached"]:
+        return f"Pump-free lowering by {1e3 * lower_m:g} mm and back ({where})"
+    said = "reached" if low["reached"] else "NOT reached"
+    said_back = "reached" if back["reached"] else "NOT reached"
+    return f"Pump-free lowering by {1e3 * lower_m:g} mm requested: {said}; back to 0: {said_back} ({where})"
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 from collections.abc import Sequence
 from pathlib import Path
@@ -11,17 +12,24 @@ from typing import Any
 import click
 from rich.table import Table
 
+from hpctl.caveats import Caveat
 from hpctl.cli._ui import (
+    FINITE,
     Reporter,
     errors,
+    finish,
     fmt,
-    jsonable,
+    force_option,
     load_unit,
     modes,
     parse_floats,
     parse_tau,
+    strict_option,
+    with_warnings,
 )
+from hpctl.data.output import OutputDir
 from hpctl.data.records import write_record
+from hpctl.errors import SimulationError
 from hpctl.model.unit import GAS_MODELS, SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim import experiments
 from hpctl.sim.run import Sine, Step, Steps
@@ -31,69 +39,87 @@ from hpctl.sim.run import Sine, Step, Steps
 @click.option("--unit", "unit_file", type=click.Path(exists=True, dir_okay=False, path_type=Path), help="Unit description (TOML, [unit] table); default: the built-in seed unit.")
 @click.option("--test", "test", type=click.Choice(["seed", "sine", "steps", "step", "sdof-step", "heat"]), default="seed", show_default=True,
               help="seed: the seed's experiments; sine/steps/step: characterisation rig; sdof-step: sprung mass over a base step; heat: damper heat build-up run.")
-@click.option("--amplitude-m", type=float, help="Sine amplitude or step height, m.")
-@click.option("--frequency-hz", type=float, help="Sine frequency, Hz.")
+@click.option("--amplitude-m", type=FINITE, help="Sine amplitude or step height, m.")
+@click.option("--frequency-hz", type=FINITE, help="Sine frequency, Hz.")
 @click.option("--spring", type=click.Choice(["hard", "soft", "both"]), default="both", show_default=True)
 @click.option("--damper", type=click.Choice(["on", "off", "both"]), default="both", show_default=True)
 @click.option("--tau-s", "tau_s", type=str, help="Gas thermal time constant, s (0 = isothermal, inf = adiabatic).")
 @click.option("--gas", type=click.Choice(GAS_MODELS), help="Equation of state.")
-@click.option("--duration-s", type=float, help="Simulated duration, s.")
-@click.option("--dt-s", type=float, default=None, help="Integration step, s (default 1e-3; 2e-3 for the heat run; keep <= 1e-3 with valve 6 open).")
-@click.option("--mass-kg", type=float, default=SEED_SPRUNG_MASS_KG, show_default=True, help="Sprung mass for SDOF tests, kg.")
+@click.option("--duration-s", type=FINITE, help="Simulated duration, s.")
+@click.option("--dt-s", type=FINITE, default=None,
+              help="Integration step, s (default 1e-3; 2e-3 for the heat run; keep <= 1e-3 with valve 6 open). A step longer than the "
+                   "output interval is not taken: the output interval is, with a warning.")
+@click.option("--mass-kg", type=FINITE, default=SEED_SPRUNG_MASS_KG, show_default=True, help="Sprung mass for SDOF tests, kg.")
 @click.option("--sweep", is_flag=True, help="Sweep a grid (charge pressure x tau x damper) of SDOF step tests in parallel.")
 @click.option("--sweep-pressure-pa", type=str, help="Comma-separated static charge pressures, Pa (default: the unit's x 0.8..1.2).")
 @click.option("--sweep-tau-s", type=str, help="Comma-separated tau values, s (default: 0.5,2,8).")
-@click.option("--threads", type=int, default=None, help="Threads for --sweep (default: all cores).")
+@click.option("--threads", type=click.IntRange(min=0), default=None,
+              help="Threads for --sweep: 0 (the default) = all cores, at most 4 x the cores.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out"), show_default=True, help="Output folder.")
+@force_option
+@strict_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars or tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
 def simulate(
     unit_file: Path | None, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
     tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, mass_kg: float, sweep: bool,
-    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, quiet: bool, as_json: bool,
+    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool,
 ) -> None:
     """Run the seed's experiments (default) or one test on a unit, and write
-    rig records, PNG plots and a summary into the output folder."""
+    rig records, PNG plots and a summary into the output folder. What a
+    result cannot stand behind (end stops, the gas model's range, the
+    rated speed, a failed case...) is printed as a warning and listed in
+    summary.json under "warnings"."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
         unit = load_unit(unit_file, parse_tau(tau_s), gas)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        if sweep:
-            summary = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out_dir)
-        else:
-            summary = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, mass_kg, out_dir)
-        (out_dir / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+        with OutputDir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
+            if sweep:
+                summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out)
+            else:
+                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, mass_kg, out)
+            document = with_warnings(summary, caveats)
+            out.write_json("summary.json", document)
         if as_json:
-            click.echo(json.dumps(jsonable(summary), indent=2))
+            click.echo(json.dumps(document, indent=2))
         else:
-            rep.out.print(f"[bold]Wrote[/bold] records, plots and summary.json to {out_dir}/")
+            what = "sweep.csv, sweep.png" if sweep else "records, plots"
+            rep.say(("Wrote", "bold"), f" {what} and summary.json to {out_dir}/")
+        finish(rep, caveats, strict)
 
 
 def _sweep(
     rep: Reporter, unit: Unit, spring: str, damper: str, amplitude_m: float | None, mass_kg: float,
-    pressures: str | None, taus: str | None, threads: int | None, out_dir: Path,
-) -> dict[str, Any]:
+    pressures: str | None, taus: str | None, threads: int | None, out: OutputDir,
+) -> tuple[dict[str, Any], list[Caveat]]:
     from hpctl.report.plots import sweep_plot
     from hpctl.sim import sweep
 
-    summary = sweep.run_sweep(
+    summary, caveats = sweep.run_sweep(
         unit, spring_hard=spring != "soft", mass_kg=mass_kg,
         pressures_pa=parse_floats(pressures, "--sweep-pressure-pa"), taus_s=parse_floats(taus, "--sweep-tau-s"),
-        damper=damper, height_m=amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M, threads=threads, say=rep.err.print,
+        damper=damper, height_m=amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M, threads=threads,
+        say=lambda text: rep.note(text),
     )
-    with (out_dir / "sweep.csv").open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=sweep.COLUMNS, lineterminator="\n")
-        w.writeheader()
-        for row in summary["rows"]:
-            w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sweep.COLUMNS})
-    sweep_plot(summary["rows"], out_dir / "sweep.png", spring != "soft")
-    return summary
+    if summary["cases"] and summary["failed"] == summary["cases"]:
+        first = next(r["error"] for r in summary["rows"] if r["error"])
+        raise SimulationError(f"every one of the {summary['cases']} sweep cases failed; the first: {first}")
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=sweep.COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for row in summary["rows"]:
+        w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sweep.COLUMNS})
+    out.write_text("sweep.csv", buf.getvalue())
+    sweep_plot(summary["rows"], out.path("sweep.png"), spring != "soft")
+    if summary["failed"]:
+        rep.note(f"{summary['failed']} of {summary['cases']} sweep cases failed (see the warnings and the error column of sweep.csv)")
+    return summary, caveats
 
 
 def _simulate(
     rep: Reporter, unit: Unit, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
-    duration_s: float | None, dt_s: float | None, mass_kg: float, out_dir: Path,
-) -> dict[str, Any]:
+    duration_s: float | None, dt_s: float | None, mass_kg: float, out: OutputDir,
+) -> tuple[dict[str, Any], list[Caveat]]:
     def given(value: float | None, default: float) -> float:
         return default if value is None else value
 
@@ -136,9 +162,8 @@ def _simulate(
                     sample = min(0.01, dur / 2000) if dur > 0 else 0.01
                     runs.append(experiments.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
 
-    records = out_dir / "records"
     for e in runs:
-        write_record(e.record, records / e.name)
+        write_record(e.record, out.path(f"records/{e.name}"))
     chars = [e for e in runs if e.record.kind == "characterisation"]
     steps = [e for e in runs if e.record.kind == "sdof"]
     if test == "heat":
@@ -147,19 +172,19 @@ def _simulate(
             plots.time_series(
                 [("gas", r["time_s"], r["t_gas_k"] - 273.15, "gas [C]"), ("oil", r["time_s"], r["t_oil_k"] - 273.15, "oil [C]"),
                  ("force", r["time_s"], 1e-3 * r["force_n"], "force [kN]")],
-                out_dir / f"{e.name}.png", "Damper heat build-up",
+                out.path(f"{e.name}.png"), "Damper heat build-up",
             )
     elif chars:
-        plots.force_displacement(chars, out_dir / "force_displacement.png")
+        plots.force_displacement(chars, out.path("force_displacement.png"))
     if steps:
-        plots.step_responses(steps, out_dir / "step_responses.png", title=f"SDOF step response ({mass_kg:g} kg)")
+        plots.step_responses(steps, out.path("step_responses.png"), title=f"SDOF step response ({mass_kg:g} kg)")
     summary: dict[str, Any] = {"test": test, "unit": {"piston_area_m2": unit.piston_area_m2, "static_pressure_pa": unit.static_pressure_pa, "tau_s": unit.tau_s, "gas": unit.gas}}
     summary.update(experiments.headline(runs))
     summary["runs"] = [dict(e.summary, name=e.name) for e in runs]
     if test == "heat":
         summary["seed"] = experiments.SEED_HEAT_BUILDUP
     _print_summary(rep, runs, test)
-    return summary
+    return summary, [c for e in runs for c in e.caveats]
 
 
 def _print_summary(rep: Reporter, runs: Sequence[experiments.Experiment], test: str) -> None:

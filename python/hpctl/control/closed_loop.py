@@ -28,14 +28,16 @@ from numpy.typing import NDArray
 from scipy.signal import lfilter
 
 from hpctl import _core
+from hpctl._coretypes import ClosedLoopDict
+from hpctl.caveats import Caveat, Code
 from hpctl.control import road
 from hpctl.control.controller import Diag, DriveMode, DriverMode, SequencerState
-from hpctl.errors import ParameterError
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
+from hpctl.errors import ParameterError, bad_argument, check_int, check_number
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, Unit
+from hpctl.sim import checks
 from hpctl.sim.run import sdof_rig
 
 FloatArray = NDArray[np.float64]
-STANDARD_GRAVITY_M_S2 = 9.80665
 
 
 @dataclass(frozen=True)
@@ -93,6 +95,8 @@ class Scenario:
     def signals(self, dt_s: float) -> dict[str, FloatArray]:
         """Per control period: ``time_s``, ``distance_m`` and the scenario
         fields of the closed loop (``_core.CTRL_SCENARIO_FIELDS``)."""
+        for name in ("duration_s", "speed_m_s", "steering_ratio", "wheelbase_m", "tyre_lag_s"):
+            check_number(getattr(self, name), f"scenario.{name}")
         if not (np.isfinite(self.duration_s) and self.duration_s > 0 and np.isfinite(self.speed_m_s) and self.speed_m_s >= 0):
             raise ParameterError(f"scenario duration_s = {self.duration_s} must be positive and speed_m_s = {self.speed_m_s} not negative")
         n = int(round(self.duration_s / dt_s))
@@ -140,7 +144,8 @@ class Scenario:
 
 @dataclass(frozen=True)
 class Case:
-    """One closed-loop run."""
+    """One closed-loop run. Without a ``config`` the controller is
+    configured for the case's unit (:func:`config_for_unit`)."""
 
     scenario: Scenario
     road_class: str = "C"
@@ -153,8 +158,26 @@ class Case:
     record_every: int = 1
     t_gas_sensor_tau_s: float = 1.0
 
+    def controller_config(self) -> dict[str, Any]:
+        """The controller configuration the run uses: ``config`` if given,
+        else the one derived from the unit."""
+        return dict(self.config) if self.config is not None else config_for_unit(self.unit)
+
     def core_args(self) -> dict[str, Any]:
         """The arguments of ``_core.closed_loop``."""
+        if not isinstance(self.scenario, Scenario):
+            raise bad_argument("scenario", self.scenario, "an hpctl.control.closed_loop.Scenario")
+        if not isinstance(self.unit, Unit):
+            raise bad_argument("unit", self.unit, "an hpctl.Unit")
+        check_number(self.dt_s, "dt_s")
+        check_number(self.sprung_mass_kg, "sprung_mass_kg")
+        check_number(self.t_gas_sensor_tau_s, "t_gas_sensor_tau_s")
+        if self.ambient_k is not None:
+            check_number(self.ambient_k, "ambient_k")
+        check_int(self.seed, "seed", 0, 2**63 - 1)
+        check_int(self.record_every, "record_every", 1, 2**31)
+        if self.config is not None and not isinstance(self.config, Mapping):
+            raise bad_argument("config", self.config, "a controller configuration mapping (or None: derived from the unit)")
         if not (np.isfinite(self.dt_s) and 1e-5 <= self.dt_s <= 0.01):
             raise ParameterError(f"dt_s = {self.dt_s} must be within [1e-5, 0.01] s")
         sig = self.scenario.signals(self.dt_s)
@@ -168,11 +191,11 @@ class Case:
         scenario["driver_mode"] = np.full(n, int(self.scenario.driver_mode), dtype=np.int64)
         return {
             "unit": self.unit.to_dict(),
-            "rig": sdof_rig(base, self.sprung_mass_kg),
+            "rig": sdof_rig(base, self.sprung_mass_kg).to_core(),
             "scenario": scenario,
             "dt_s": float(self.dt_s),
             "ambient_k": self.unit.static_temperature_k if self.ambient_k is None else float(self.ambient_k),
-            "config": None if self.config is None else dict(self.config),
+            "config": self.controller_config(),
             "record_every": int(self.record_every),
             "t_gas_sensor_tau_s": float(self.t_gas_sensor_tau_s),
         }
@@ -195,8 +218,7 @@ class ClosedLoop:
     @property
     def static_load_pressure_pa(self) -> float:
         """The gas pressure that carries the sprung mass at rest (absolute), Pa."""
-        u = self.case.unit
-        return u.ambient_pressure_pa + self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2 / u.piston_area_m2
+        return self.case.unit.load_pressure_pa(self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2)
 
     def held_offset_m(self) -> FloatArray:
         """The ride-height offset the oil in L gives at rest, from the
@@ -210,7 +232,15 @@ class ClosedLoop:
         return np.asarray((self.plant["v_gas2_m3"] - rest_m3) / u.piston_area_m2, dtype=np.float64)
 
 
-def _result(case: Case, d: Mapping[str, Mapping[str, NDArray[Any]]]) -> ClosedLoop:
+def config_for_unit(unit: Unit) -> dict[str, Any]:
+    """The controller configuration for ``unit``: the unit block derived
+    from the unit (in the controller crate, ``UnitConfig::from_unit``), the
+    default calibration for the rest. The seed unit gives the seed config."""
+    config: dict[str, Any] = _core.ctrl_config_for_unit(unit.to_dict())
+    return config
+
+
+def _result(case: Case, d: ClosedLoopDict) -> ClosedLoop:
     return ClosedLoop(case, dict(d["plant"]), dict(d["inputs"]), dict(d["outputs"]))
 
 
@@ -264,7 +294,7 @@ def height_change_summary(r: ClosedLoop, start_s: float, end_s: float, *, window
     idx = np.flatnonzero(during)
     k_end = int(idx[-1])
     request = float(r.inputs["ride_height_request_m"][k_end])
-    cfg = _core.Controller(None if r.case.config is None else dict(r.case.config)).config["ride_height"]
+    cfg = r.case.controller_config()["ride_height"]
     target = float(np.clip(request, -cfg["request_max_m"], cfg["request_max_m"])) if abs(request) > cfg["request_deadband_m"] else 0.0
     seq = o["sequencer"][during]
     moving = (seq == SequencerState.LOWERING) | (seq == SequencerState.RAISING)
@@ -285,6 +315,8 @@ def height_change_summary(r: ClosedLoop, start_s: float, end_s: float, *, window
             k_eval = k_idle - 1
     v6 = o["valve6_open"][during].astype(bool)
     openings = int(np.count_nonzero(_rising_edges(v6) & moving))
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    blocked_s = float(np.count_nonzero(seq == SequencerState.BLOCKED) * dt)
     held = float(r.held_offset_m()[k_eval])
     disp = r.plant["disp_m"]
     return {
@@ -298,6 +330,9 @@ def height_change_summary(r: ClosedLoop, start_s: float, end_s: float, *, window
         "time_to_reach_s": reached_s,
         "released_to_soft_s": released_s,
         "valve6_openings": openings,
+        "blocked_s": blocked_s,
+        "tolerance_m": float(cfg["tolerance_m"]),
+        "reached": reached_s is not None and abs(held - target) <= float(cfg["tolerance_m"]),
         "road_mean_change_m": -float(disp[last].mean() - disp[before].mean()),
         "p_gas_pa": float(r.plant["p_gas_pa"][k_eval]),
         "p_gas2_pa": float(r.plant["p_gas2_pa"][k_eval]),
@@ -340,6 +375,71 @@ def mode_summary(r: ClosedLoop) -> dict[str, Any]:
     }
 
 
+def height_change_caveats(s: Mapping[str, Any], what: str) -> list[Caveat]:
+    """What a height change summary (:func:`height_change_summary`) cannot
+    claim: a request not reached (never settled, or held further from the
+    target than the controller's tolerance) and a blocked sequencer."""
+    out = []
+    duration = float(s["end_s"]) - float(s["start_s"])
+    # A short pause on a bump is the sequencer working; a pause that lost
+    # the request or took most of the time is worth saying.
+    if s["blocked_s"] > 0 and (not s["reached"] or s["blocked_s"] >= 0.5 * duration):
+        share = s["blocked_s"] / duration
+        out.append(Caveat(
+            Code.SEQUENCER_BLOCKED,
+            f"{what}: the ride-height sequencer was blocked (paused by driving dynamics, the load estimate settling or the "
+            f"safe state) for {s['blocked_s']:.1f} s of {duration:.1f} s ({100 * share:.0f} %)",
+            {"change": what, "blocked_s": s["blocked_s"], "duration_s": duration, "sequencer_end": s["sequencer_end"]},
+        ))
+    if not s["reached"]:
+        why = "the sequencer never settled" if s["time_to_reach_s"] is None else f"held {1e3 * s['held_offset_m']:.1f} mm"
+        out.append(Caveat(
+            Code.TARGET_MISSED,
+            f"{what}: the request of {1e3 * s['target_m']:.1f} mm was not reached ({why}; error {1e3 * s['error_m']:+.1f} mm, "
+            f"tolerance {1e3 * s['tolerance_m']:.1f} mm)",
+            {"change": what, "target_m": s["target_m"], "held_offset_m": s["held_offset_m"], "error_m": s["error_m"],
+             "tolerance_m": s["tolerance_m"], "time_to_reach_s": s["time_to_reach_s"]},
+        ))
+    return out
+
+
+def run_caveats(r: ClosedLoop, name: str) -> list[Caveat]:
+    """What a closed-loop run cannot stand behind: the plant's checks (end
+    stops, the gas model's range, the rated speed), the controller's safe
+    state after its power-on recovery (with the flags that were set), and a
+    controller configured for another unit than the plant's."""
+    out = checks.channels(r.case.unit, r.plant, name)
+    mode = r.outputs["drive_mode"].astype(int)
+    diag = r.outputs["diag"].astype(np.int64)
+    ride = np.flatnonzero(mode == DriveMode.RIDE)
+    first_ride = int(ride[0]) if ride.size else 0
+    safe = (diag[first_ride:] & int(Diag.SAFE_STATE)) != 0
+    if safe.any() or not ride.size:
+        idx = first_ride + np.flatnonzero(safe) if safe.any() else np.arange(diag.size)
+        flags = int(np.bitwise_or.reduce(diag[idx])) if idx.size else 0
+        names = sorted(f.name for f in Diag if f.name and flags & f and f != Diag.SAFE_STATE and not f.name.startswith("TRIGGER_"))
+        t = r.time_s
+        share = idx.size / max(diag.size - first_ride, 1)
+        when = "never left it after power-on" if not ride.size else f"entered it at t = {float(t[idx[0]]):.2f} s"
+        out.append(Caveat(
+            Code.SAFE_STATE,
+            f"{name}: the controller was in its safe state ({when}; {100 * share:.0f} % of the run after power-on) with "
+            f"{', '.join(names) or 'no other flag'}",
+            {"run": name, "first_time_s": float(t[idx[0]]) if idx.size else None, "share": share, "flags": names},
+        ))
+    if r.case.config is not None:
+        derived = config_for_unit(r.case.unit)["unit"]
+        given = dict(r.case.config)["unit"]
+        differ = sorted(k for k in derived if given.get(k) != derived[k])
+        if differ:
+            out.append(Caveat(
+                Code.CONFIG_NOT_DERIVED,
+                f"{name}: the controller's unit configuration differs from the simulated unit in {', '.join(differ)}",
+                {"run": name, "fields": differ},
+            ))
+    return out
+
+
 #: The demonstration's schedule: lower at 8 s (after the power-on recovery
 #: and the load estimate's settling), back to zero at 40 s, end at 64 s.
 DEMO_LOWER_AT_S, DEMO_RAISE_AT_S, DEMO_END_S = 8.0, 40.0, 64.0
@@ -378,3 +478,10 @@ def demo(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: 
         "modes": mode_summary(modes),
     }
     return height, modes, summary
+
+
+def demo_caveats(height: ClosedLoop, modes: ClosedLoop, summary: Mapping[str, Any]) -> list[Caveat]:
+    """The warnings of :func:`demo`: each run's (:func:`run_caveats`) and
+    each height change's (:func:`height_change_caveats`)."""
+    return (run_caveats(height, "ride-height run") + height_change_caveats(summary["lowering"], "lowering")
+            + height_change_caveats(summary["raising"], "raising") + run_caveats(modes, "mode run"))

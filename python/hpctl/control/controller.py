@@ -25,96 +25,95 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
+from hpctl.errors import bad_argument, check_float_array, check_number
+
+# The values come from the controller itself (the bindings export its
+# tables); the names are checked against those tables by the tests.
 
 
 class DriverMode(IntEnum):
     """The driver's mode switch."""
 
-    AUTO = 0
-    COMFORT = 1
-    SPORT = 2
+    AUTO = _core.CTRL_DRIVER_MODES.index("auto")
+    COMFORT = _core.CTRL_DRIVER_MODES.index("comfort")
+    SPORT = _core.CTRL_DRIVER_MODES.index("sport")
 
 
 class DriveMode(IntEnum):
-    RIDE = 0
-    HANDLING = 1
+    RIDE = _core.CTRL_DRIVE_MODES.index("ride")
+    HANDLING = _core.CTRL_DRIVE_MODES.index("handling")
 
 
 class SpringMode(IntEnum):
     """Valve 6 closed (hard, S alone) or open (soft, S + L)."""
 
-    HARD = 0
-    SOFT = 1
+    HARD = _core.CTRL_SPRING_MODES.index("hard")
+    SOFT = _core.CTRL_SPRING_MODES.index("soft")
 
 
 class DamperMode(IntEnum):
     """Valve 5 closed (high damping) or open (bypass, low)."""
 
-    HIGH = 0
-    LOW = 1
+    HIGH = _core.CTRL_DAMPER_MODES.index("high")
+    LOW = _core.CTRL_DAMPER_MODES.index("low")
 
 
 class SequencerState(IntEnum):
-    IDLE = 0
-    LOWERING = 1
-    RAISING = 2
-    HOLDING = 3
-    BLOCKED = 4
+    IDLE = _core.CTRL_SEQUENCER_STATES.index("idle")
+    LOWERING = _core.CTRL_SEQUENCER_STATES.index("lowering")
+    RAISING = _core.CTRL_SEQUENCER_STATES.index("raising")
+    HOLDING = _core.CTRL_SEQUENCER_STATES.index("holding")
+    BLOCKED = _core.CTRL_SEQUENCER_STATES.index("blocked")
 
 
 class InputGroup(IntFlag):
     """Input groups, one bit each (``Inputs.fresh``)."""
 
-    PRESSURES = 1 << 0
-    STRUT = 1 << 1
-    BODY = 1 << 2
-    VEHICLE = 1 << 3
-    STEERING = 1 << 4
-    TEMPERATURE = 1 << 5
-    DRIVER = 1 << 6
-    ALL = (1 << 7) - 1
+    PRESSURES = _core.CTRL_INPUT_GROUPS["PRESSURES"]
+    STRUT = _core.CTRL_INPUT_GROUPS["STRUT"]
+    BODY = _core.CTRL_INPUT_GROUPS["BODY"]
+    VEHICLE = _core.CTRL_INPUT_GROUPS["VEHICLE"]
+    STEERING = _core.CTRL_INPUT_GROUPS["STEERING"]
+    TEMPERATURE = _core.CTRL_INPUT_GROUPS["TEMPERATURE"]
+    DRIVER = _core.CTRL_INPUT_GROUPS["DRIVER"]
+    ALL = sum(_core.CTRL_INPUT_GROUPS.values())
 
 
 class Diag(IntFlag):
     """Diagnostic flags of ``Outputs.diag`` (``docs/controller.md``)."""
 
-    SAFE_STATE = 1 << 0
-    RECOVERING = 1 << 1
-    BAD_DT = 1 << 2
-    LINK_FAULT = 1 << 3
-    NOT_FINITE = 1 << 4
-    OUT_OF_RANGE = 1 << 5
-    RATE_LIMIT = 1 << 6
-    STALE = 1 << 7
-    GROUP_PRESSURES = 1 << 8
-    GROUP_STRUT = 1 << 9
-    GROUP_BODY = 1 << 10
-    GROUP_VEHICLE = 1 << 11
-    GROUP_STEERING = 1 << 12
-    GROUP_TEMPERATURE = 1 << 13
-    GROUP_DRIVER = 1 << 14
-    REQUEST_CLAMPED = 1 << 16
-    SEQUENCER_PAUSED = 1 << 17
-    HEIGHT_HOLDS_SPRING = 1 << 18
-    HEIGHT_ESTIMATE_HELD = 1 << 19
-    TRIGGER_LATERAL = 1 << 20
-    TRIGGER_STEER_RATE = 1 << 21
-    TRIGGER_LONGITUDINAL = 1 << 22
-    TRIGGER_BRAKE = 1 << 23
-    TRIGGER_SPEED = 1 << 24
-    TRIGGER_SPORT = 1 << 25
-    HANDLING_HOLD = 1 << 26
+    SAFE_STATE = _core.CTRL_DIAG_FLAGS["SAFE_STATE"]
+    RECOVERING = _core.CTRL_DIAG_FLAGS["RECOVERING"]
+    BAD_DT = _core.CTRL_DIAG_FLAGS["BAD_DT"]
+    LINK_FAULT = _core.CTRL_DIAG_FLAGS["LINK_FAULT"]
+    NOT_FINITE = _core.CTRL_DIAG_FLAGS["NOT_FINITE"]
+    OUT_OF_RANGE = _core.CTRL_DIAG_FLAGS["OUT_OF_RANGE"]
+    RATE_LIMIT = _core.CTRL_DIAG_FLAGS["RATE_LIMIT"]
+    STALE = _core.CTRL_DIAG_FLAGS["STALE"]
+    GROUP_PRESSURES = _core.CTRL_DIAG_FLAGS["GROUP_PRESSURES"]
+    GROUP_STRUT = _core.CTRL_DIAG_FLAGS["GROUP_STRUT"]
+    GROUP_BODY = _core.CTRL_DIAG_FLAGS["GROUP_BODY"]
+    GROUP_VEHICLE = _core.CTRL_DIAG_FLAGS["GROUP_VEHICLE"]
+    GROUP_STEERING = _core.CTRL_DIAG_FLAGS["GROUP_STEERING"]
+    GROUP_TEMPERATURE = _core.CTRL_DIAG_FLAGS["GROUP_TEMPERATURE"]
+    GROUP_DRIVER = _core.CTRL_DIAG_FLAGS["GROUP_DRIVER"]
+    REQUEST_CLAMPED = _core.CTRL_DIAG_FLAGS["REQUEST_CLAMPED"]
+    SEQUENCER_PAUSED = _core.CTRL_DIAG_FLAGS["SEQUENCER_PAUSED"]
+    HEIGHT_HOLDS_SPRING = _core.CTRL_DIAG_FLAGS["HEIGHT_HOLDS_SPRING"]
+    HEIGHT_ESTIMATE_HELD = _core.CTRL_DIAG_FLAGS["HEIGHT_ESTIMATE_HELD"]
+    TRIGGER_LATERAL = _core.CTRL_DIAG_FLAGS["TRIGGER_LATERAL"]
+    TRIGGER_STEER_RATE = _core.CTRL_DIAG_FLAGS["TRIGGER_STEER_RATE"]
+    TRIGGER_LONGITUDINAL = _core.CTRL_DIAG_FLAGS["TRIGGER_LONGITUDINAL"]
+    TRIGGER_BRAKE = _core.CTRL_DIAG_FLAGS["TRIGGER_BRAKE"]
+    TRIGGER_SPEED = _core.CTRL_DIAG_FLAGS["TRIGGER_SPEED"]
+    TRIGGER_SPORT = _core.CTRL_DIAG_FLAGS["TRIGGER_SPORT"]
+    HANDLING_HOLD = _core.CTRL_DIAG_FLAGS["HANDLING_HOLD"]
 
 
 #: All handling-trigger flags.
 TRIGGERS = (
     Diag.TRIGGER_LATERAL | Diag.TRIGGER_STEER_RATE | Diag.TRIGGER_LONGITUDINAL | Diag.TRIGGER_BRAKE | Diag.TRIGGER_SPEED | Diag.TRIGGER_SPORT
 )
-
-
-def group_flag(group: InputGroup) -> Diag:
-    """The diag flag saying that ``group`` caused a fault."""
-    return Diag(int(group) << 8)
 
 
 @dataclass(frozen=True)
@@ -196,9 +195,14 @@ def input_arrays(inputs: Mapping[str, ArrayLike]) -> dict[str, NDArray[Any]]:
     :class:`Inputs` defaults; fields without a default are required) as
     equally long contiguous arrays of the dtypes :meth:`Controller.step_many`
     takes."""
+    if not isinstance(inputs, Mapping):
+        raise bad_argument("inputs", inputs, "a mapping of input field names to values or arrays")
     unknown = set(inputs) - set(INPUT_DTYPES)
     if unknown:
         raise _core.ParameterError(f"unknown input field(s) {sorted(unknown)} (known: {', '.join(INPUT_DTYPES)})")
+    for name, v in inputs.items():
+        if isinstance(v, (str, bytes)) or np.ndim(v) > 1:
+            raise bad_argument(f"inputs.{name}", v, "a number or a one-dimensional array")
     lengths = {np.size(v) for v in inputs.values() if np.ndim(v) > 0}
     if len(lengths) > 1:
         raise _core.ParameterError(f"input arrays of unequal lengths {sorted(lengths)}")
@@ -211,7 +215,11 @@ def input_arrays(inputs: Mapping[str, ArrayLike]) -> dict[str, NDArray[Any]]:
             value = f.default
         else:
             raise _core.ParameterError(f"missing input field {f.name}")
-        out[f.name] = np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=INPUT_DTYPES[f.name]), (n,)))
+        try:
+            converted: NDArray[Any] = np.asarray(value, dtype=INPUT_DTYPES[f.name])
+        except (TypeError, ValueError):
+            raise bad_argument(f"inputs.{f.name}", value, f"a value or a one-dimensional array convertible to {np.dtype(INPUT_DTYPES[f.name])}") from None
+        out[f.name] = np.ascontiguousarray(np.broadcast_to(converted, (n,)))
     return out
 
 
@@ -225,6 +233,8 @@ class Controller:
     (the safe state)."""
 
     def __init__(self, config: Mapping[str, Any] | None = None) -> None:
+        if config is not None and not isinstance(config, Mapping):
+            raise bad_argument("config", config, "a configuration mapping like seed_config() (or None)")
         self._core = _core.Controller(None if config is None else dict(config))
 
     @property
@@ -237,12 +247,14 @@ class Controller:
 
     def step(self, inputs: Inputs, dt_s: float) -> Outputs:
         """One control period."""
-        return Outputs.from_dict(self._core.step(inputs.to_dict(), float(dt_s)))
+        if not isinstance(inputs, Inputs):
+            raise bad_argument("inputs", inputs, "an hpctl.control.controller.Inputs")
+        return Outputs.from_dict(self._core.step(inputs.to_dict(), check_number(dt_s, "dt_s", finite=False)))
 
     def step_many(self, inputs: Mapping[str, ArrayLike], dt_s: float | ArrayLike) -> dict[str, NDArray[Any]]:
         """Consecutive periods: ``inputs`` as for :func:`input_arrays`,
         ``dt_s`` one step size or one per period. Returns the outputs as
         arrays (enums as their numeric values, ``diag`` as uint32)."""
         arrays = input_arrays(inputs)
-        dt: float | NDArray[np.float64] = float(np.asarray(dt_s)) if np.ndim(dt_s) == 0 else np.ascontiguousarray(dt_s, dtype=np.float64)
+        dt: float | NDArray[np.float64] = check_number(dt_s, "dt_s", finite=False) if np.ndim(dt_s) == 0 else check_float_array(dt_s, "dt_s")
         return self._core.step_many(arrays, dt)

@@ -4,12 +4,22 @@ A record is ``NAME.csv`` (time series) plus ``NAME.toml`` (what was tested).
 :func:`read_record` checks everything and raises :class:`RecordError` naming
 the file, the line or key, and what was expected; :func:`write_record`
 writes exactly the format, so a record written and read back is identical.
+
+The pair is written so that a reader never takes half of one write and
+half of another for a record: both files go to temporary names first, then
+the CSV is renamed into place, then the TOML (:mod:`hpctl.data.output`).
+The TOML written by hpctl carries the CSV's SHA-256 (``[record]
+csv_sha256``, optional for records from elsewhere); a CSV that does not
+match it (an interrupted rewrite, a concurrent writer, an edit) is refused.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
+import io
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +29,9 @@ import numpy as np
 import tomli_w
 from numpy.typing import NDArray
 
-from hpctl.errors import RecordError
+from hpctl import _core
+from hpctl.data.output import replace_in_order, temp_name
+from hpctl.errors import RecordError, bad_argument
 
 Kind = Literal["characterisation", "sdof"]
 KINDS = ("characterisation", "sdof")
@@ -106,20 +118,23 @@ class RigRecord:
         return np.full(len(self.data["time_s"]), self.test.damper == "on")
 
 
-# TOML schema: table -> key -> (type, required, valid range or choices, unit hint).
+# TOML schema: table -> key -> (type, required, valid range or choices).
+# Ranges of what the core models are the core's own (hp_core::ranges), so
+# that a record the reader accepts is one the model can simulate.
 _Range = tuple[float, float]
+_CORE = _core.PARAMETER_RANGES
 _SCHEMA: dict[str, dict[str, tuple[type, bool, Any]]] = {
-    "record": {"kind": (str, True, KINDS), "description": (str, False, None)},
+    "record": {"kind": (str, True, KINDS), "description": (str, False, None), "csv_sha256": (str, False, None)},
     "unit": {
-        "piston_area_m2": (float, True, (1e-5, 1.0)),
-        "small_acc_volume_m3": (float, True, (1e-6, 1.0)),
-        "large_acc_volume_m3": (float, True, (1e-6, 1.0)),
+        "piston_area_m2": (float, True, _CORE["piston_area_m2"]),
+        "small_acc_volume_m3": (float, True, _CORE["small_acc_volume_m3"]),
+        "large_acc_volume_m3": (float, True, _CORE["large_acc_volume_m3"]),
         "gas": (str, False, ("N2",)),
     },
     "static": {
-        "pressure_pa": (float, True, (1e5, 3e8)),
-        "temperature_k": (float, True, (200.0, 600.0)),
-        "ambient_k": (float, True, (200.0, 600.0)),
+        "pressure_pa": (float, True, _CORE["static_pressure_pa"]),
+        "temperature_k": (float, True, _CORE["static_temperature_k"]),
+        "ambient_k": (float, True, _CORE["static_temperature_k"]),
     },
     "test": {
         "spring": (str, True, ("soft", "hard")),
@@ -128,7 +143,7 @@ _SCHEMA: dict[str, dict[str, tuple[type, bool, Any]]] = {
         "amplitude_m": (float, False, (0.0, 1.0)),
         "frequency_hz": (float, False, (0.0, 1e3)),
     },
-    "sdof": {"sprung_mass_kg": (float, True, (1.0, 1e6))},
+    "sdof": {"sprung_mass_kg": (float, True, _CORE["sprung_mass_kg"])},
 }
 
 # Suffixes of non-SI names people use, to say what was meant.
@@ -198,13 +213,18 @@ def _read_toml(path: Path) -> dict[str, dict[str, Any]]:
     return out
 
 
-def _read_csv(path: Path, kind: str) -> dict[str, NDArray[np.float64]]:
+def _read_csv(path: Path, kind: str, sha256: str | None = None) -> dict[str, NDArray[np.float64]]:
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise RecordError(f"{path}: file not found (a record is NAME.csv plus NAME.toml)") from None
     except (OSError, UnicodeDecodeError) as e:
         raise RecordError(f"{path}: cannot read: {e}") from None
+    if sha256 is not None and hashlib.sha256(raw).hexdigest() != sha256:
+        raise RecordError(f"{path}: does not match the csv_sha256 in {path.with_suffix('.toml').name}: the two files were not written "
+                          "together (an interrupted or concurrent write), or the CSV was edited since; if the edit is meant, "
+                          "remove csv_sha256 from the TOML")
     rows = list(csv.reader(text.splitlines()))
     if not rows or not any(c.strip() for c in rows[0]):
         raise RecordError(f"{path}: line 1: expected a header row with at least time_s, disp_m")
@@ -251,6 +271,8 @@ def _read_csv(path: Path, kind: str) -> dict[str, NDArray[np.float64]]:
 
 def record_paths(path: str | Path) -> tuple[Path, Path]:
     """``NAME.csv`` and ``NAME.toml`` for ``NAME``, ``NAME.csv`` or ``NAME.toml``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise bad_argument("path", path, "a path (str or os.PathLike) to NAME, NAME.csv or NAME.toml")
     p = Path(path)
     stem = p.with_suffix("") if p.suffix in (".csv", ".toml") else p
     return stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".toml")
@@ -261,7 +283,7 @@ def read_record(path: str | Path) -> RigRecord:
     csv_path, toml_path = record_paths(path)
     meta = _read_toml(toml_path)
     kind = meta["record"]["kind"]
-    data = _read_csv(csv_path, kind)
+    data = _read_csv(csv_path, kind, meta["record"].get("csv_sha256"))
     return RigRecord(
         kind=kind,
         description=meta["record"].get("description", ""),
@@ -276,26 +298,41 @@ def read_record(path: str | Path) -> RigRecord:
 
 def write_record(record: RigRecord, path: str | Path) -> tuple[Path, Path]:
     """Writes ``NAME.csv`` and ``NAME.toml``; floats are written with the
-    shortest representation that reads back to the same value."""
+    shortest representation that reads back to the same value. Both go to
+    temporary names first, then the CSV is renamed into place, then the
+    TOML (with the CSV's SHA-256): see the module docs."""
+    if not isinstance(record, RigRecord):
+        raise bad_argument("record", record, "an hpctl.data.records.RigRecord")
     csv_path, toml_path = record_paths(path)
     csv_path.parent.mkdir(parents=True, exist_ok=True)
     columns = list(record.data)
     arrays = [np.asarray(record.data[c], dtype=float) for c in columns]
     n = len(arrays[0])
-    with csv_path.open("w", newline="") as f:
-        w = csv.writer(f, lineterminator="\n")
-        w.writerow(columns)
-        for i in range(n):
-            w.writerow([_fmt(c, a[i]) for c, a in zip(columns, arrays)])
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for i in range(n):
+        w.writerow([_fmt(c, a[i]) for c, a in zip(columns, arrays)])
+    csv_bytes = buf.getvalue().encode("utf-8")
     meta: dict[str, dict[str, Any]] = {
-        "record": {"kind": record.kind, "description": record.description},
+        "record": {"kind": record.kind, "description": record.description, "csv_sha256": hashlib.sha256(csv_bytes).hexdigest()},
         "unit": _drop_none(vars(record.unit)),
         "static": _drop_none(vars(record.static)),
         "test": _drop_none(vars(record.test)),
     }
     if record.kind == "sdof":
         meta["sdof"] = {"sprung_mass_kg": record.sprung_mass_kg}
-    toml_path.write_text(tomli_w.dumps(meta))
+    csv_tmp, toml_tmp = temp_name(csv_path), temp_name(toml_path)
+    try:
+        for tmp, data in ((csv_tmp, csv_bytes), (toml_tmp, tomli_w.dumps(meta).encode("utf-8"))):
+            with tmp.open("wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+        replace_in_order([(csv_tmp, csv_path), (toml_tmp, toml_path)])
+    finally:
+        csv_tmp.unlink(missing_ok=True)
+        toml_tmp.unlink(missing_ok=True)
     return csv_path, toml_path
 
 

@@ -20,8 +20,10 @@ from hpctl.identify.signals import (
     smooth,
     velocity_noise_gain,
 )
+from hpctl.model.effects import RecordTraits
 from hpctl.model.unit import Unit
-from hpctl.sim.run import Sampled, characterisation_rig, sdof_rig
+from hpctl.sim import metrics
+from hpctl.sim.run import Rig, Sampled, characterisation_rig, sdof_rig
 
 FloatArray = NDArray[np.float64]
 
@@ -35,7 +37,7 @@ class Dataset:
 
     record: RigRecord
     base: Unit
-    rig: dict[str, Any]
+    rig: Rig
     times_s: FloatArray
     spring_hard: NDArray[np.bool_]
     damper_on: NDArray[np.bool_]
@@ -82,6 +84,7 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         xs = smooth(t, x_in)
         vs = derivative(t, xs)
         motion = Sampled(t, xs, vs)
+        rig: Rig
         if rec.kind == "sdof":
             if rec.sprung_mass_kg is None:
                 raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
@@ -117,10 +120,44 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     return out
 
 
+def loop_area_j(d: Dataset, force_n: FloatArray) -> float | None:
+    """The force-displacement loop area over the last whole cycle of a sine
+    record (measured or simulated force at the record's samples), J; None
+    for a record that is not a characterisation sine of at least a cycle."""
+    rec = d.record
+    f = rec.test.frequency_hz
+    if rec.kind != "characterisation" or rec.test.excitation != "sine" or not f or f * (d.times_s[-1] - d.times_s[0]) < 1.0:
+        return None
+    m = metrics.last_cycle(d.times_s, f)
+    return metrics.loop_area_j(rec["disp_m"][m], np.asarray(force_n)[m])
+
+
+#: Strut speed (95th percentile) above which the damper does measurable
+#: work, m/s.
+DAMPER_WORKING_SPEED_M_S = 0.05
+
+
 def uses_damper(datasets: Sequence[Dataset]) -> bool:
-    """Whether the damper does measurable work in the records (strut speeds
-    above 0.05 m/s), so that its gain can be identified."""
-    return any(np.percentile(np.abs(d.strut_vel_m_s), 95) > 0.05 for d in datasets)
+    """Whether the damper does measurable work in the records, so that its
+    gain can be identified."""
+    return any(np.percentile(np.abs(d.strut_vel_m_s), 95) > DAMPER_WORKING_SPEED_M_S for d in datasets)
+
+
+def traits(datasets: Sequence[Dataset]) -> RecordTraits:
+    """What the records can show (which effects they could reveal)."""
+
+    def duration(d: Dataset) -> float:
+        return float(d.times_s[-1] - d.times_s[0])
+
+    def switches(d: Dataset) -> bool:
+        return bool(np.any(np.diff(d.spring_hard.astype(int)))) or bool(np.any(np.diff(d.damper_on.astype(int))))
+
+    return RecordTraits(
+        longest_s=max((duration(d) for d in datasets), default=0.0),
+        longest_damper_on_s=max((duration(d) for d in datasets if d.damper_on.any()), default=0.0),
+        switches_valves=any(switches(d) for d in datasets),
+        damper_works=uses_damper(datasets),
+    )
 
 
 def fold_mask(d: Dataset, fold: int, blocks: int = 10) -> NDArray[np.bool_]:

@@ -21,10 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
-from hpctl.identify.dataset import Dataset, prepare, uses_damper
+from hpctl.identify.dataset import Dataset, loop_area_j, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, predict
 from hpctl.model.effects import LIBRARY
-from hpctl.sim import metrics
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
 # difference above 10 is "very strong" evidence on Kass & Raftery's scale.
@@ -105,24 +104,6 @@ def analyse(result: FitResult) -> ResidualReport:
                 if np.ptp(g) > 0:
                     corr.append({"record": d.name, "channel": c, "regressor": name, "r": float(np.corrcoef(r, g)[0, 1])})
     return ResidualReport(result.rms_ratio, structured or result.rms_ratio > POOLED_RMS_RATIO, rows, corr)
-
-
-def applicable(effect: str, datasets: Sequence[Dataset]) -> bool:
-    """Whether the records could reveal ``effect`` at all (saves fitting
-    effects the data cannot identify)."""
-    def any_rec(pred: Callable[[Dataset], bool]) -> bool:
-        return any(pred(d) for d in datasets)
-
-    if effect == "valve_lag":
-        return any_rec(lambda d: bool(np.any(np.diff(d.spring_hard.astype(int)))) or bool(np.any(np.diff(d.damper_on.astype(int)))))
-    if effect == "heat_buildup":
-        return any_rec(lambda d: bool(d.damper_on.any()) and d.times_s[-1] - d.times_s[0] > 300)
-    if effect == "leakage":
-        return any_rec(lambda d: d.times_s[-1] - d.times_s[0] > 600)
-    if effect == "oil_compliance":
-        # Compliance shows where the damper pack builds pressure.
-        return any_rec(lambda d: bool(d.damper_on.any())) and uses_damper(datasets)
-    return True
 
 
 @dataclass
@@ -241,7 +222,8 @@ def diagnose(
         if not analysis.structured:
             rounds.append(Round(current, analysis, [], None))
             break
-        pool_now = [e for e in pool if e not in effects and applicable(e, datasets)]
+        shows = traits(datasets)
+        pool_now = [e for e in pool if e not in effects and LIBRARY[e].applies(shows)]
         tried = [_try(datasets, current, effects, (e,), say) for e in pool_now]
         tried.sort(key=lambda c: c.score, reverse=True)
         accepted = _accept(datasets, current, effects, tried, say)
@@ -273,23 +255,29 @@ def diagnose(
     return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found)
 
 
-def loop_areas(result: FitResult) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class LoopArea:
+    """Measured and modelled loop area of one sine record."""
+
+    record: str
+    frequency_hz: float
+    amplitude_m: float | None
+    measured_j: float
+    model_j: float
+
+
+def loop_areas(result: FitResult) -> list[LoopArea]:
     """Measured and modelled loop areas of the sine records by frequency:
     a thermal loop vanishes at very low and very high frequency, a Coulomb
     friction loop does not."""
     out = []
-    for i, d in enumerate(result.datasets):
-        f = d.record.test.frequency_hz
-        sim = result.sims[i]
-        if d.record.kind != "characterisation" or d.record.test.excitation != "sine" or not f or isinstance(sim, Exception):
+    for d, sim in zip(result.datasets, result.sims):
+        if isinstance(sim, Exception) or "force_n" not in d.targets:
             continue
-        if f * (d.times_s[-1] - d.times_s[0]) < 1.0:
-            continue
-        m = metrics.last_cycle(d.times_s, f)
-        x = d.record["disp_m"][m]
-        out.append({"record": d.name, "frequency_hz": f, "amplitude_m": d.record.test.amplitude_m,
-                    "measured_j": metrics.loop_area_j(x, d.targets["force_n"][m]), "model_j": metrics.loop_area_j(x, sim["force_n"][m])})
-    return sorted(out, key=lambda r: r["frequency_hz"])
+        measured, model = loop_area_j(d, d.targets["force_n"]), loop_area_j(d, sim["force_n"])
+        if measured is not None and model is not None and d.record.test.frequency_hz:
+            out.append(LoopArea(d.name, d.record.test.frequency_hz, d.record.test.amplitude_m, measured, model))
+    return sorted(out, key=lambda r: r.frequency_hz)
 
 
 def summary(diag: Diagnosis) -> dict[str, Any]:
@@ -324,7 +312,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "final_stderr": diag.final.stderr,
         "error_before": err(diag.initial),
         "error_after": err(diag.final),
-        "loop_area_by_frequency": loop_areas(diag.final),
+        "loop_area_by_frequency": [vars(a) for a in loop_areas(diag.final)],
         "candidates_last_round": [
             {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score}
             for c in (diag.rounds[-1].candidates if diag.rounds else [])

@@ -17,19 +17,19 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from hpctl.identify.dataset import Dataset, fold_mask, uses_damper
+from hpctl.errors import HpctlError, SimulationError
+from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper
 from hpctl.identify.signals import apply_sensor_lag
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
     LIBRARY,
-    OIL_VOLUME_M3,
     Param,
     build_unit,
+    max_step_s,
     model_params,
 )
 from hpctl.model.unit import Unit
-from hpctl.sim import metrics
 from hpctl.sim.run import Case, run_many
 
 FloatArray = NDArray[np.float64]
@@ -53,21 +53,17 @@ class Model:
         base = d.base.replace(static_pressure_pa=d.base.static_pressure_pa * values.get("charge_scale", 1.0))
         if "damper_gain" in values:
             base = base.replace(damper=base.damper.scaled(values["damper_gain"]))
-        return build_unit(base, self.effects, values)
+        return build_unit(base, self.in_unit, values)
+
+    @property
+    def in_unit(self) -> tuple[str, ...]:
+        """The effects simulated in the unit (the others are applied to
+        its outputs)."""
+        return tuple(e for e in self.effects if not LIBRARY[e].on_outputs)
 
     def max_dt_s(self, d: Dataset, values: Mapping[str, float]) -> float:
         """A step small enough for the fastest dynamics the model has."""
-        dt = d.max_dt_s
-        # RK4 is stable up to 2.8 time constants and accurate to well
-        # within the noise at one.
-        if "valve_time_constant_s" in values:
-            dt = min(dt, values["valve_time_constant_s"])
-        if "oil_bulk_modulus_pa" in values:
-            area = d.base.piston_area_m2
-            c1 = min(c.bleed_pa_s_per_m3 for c in vars(d.base.damper).values()) * area**2 * values.get("damper_gain", 1.0)
-            tau_c = OIL_VOLUME_M3 * c1 / (values["oil_bulk_modulus_pa"] * area**2)
-            dt = min(dt, tau_c)
-        return max(dt, 2e-5)
+        return max(min(d.max_dt_s, max_step_s(self.unit_for(d, values))), 2e-5)
 
 
 def _case(model: Model, d: Dataset, values: Mapping[str, float]) -> Case:
@@ -96,7 +92,7 @@ def simulate_all(model: Model, datasets: Sequence[Dataset], value_sets: Sequence
                 row.append(r)
                 continue
             ch = dict(r.channels)
-            if "sensor_time_constant_s" in values:
+            if "sensor_lag" in model.effects:
                 for c in LAGGED:
                     # At rest the force has no damper or friction part.
                     rest = ch[c][0] - (ch["damper_force_n"][0] + ch["friction_force_n"][0] if c == "force_n" else 0.0)
@@ -183,12 +179,10 @@ def _stats(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | E
             r = sim[c] - y
             rng = float(np.ptp(y)) or 1.0
             st = ChannelStats(d.name, c, float(np.sqrt(np.mean(r**2))), float(np.sqrt(np.mean(r**2)) / rng), float(np.max(np.abs(r))), d.sigma[c])
-            f = d.record.test.frequency_hz
-            if c == "force_n" and d.record.test.excitation == "sine" and f and f * (d.times_s[-1] - d.times_s[0]) >= 1.0:
-                m = metrics.last_cycle(d.times_s, f)
-                x = d.record["disp_m"][m]
-                st.loop_area_measured_j = metrics.loop_area_j(x, y[m])
-                st.loop_area_error_j = metrics.loop_area_j(x, sim[c][m]) - st.loop_area_measured_j
+            measured, model = (loop_area_j(d, y), loop_area_j(d, sim[c])) if c == "force_n" else (None, None)
+            if measured is not None and model is not None:
+                st.loop_area_measured_j = measured
+                st.loop_area_error_j = model - measured
             out.append(st)
     return out
 
@@ -242,10 +236,22 @@ def fit(
         x, success, message, jmat = x0, True, "nothing to fit", np.zeros((0, 0))
     values = values_from_x(params, x)
     sims = simulate_all(model, datasets, [values])[0]
+    _raise_failed(datasets, sims)
     r = residual_vector(datasets, sims, fold)
     rss = float(r @ r)
     stderr = _stderr(params, x, jmat, rss, len(r))
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
+
+
+def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | Exception]) -> None:
+    """A record the model cannot simulate at the fitted values is an error,
+    never a fit: the optimiser treats a failed trial as a very bad one and
+    backs off, but when the result itself fails (e.g. a record that the
+    simulator refuses outright) there is nothing to report but why."""
+    for d, sim in zip(datasets, sims):
+        if isinstance(sim, Exception):
+            cls = type(sim) if isinstance(sim, HpctlError) else SimulationError
+            raise cls(f"record {d.name}: the model cannot be simulated on it: {sim}") from sim
 
 
 def _stderr(params: Sequence[Param], x: FloatArray, jmat: FloatArray, rss: float, n: int) -> dict[str, float]:

@@ -15,7 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RecordTest, RigRecord
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Sensor, Unit
+from hpctl.model.effects import LIBRARY, build_unit, max_step_s, ordered
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim.experiments import _record
 from hpctl.sim.run import (
     Motion,
@@ -112,8 +113,7 @@ def record_test(unit: Unit, test: Test, noise: Noise, rng: np.random.Generator, 
         spring_hard = test.spring_hard
     rig = sdof_rig(test.motion, SEED_SPRUNG_MASS_KG) if test.sdof else characterisation_rig(test.motion)
     dt = min(1e-3 if (test.switch_period_s is not None or not test.spring_hard) else 5e-3, test.duration_s / test.samples / 2)
-    if unit.effects.oil_compliance is not None or unit.effects.sensor is not None or unit.effects.valve_lag is not None:
-        dt = min(dt, 2.5e-4)
+    dt = min(dt, max_step_s(unit))
     result = run(unit, rig, times, spring_hard=spring_hard, damper_on=test.damper_on, dt_s=dt, ambient_k=ambient)
     rt = RecordTest(
         spring="hard" if test.spring_hard else "soft",
@@ -140,51 +140,10 @@ def make_records(unit: Unit, program: str = "sweep", noise: Noise | None = None,
     return [record_test(unit, t, noise or Noise(), rng) for t in (tests if tests is not None else program_tests(program))]
 
 
-# Typical and random values of each effect's parameters for the virtual
-# rig: (typical, low, high, log-uniform). The ranges are what a real unit
-# might show and large enough to matter against the rig's noise.
-EFFECT_VALUES: dict[str, tuple[float, float, float, bool]] = {
-    "tau_s": (2.0, 0.7, 6.0, True),
-    "friction_coulomb_n": (400.0, 150.0, 1500.0, True),
-    "friction_viscous_n_s_per_m": (300.0, 0.0, 1000.0, False),
-    "oil_bulk_modulus_pa": (3e8, 1.5e8, 8e8, True),
-    "oil_heat_capacity_j_per_k": (2e4, 1.2e4, 3e4, True),
-    "wall_to_oil_tau_s": (5000.0, 2500.0, 8000.0, True),
-    "leak_time_constant_s": (5e4, 2e4, 1.5e5, True),
-    "valve_time_constant_s": (0.03, 0.012, 0.08, True),
-    "sensor_force_offset_n": (150.0, -800.0, 800.0, False),
-    "sensor_pressure_offset_pa": (2e4, -1e5, 1e5, False),
-    "sensor_time_constant_s": (0.01, 0.004, 0.03, True),
-}
-
-# The records each effect needs besides the sine sweep (see effect_tests).
-EFFECT_TESTS: dict[str, tuple[str, ...]] = {
-    "oil_compliance": ("fast",),
-    "heat_buildup": ("heat",),
-    "leakage": ("hold",),
-    "valve_lag": ("switching",),
-}
-
-
 def effect_values(effects: Sequence[str], rng: np.random.Generator | None = None, overrides: dict[str, float] | None = None) -> dict[str, float]:
     """Parameter values for ``effects``: typical ones, random ones if ``rng``
-    is given, and ``overrides`` on top."""
-    from hpctl.model.effects import LIBRARY
-
-    out: dict[str, float] = {}
-    for e in effects:
-        for p in LIBRARY[e].params:
-            typical, lo, hi, log = EFFECT_VALUES[p.name]
-            if rng is None:
-                out[p.name] = typical
-            elif log:
-                out[p.name] = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
-            else:
-                out[p.name] = float(rng.uniform(lo, hi))
-    if rng is not None and "sensor_force_offset_n" in out:
-        # An offset too small to matter against the noise is no offset.
-        sign = 1.0 if out["sensor_force_offset_n"] >= 0 else -1.0
-        out["sensor_force_offset_n"] = sign * max(abs(out["sensor_force_offset_n"]), 120.0)
+    is given (the registry's ranges), and ``overrides`` on top."""
+    out = {p.name: (p.typical if rng is None else p.draw(rng)) for e in effects for p in LIBRARY[e].params}
     out.update(overrides or {})
     return out
 
@@ -192,24 +151,16 @@ def effect_values(effects: Sequence[str], rng: np.random.Generator | None = None
 def truth_unit(effects: Sequence[str], values: dict[str, float], template: Unit | None = None) -> Unit:
     """The rig's unit: real gas and heat transfer (as real units are) plus
     ``effects`` at ``values``."""
-    from hpctl.model.effects import LIBRARY, build_unit
-
     base = template or Unit.seed()
-    names = tuple(dict.fromkeys(("heat_transfer", "real_gas", *effects)))
-    v = {"tau_s": base.tau_s if math.isfinite(base.tau_s) else EFFECT_VALUES["tau_s"][0], **values}
-    unit = build_unit(base, tuple(n for n in LIBRARY if n in names), v)
-    if "sensor_lag" in names:
-        # The fit applies a sensor lag to its outputs; the rig has the real
-        # thing, a lag state in the unit.
-        s = unit.effects.sensor or Sensor()
-        unit = unit.with_effects(sensor=Sensor(s.force_offset_n, s.pressure_offset_pa, v["sensor_time_constant_s"]))
-    return unit.replace(static_pressure_pa=base.static_pressure_pa)
+    names = ordered(("heat_transfer", "real_gas", *effects))
+    v = {"tau_s": base.tau_s if math.isfinite(base.tau_s) else LIBRARY["heat_transfer"].params[0].typical, **values}
+    return build_unit(base, names, v).replace(static_pressure_pa=base.static_pressure_pa)
 
 
 def tests_for(effects: Sequence[str], program: str = "sweep") -> list[Test]:
     """The program's tests plus those the effects need."""
     keys = list(PROGRAMS[program] if program in PROGRAMS else ())
     for e in effects:
-        keys += [k for k in EFFECT_TESTS.get(e, ()) if k not in keys]
+        keys += [k for k in LIBRARY[e].tests if k not in keys]
     extra = effect_tests()
     return sweep_tests() + [extra[k] for k in keys]

@@ -1,10 +1,24 @@
-"""The effect library: switchable model terms, each with its parameters.
+"""The effect registry: every switchable model term, declared once.
 
 An effect is something a measurement may contain that the model may lack.
-Each has a library name (used on the command line and in ``--json``), the
-parameters a fit identifies (with bounds and whether they are fitted in
-log scale), and what it does to a :class:`~hpctl.unit.Unit`. The terms
-themselves are implemented in hp-core; this module only switches them.
+Each :class:`Effect` says, in one place, everything the rest of hpctl needs
+to know about it:
+
+- its library name (command line, ``--json``) and description;
+- the parameters a fit identifies (:class:`Param`: the core's parameter
+  name, fit bounds inside the core's valid range, the starting value, the
+  typical value and random range a virtual rig draws from, log scale);
+- what it does to a :class:`~hpctl.model.unit.Unit` (``apply``; the terms
+  themselves are implemented in hp-core, this only switches them);
+- which tests reveal it beyond the sine sweep (names of the virtual rig's
+  tests, :mod:`hpctl.identify.virtual_rig`), and when a set of records
+  can reveal it at all (``applies``, on :class:`RecordTraits`);
+- the fastest dynamics it adds (``max_step_s``), which bounds the
+  integration step of a fixed-step run.
+
+The fitter, the diagnosis, the virtual rig, ``hpctl diagnose
+--list-effects`` and ``docs/effects.md`` all read :data:`LIBRARY`. Adding an
+effect means adding its term to hp-core and one entry here.
 
 The gas law is the one term that is always present in some form: without
 ``heat_transfer`` the gas follows the classical polytropic law with a
@@ -16,29 +30,44 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from hpctl.model.unit import (
-    Friction,
-    Leakage,
-    OilCompliance,
-    OilNode,
-    Sensor,
-    Unit,
-    ValveLag,
-)
+import numpy as np
+
+from hpctl import _core
+from hpctl.errors import ParameterError
+from hpctl.model.unit import Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
+
+#: The core's valid range of every unit parameter (hp_core::ranges).
+CORE_RANGES: Mapping[str, tuple[float, float]] = _core.PARAMETER_RANGES
 
 
 @dataclass(frozen=True)
 class Param:
-    """A fitted parameter: name (SI suffix), bounds, initial value; ``log``
-    parameters are fitted as log10 (time constants, moduli)."""
+    """A fitted parameter.
+
+    ``name`` is the core's parameter name (SI suffix). ``lower``/``upper``
+    bound the fit (inside the core's valid range, checked on import);
+    ``initial`` starts it. ``typical`` and ``random`` are what a virtual
+    rig uses as the truth: the typical value, and the range it draws from
+    (what a real unit might show, large enough to matter against a rig's
+    noise). ``log`` parameters are fitted in log scale (time constants,
+    moduli); ``random_log`` says how the random range is drawn (like
+    ``log`` unless given: a Coulomb friction is fitted from zero up, but
+    drawn over decades).
+    """
 
     name: str
     lower: float
     upper: float
     initial: float
+    typical: float
+    random: tuple[float, float]
     log: bool = False
+    random_log: bool | None = None
+    #: Draw the magnitude from ``random`` and the sign at random (an offset
+    #: too small to matter against the noise is no offset).
+    signed: bool = False
 
     def to_x(self, value: float) -> float:
         return math.log10(value) if self.log else value / self.scale
@@ -53,20 +82,82 @@ class Param:
     def x_bounds(self) -> tuple[float, float]:
         return (self.to_x(self.lower), self.to_x(self.upper))
 
+    def draw(self, rng: np.random.Generator) -> float:
+        """A value from :attr:`random` (log-uniform for ``log`` parameters)."""
+        lo, hi = self.random
+        if self.log if self.random_log is None else self.random_log:
+            value = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+        else:
+            value = float(rng.uniform(lo, hi))
+        return value * float(rng.choice([-1.0, 1.0])) if self.signed else value
+
+
+@dataclass(frozen=True)
+class RecordTraits:
+    """What a set of records can show, for deciding which effects they can
+    reveal (computed by :func:`hpctl.identify.dataset.traits`)."""
+
+    #: The longest record, s.
+    longest_s: float
+    #: The longest record with the damper on (valve 5 closed), s.
+    longest_damper_on_s: float
+    #: Some record switches a valve during the test.
+    switches_valves: bool
+    #: The strut moves fast enough for the damper to do measurable work.
+    damper_works: bool
+
+
+def _always(_traits: RecordTraits) -> bool:
+    return True
+
 
 Apply = Callable[[Unit, Mapping[str, float]], Unit]
+MaxStep = Callable[[Unit], "float | None"]
 
 
 @dataclass(frozen=True)
 class Effect:
-    """One switchable model term."""
+    """One switchable model term (see the module's description)."""
 
     name: str
     description: str
     params: tuple[Param, ...]
     apply: Apply
-    # Which records can reveal it (for choosing candidates and test programs).
-    needs: str = ""
+    #: What kind of test shows it, for people.
+    revealed_by: str
+    #: The virtual rig's tests that reveal it beyond the sine sweep.
+    tests: tuple[str, ...] = ()
+    #: Whether records with these traits can reveal it at all.
+    applies: Callable[[RecordTraits], bool] = field(default=_always)
+    #: The largest fixed integration step its dynamics allow in a unit, s
+    #: (None when the unit does not have it; no function: no fast dynamics).
+    max_step_s: MaxStep | None = None
+    #: A fit applies it to the simulated outputs instead of the unit
+    #: (:func:`hpctl.identify.signals.apply_sensor_lag`): a lag state in the
+    #: ODE would force steps shorter than the lag on records hours long.
+    #: ``apply`` still puts it into the unit, for the virtual rig's truth.
+    on_outputs: bool = False
+
+
+    def to_json(self) -> dict[str, object]:
+        """What ``hpctl diagnose --list-effects --json`` prints."""
+        return {
+            "description": self.description,
+            "revealed_by": self.revealed_by,
+            "tests": list(self.tests),
+            "params": [
+                {"name": p.name, "lower": p.lower, "upper": p.upper, "initial": p.initial, "typical": p.typical,
+                 "random": list(p.random), "log": p.log, "core_range": list(CORE_RANGES[p.name])}
+                for p in self.params
+            ],
+        }
+
+
+# --- what each effect does to a unit -------------------------------------
+
+#: Oil on the strut side of the damper (strut bore, hoses), m^3: the
+#: compliance effect fits the effective bulk modulus of this volume.
+OIL_VOLUME_M3 = 1.0e-3
 
 
 def _heat_transfer(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -74,11 +165,11 @@ def _heat_transfer(u: Unit, p: Mapping[str, float]) -> Unit:
 
 
 def _real_gas(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.replace(gas="bwr-textbook")
+    return u.replace(gas=REAL_GAS)
 
 
 def _friction(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.with_effects(friction=Friction(p["friction_coulomb_n"], p["friction_viscous_n_s_per_m"], 2e-3))
+    return u.with_effects(friction=Friction(p["friction_coulomb_n"], p["friction_viscous_n_s_per_m"], FRICTION_SMOOTHING_VELOCITY_M_S))
 
 
 def _oil_compliance(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -86,7 +177,11 @@ def _oil_compliance(u: Unit, p: Mapping[str, float]) -> Unit:
 
 
 def _heat_buildup(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.with_effects(oil_node=OilNode(p["oil_heat_capacity_j_per_k"], 3000.0, p["wall_to_oil_tau_s"], 20000.0))
+    # The oil's and the wall's coupling to ambient are the seed's (measured
+    # after its heat run); the fit identifies the oil's heat capacity and
+    # how fast the oil heats the gas wall.
+    seed = _core.seed_oil_node()
+    return u.with_effects(oil_node=OilNode(p["oil_heat_capacity_j_per_k"], seed["oil_to_ambient_tau_s"], p["wall_to_oil_tau_s"], seed["wall_to_ambient_tau_s"]))
 
 
 def _leakage(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -97,60 +192,141 @@ def _valve_lag(u: Unit, p: Mapping[str, float]) -> Unit:
     return u.with_effects(valve_lag=ValveLag(p["valve_time_constant_s"]))
 
 
-def _sensor(u: Unit, offset_n: float, pressure_offset_pa: float) -> Unit:
-    return u.with_effects(sensor=Sensor(force_offset_n=offset_n, pressure_offset_pa=pressure_offset_pa, time_constant_s=0.0))
-
-
 def _sensor_offset(u: Unit, p: Mapping[str, float]) -> Unit:
-    return _sensor(u, offset_n=p["sensor_force_offset_n"], pressure_offset_pa=p["sensor_pressure_offset_pa"])
+    lag = u.effects.sensor.time_constant_s if u.effects.sensor is not None else 0.0
+    return u.with_effects(sensor=Sensor(p["sensor_force_offset_n"], p["sensor_pressure_offset_pa"], lag))
 
 
-def _output_only(u: Unit, p: Mapping[str, float]) -> Unit:
-    # Applied to the simulated outputs by the fit (see fit.apply_sensor_lag):
-    # a first-order lag inside the ODE would force steps shorter than the
-    # lag on records hours long.
-    return u
+def _sensor_lag(u: Unit, p: Mapping[str, float]) -> Unit:
+    s = u.effects.sensor or Sensor()
+    return u.with_effects(sensor=Sensor(s.force_offset_n, s.pressure_offset_pa, p["sensor_time_constant_s"]))
 
 
-# Oil on the strut side of the damper (strut bore, hoses), m^3: the
-# compliance effect fits the effective bulk modulus of this volume.
-OIL_VOLUME_M3 = 1.0e-3
+# --- the step each effect's dynamics allow --------------------------------
+# RK4 is stable up to 2.8 time constants and accurate to well within a
+# rig's noise at one: each bound is one time constant.
+
+
+def _valve_lag_step(u: Unit) -> float | None:
+    return None if u.effects.valve_lag is None else u.effects.valve_lag.time_constant_s
+
+
+def _compliance_step(u: Unit) -> float | None:
+    # The oil volume's pressure relaxes through the damper's bleed:
+    # tau = V R / B, R the smallest bleed resistance of the damper pack.
+    c = u.effects.oil_compliance
+    if c is None:
+        return None
+    bleed = min(k.bleed_pa_s_per_m3 for k in (u.damper.on_compression, u.damper.on_rebound, u.damper.off_compression, u.damper.off_rebound))
+    return c.oil_volume_m3 * bleed / c.bulk_modulus_pa
+
+
+def _sensor_lag_step(u: Unit) -> float | None:
+    s = u.effects.sensor
+    return None if s is None or s.time_constant_s <= 0 else s.time_constant_s
+
+
+#: The equation of state the ``real_gas`` effect switches on.
+REAL_GAS = "bwr-textbook"
+#: Velocity over which the Coulomb friction is smoothed, m/s.
+FRICTION_SMOOTHING_VELOCITY_M_S = 2e-3
+#: Records shorter than these cannot show the slow effects.
+HEAT_BUILDUP_MIN_S = 300.0
+LEAKAGE_MIN_S = 600.0
 
 LIBRARY: dict[str, Effect] = {
     e.name: e
     for e in (
-        Effect("heat_transfer", "gas-wall heat transfer with a thermal time constant (the seed's Eq. 1) instead of a polytropic law",
-               (Param("tau_s", 0.05, 500.0, 2.0, log=True),), _heat_transfer, "sine records over a range of frequencies"),
-        Effect("real_gas", "Benedict-Webb-Rubin real nitrogen instead of the ideal gas", (), _real_gas, "large compressions / high pressure"),
-        Effect("friction", "seal friction: Coulomb plus viscous",
-               (Param("friction_coulomb_n", 0.0, 5000.0, 200.0), Param("friction_viscous_n_s_per_m", 0.0, 20000.0, 100.0)), _friction,
-               "any motion; independent of frequency"),
-        Effect("oil_compliance", "oil compressibility and hose compliance between strut and damper",
-               (Param("oil_bulk_modulus_pa", 2e7, 3e9, 1e9, log=True),), _oil_compliance, "fast motion through the damper"),
-        Effect("heat_buildup", "damper heat warming the oil and, slowly, the gas (lumped oil node)",
-               (Param("oil_heat_capacity_j_per_k", 1e3, 1e6, 2e4, log=True), Param("wall_to_oil_tau_s", 100.0, 1e5, 5000.0, log=True)),
-               _heat_buildup, "long runs with the damper working"),
-        Effect("leakage", "slow gas loss from the accumulators", (Param("leak_time_constant_s", 1e3, 1e8, 1e6, log=True),), _leakage,
-               "long holds"),
-        Effect("valve_lag", "first-order response of the solenoid valves", (Param("valve_time_constant_s", 2e-3, 1.0, 0.03, log=True),), _valve_lag,
-               "valve switching during motion"),
-        Effect("sensor_offset", "offsets of the force and pressure transducers",
-               (Param("sensor_force_offset_n", -1e4, 1e4, 0.0), Param("sensor_pressure_offset_pa", -2e6, 2e6, 0.0)), _sensor_offset, "any record"),
-        Effect("sensor_lag", "first-order lag of the transducers", (Param("sensor_time_constant_s", 1e-3, 0.5, 0.01, log=True),), _output_only,
-               "fast motion"),
+        Effect(
+            "heat_transfer", "gas-wall heat transfer with a thermal time constant (the seed's Eq. 1) instead of a polytropic law",
+            (Param("tau_s", 0.05, 500.0, 2.0, 2.0, (0.7, 6.0), log=True),), _heat_transfer,
+            "sine records over a range of frequencies",
+        ),
+        Effect("real_gas", "real nitrogen (the core's real-gas equation of state) instead of the ideal gas", (), _real_gas,
+               "large compressions / high pressure"),
+        Effect(
+            "friction", "seal friction: Coulomb plus viscous",
+            (Param("friction_coulomb_n", 0.0, 5000.0, 200.0, 400.0, (150.0, 1500.0), random_log=True),
+             Param("friction_viscous_n_s_per_m", 0.0, 20000.0, 100.0, 300.0, (0.0, 1000.0))),
+            _friction, "any motion; independent of frequency",
+        ),
+        Effect(
+            "oil_compliance", "oil compressibility and hose compliance between strut and damper",
+            (Param("oil_bulk_modulus_pa", 2e7, 3e9, 1e9, 3e8, (1.5e8, 8e8), log=True),), _oil_compliance,
+            "fast motion through the damper", tests=("fast",),
+            applies=lambda t: t.damper_works and t.longest_damper_on_s > 0, max_step_s=_compliance_step,
+        ),
+        Effect(
+            "heat_buildup", "damper heat warming the oil and, slowly, the gas (lumped oil node)",
+            (Param("oil_heat_capacity_j_per_k", 1e3, 1e6, 2e4, 2e4, (1.2e4, 3e4), log=True),
+             Param("wall_to_oil_tau_s", 100.0, 1e5, 5000.0, 5000.0, (2500.0, 8000.0), log=True)),
+            _heat_buildup, "long runs with the damper working", tests=("heat",),
+            applies=lambda t: t.longest_damper_on_s > HEAT_BUILDUP_MIN_S,
+        ),
+        Effect(
+            "leakage", "slow gas loss from the accumulators",
+            (Param("leak_time_constant_s", 1e3, 1e8, 1e6, 5e4, (2e4, 1.5e5), log=True),), _leakage,
+            "long holds", tests=("hold",), applies=lambda t: t.longest_s > LEAKAGE_MIN_S,
+        ),
+        Effect(
+            "valve_lag", "first-order response of the solenoid valves",
+            (Param("valve_time_constant_s", 2e-3, 1.0, 0.03, 0.03, (0.012, 0.08), log=True),), _valve_lag,
+            "valve switching during motion", tests=("switching",), applies=lambda t: t.switches_valves, max_step_s=_valve_lag_step,
+        ),
+        Effect(
+            "sensor_offset", "offsets of the force and pressure transducers",
+            (Param("sensor_force_offset_n", -1e4, 1e4, 0.0, 150.0, (120.0, 800.0), signed=True),
+             Param("sensor_pressure_offset_pa", -2e6, 2e6, 0.0, 2e4, (-1e5, 1e5))),
+            _sensor_offset, "any record",
+        ),
+        Effect(
+            "sensor_lag", "first-order lag of the transducers",
+            (Param("sensor_time_constant_s", 1e-3, 0.5, 0.01, 0.01, (0.004, 0.03), log=True),), _sensor_lag,
+            "fast motion", max_step_s=_sensor_lag_step, on_outputs=True,
+        ),
     )
 }
 
 # Parameters that every model has.
-POLYTROPIC = Param("polytropic_exponent", 1.0, 1.8, 1.3)
-CHARGE = Param("charge_scale", 0.7, 1.3, 1.0)
-DAMPER_GAIN = Param("damper_gain", 0.05, 20.0, 1.0, log=True)
+POLYTROPIC = Param("polytropic_exponent", 1.0, 1.8, 1.3, 1.3, (1.1, 1.5))
+CHARGE = Param("charge_scale", 0.7, 1.3, 1.0, 1.0, (0.9, 1.1))
+DAMPER_GAIN = Param("damper_gain", 0.05, 20.0, 1.0, 1.0, (0.7, 1.4), log=True)
 
 MODELS: dict[str, tuple[str, ...]] = {
     "classical": (),
     "seed": ("heat_transfer", "real_gas"),
     "full": tuple(LIBRARY),
 }
+
+
+def _check_against_core() -> None:
+    """Every parameter is a core parameter, and its fit bounds and random
+    range lie inside the core's valid range (so that nothing a fit or a
+    virtual rig tries is refused by the core)."""
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC]:
+        if p.name not in CORE_RANGES:
+            raise ParameterError(f"effect parameter {p.name!r} is not a parameter of the core ({', '.join(CORE_RANGES)})")
+        lo, hi = CORE_RANGES[p.name]
+        reach = (-p.random[1], p.random[1]) if p.signed else p.random
+        if not (lo <= p.lower <= p.initial <= p.upper <= hi and p.lower <= reach[0] <= p.random[0] <= p.random[1] <= p.upper):
+            raise ParameterError(f"effect parameter {p.name}: bounds [{p.lower:g}, {p.upper:g}], start {p.initial:g} and random range "
+                                 f"{p.random} must nest inside the core's range [{lo:g}, {hi:g}]")
+
+
+_check_against_core()
+
+
+def param(name: str) -> Param:
+    """A parameter of the registry (or a base parameter) by name."""
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN]:
+        if p.name == name:
+            return p
+    raise ParameterError(f"unknown parameter {name!r}; expected one of {', '.join(all_param_names())}")
+
+
+def all_param_names() -> list[str]:
+    """The parameters of every effect, in registry order."""
+    return [p.name for e in LIBRARY.values() for p in e.params]
 
 
 def parse_model(spec: str) -> tuple[str, ...]:
@@ -164,11 +340,14 @@ def parse_model(spec: str) -> tuple[str, ...]:
         elif token in LIBRARY:
             names.append(token)
         elif token not in ("", "none"):
-            from hpctl.errors import ParameterError
-
             raise ParameterError(
                 f"--model: unknown effect {token!r}; expected a model ({', '.join(MODELS)}) or effects from: {', '.join(LIBRARY)}"
             )
+    return ordered(names)
+
+
+def ordered(names: Sequence[str]) -> tuple[str, ...]:
+    """Effect names in registry order, without duplicates."""
     return tuple(n for n in LIBRARY if n in names)
 
 
@@ -182,11 +361,22 @@ def model_params(effects: Sequence[str]) -> list[Param]:
     return out
 
 
+def typical_values(effects: Sequence[str]) -> dict[str, float]:
+    """The typical value of every parameter of ``effects``."""
+    return {p.name: p.typical for e in effects for p in LIBRARY[e].params}
+
+
 def build_unit(base: Unit, effects: Sequence[str], values: Mapping[str, float]) -> Unit:
-    """``base`` (the classical ideal-gas polytropic unit) with ``effects``
+    """``base`` as the classical ideal-gas polytropic unit, with ``effects``
     switched on at parameter ``values``."""
-    unit = base.replace(gas="ideal", polytropic_exponent=values.get("polytropic_exponent", 1.3), tau_s=math.inf)
-    unit = unit.replace(effects=type(unit.effects)())
-    for name in effects:
+    unit = base.replace(gas="ideal", polytropic_exponent=values.get("polytropic_exponent", POLYTROPIC.initial), tau_s=math.inf, effects=Effects())
+    for name in ordered(effects):
         unit = LIBRARY[name].apply(unit, values)
     return unit
+
+
+def max_step_s(unit: Unit) -> float:
+    """The largest fixed step the dynamics of the unit's effects allow
+    (inf if none has fast dynamics)."""
+    steps = [step(unit) for e in LIBRARY.values() if (step := e.max_step_s) is not None]
+    return min((s for s in steps if s is not None), default=math.inf)

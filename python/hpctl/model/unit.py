@@ -13,12 +13,14 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
+import numpy as np
 import tomli_w
 
 from hpctl import _core
-from hpctl.errors import ParameterError
+from hpctl._coretypes import UnitDict
+from hpctl.errors import ParameterError, bad_argument, check_number
 
 GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
 
@@ -32,30 +34,6 @@ class DamperCurve:
     orifice_pa_s2_per_m6: float
     blowoff_pa: float
     blowoff_slope_pa_s_per_m3: float
-
-    @classmethod
-    def from_strut(
-        cls,
-        piston_area_m2: float,
-        c1_n_s_per_m: float,
-        c2_n_s2_per_m2: float,
-        blowoff_n: float,
-        slope_n_s_per_m: float,
-    ) -> DamperCurve:
-        """The curve giving strut force ``c1 v + c2 v^2`` up to ``blowoff_n``,
-        then ``slope`` above it, at strut velocity ``v``."""
-        a = piston_area_m2
-        return cls(c1_n_s_per_m / a**2, c2_n_s2_per_m2 / a**3, blowoff_n / a, slope_n_s_per_m / a**2)
-
-    def strut_force_n(self, piston_area_m2: float, vel_m_s: float) -> float:
-        """Strut force magnitude at strut speed ``vel_m_s`` (>= 0)."""
-        q = piston_area_m2 * vel_m_s
-        orifice = q * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q)
-        if orifice <= self.blowoff_pa:
-            return piston_area_m2 * orifice
-        r, k = self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6
-        q_b = 2 * self.blowoff_pa / (r + math.sqrt(r * r + 4 * k * self.blowoff_pa))
-        return piston_area_m2 * (self.blowoff_pa + self.blowoff_slope_pa_s_per_m3 * (q - q_b))
 
 
 @dataclass(frozen=True)
@@ -163,6 +141,7 @@ class Unit:
     stroke_extension_m: float
     end_stop_stiffness_n_per_m: float
     end_stop_damping_n_s_per_m: float
+    rated_speed_m_s: float
     effects: Effects = field(default_factory=Effects)
     polytropic_exponent: float | None = None
 
@@ -172,18 +151,24 @@ class Unit:
         return cls.from_dict(_core.seed_unit())
 
     def replace(self, **changes: Any) -> Unit:
-        """A copy with some fields changed."""
+        """A copy with some fields changed (unknown fields raise
+        :class:`~hpctl.errors.ParameterError`; values are checked when the
+        unit is used, by the core)."""
+        known = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(changes) - known)
+        if unknown:
+            raise ParameterError(f"Unit has no field {', '.join(unknown)} (fields: {', '.join(sorted(known))})")
         return dataclasses.replace(self, **changes)
 
     def with_effects(self, **effects: Any) -> Unit:
         """A copy with some effects set (or removed with ``None``)."""
         return self.replace(effects=dataclasses.replace(self.effects, **effects))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> UnitDict:
         """The plain-dict form the Rust core reads (absent effects omitted)."""
         d = dataclasses.asdict(self)
         d["effects"] = {k: v for k, v in d["effects"].items() if v is not None}
-        return d
+        return cast(UnitDict, d)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], source: str = "unit") -> Unit:
@@ -226,8 +211,8 @@ class Unit:
     # TOML has no infinity literal shared by all writers, so an adiabatic
     # tau is written as the string "inf".
     def to_toml(self, path: str | Path) -> None:
-        d = {k: v for k, v in self.to_dict().items() if v is not None}
-        if math.isinf(d["tau_s"]):
+        d: dict[str, Any] = {k: v for k, v in self.to_dict().items() if v is not None}
+        if math.isinf(self.tau_s):
             d["tau_s"] = "inf"
         Path(path).write_text(tomli_w.dumps({"unit": d}))
 
@@ -247,11 +232,21 @@ class Unit:
 
     def static_force_n(self, disp_m: float, t_k: float, spring_hard: bool) -> float:
         """Force at rest at compression ``disp_m`` with the gas at ``t_k``."""
-        return _core.static_force_n(self.to_dict(), disp_m, t_k, spring_hard)
+        return _core.static_force_n(self.to_dict(), check_number(disp_m, "disp_m"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
+
+    def load_pressure_pa(self, load_n: float) -> float:
+        """The gas pressure that carries ``load_n`` at rest, Pa."""
+        return _core.load_pressure_pa(self.to_dict(), load_n)
 
     def static_disp_for_load_m(self, load_n: float, t_k: float, spring_hard: bool) -> float:
         """Compression at which the unit carries ``load_n`` at rest, gas at ``t_k``."""
-        return _core.static_disp_for_load_m(self.to_dict(), load_n, t_k, spring_hard)
+        return _core.static_disp_for_load_m(self.to_dict(), check_number(load_n, "load_n"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
+
+
+def _flag(value: Any, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise bad_argument(name, value, "a bool")
+    return bool(value)
 
 
 def _expect_mapping(value: Any, where: str) -> dict[str, Any]:
@@ -261,3 +256,4 @@ def _expect_mapping(value: Any, where: str) -> dict[str, Any]:
 
 
 SEED_SPRUNG_MASS_KG: float = _core.seed_sprung_mass_kg()
+STANDARD_GRAVITY_M_S2: float = _core.STANDARD_GRAVITY_M_S2

@@ -13,16 +13,17 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from hpctl.caveats import Caveat  # noqa: E402
+from hpctl.data.output import OutputDir  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
 from hpctl.report.plots import save  # noqa: E402
 
 
-def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
+def record_plots(result: FitResult, out: OutputDir, prefix: str) -> list[Path]:
     """Per record: measured vs simulated over time, and the residual over
     time, displacement and velocity."""
-    out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
     for i, d in enumerate(result.datasets):
         sim = result.sims[i]
@@ -52,7 +53,7 @@ def record_plots(result: FitResult, out_dir: Path, prefix: str) -> list[Path]:
         for a in ax.ravel():
             a.grid(True, alpha=0.3)
         fig.suptitle(f"{d.name}: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}")
-        paths.append(save(fig, out_dir / f"{prefix}_{d.name}.png", dpi=90))
+        paths.append(save(fig, out.path(f"{prefix}_{d.name}.png"), dpi=90))
     return paths
 
 
@@ -64,9 +65,9 @@ def loop_area_plot(results: Sequence[tuple[str, FitResult]], path: Path) -> Path
         return None
     fig, ax = plt.subplots(figsize=(7, 4.5))
     measured = rows[0][1]
-    ax.semilogx([m["frequency_hz"] for m in measured], [m["measured_j"] for m in measured], "ko", label="measured")
+    ax.semilogx([m.frequency_hz for m in measured], [m.measured_j for m in measured], "ko", label="measured")
     for label, areas in rows:
-        ax.semilogx([m["frequency_hz"] for m in areas], [m["model_j"] for m in areas], "-", label=label)
+        ax.semilogx([m.frequency_hz for m in areas], [m.model_j for m in areas], "-", label=label)
     ax.set_xlabel("excitation frequency [Hz]")
     ax.set_ylabel("force-displacement loop area [J]")
     ax.grid(True, which="both", alpha=0.3)
@@ -105,15 +106,23 @@ def error_table(before: FitResult, after: FitResult | None = None) -> list[str]:
     return lines
 
 
-def fit_report(result: FitResult, out_dir: Path) -> Path:
-    """fit.md with parameters, errors and plots."""
-    plots = record_plots(result, out_dir, "fit")
+def warnings_section(caveats: Sequence[Caveat]) -> list[str]:
+    """A report's "Warnings" section (nothing when there are none)."""
+    if not caveats:
+        return []
+    return ["## Warnings", "", *[f"- `{c.code}`: {c.message}" for c in caveats], ""]
+
+
+def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
+    """fit.md with parameters, errors, plots and the warnings."""
+    plots = record_plots(result, out, "fit")
     lines = [
         "# hpctl fit",
         "",
         f"Model: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}; "
         f"{result.n} residuals; residual RMS / noise = {result.rms_ratio:.3f}; BIC = {result.bic:.1f}; {result.message}",
         "",
+        *warnings_section(caveats),
         "## Parameters",
         "",
         *params_table(result),
@@ -127,14 +136,13 @@ def fit_report(result: FitResult, out_dir: Path) -> Path:
         *[f"![{p.stem}]({p.name})" for p in plots],
         "",
     ]
-    path = out_dir / "fit.md"
-    path.write_text("\n".join(lines))
-    return path
+    out.write_text("fit.md", "\n".join(lines))
+    return out.final("fit.md")
 
 
-def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
-    """report.md: the story from the declared model to the verdict."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
+    """report.md: the story from the declared model to the verdict, and the
+    warnings."""
     initial, final = diag.initial, diag.final
     lines = [
         "# hpctl diagnosis",
@@ -149,7 +157,8 @@ def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
         lines.append("The residual of the declared model is indistinguishable from the measurement noise: nothing is left to explain.")
     else:
         lines.append("Structured residual remains that no effect in the library explains (see the residual analysis below).")
-    lines += ["", "## Records", "", "| record | kind | excitation | frequency [Hz] | amplitude [m] | samples |", "|---|---|---|---|---|---|"]
+    lines += ["", *warnings_section(caveats)]
+    lines += ["## Records", "", "| record | kind | excitation | frequency [Hz] | amplitude [m] | samples |", "|---|---|---|---|---|---|"]
     for d in final.datasets:
         t = d.record.test
         lines.append(f"| {d.name} | {d.record.kind} | {t.excitation} | {_fmt(t.frequency_hz)} | {_fmt(t.amplitude_m)} | {len(d.times_s)} |")
@@ -185,8 +194,8 @@ def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
                   "a Coulomb friction loop keeps its area at every frequency.", "",
                   "| frequency [Hz] | amplitude [m] | measured [J] | declared model [J] | final model [J] |", "|---|---|---|---|---|"]
         for a, b in zip(areas_initial, areas_final):
-            lines.append(f"| {a['frequency_hz']:g} | {_fmt(a['amplitude_m'])} | {a['measured_j']:.1f} | {a['model_j']:.1f} | {b['model_j']:.1f} |")
-        png = loop_area_plot([("declared model", initial), ("final model", final)], out_dir / "loop_areas.png")
+            lines.append(f"| {a.frequency_hz:g} | {_fmt(a.amplitude_m)} | {a.measured_j:.1f} | {a.model_j:.1f} | {b.model_j:.1f} |")
+        png = loop_area_plot([("declared model", initial), ("final model", final)], out.path("loop_areas.png"))
         if png:
             lines += ["", f"![loop areas]({png.name})"]
     lines += ["", "## Residual analysis of the final model", "",
@@ -198,13 +207,12 @@ def diagnosis_report(diag: Diagnosis, out_dir: Path) -> Path:
         lines += ["", "Strongest correlations of the final residual with physical quantities:", "",
                   "| record | channel | quantity | correlation |", "|---|---|---|---|"]
         lines += [f"| {c['record']} | {c['channel']} | {c['regressor']} | {c['r']:+.2f} |" for c in strongest]
-    before = record_plots(initial, out_dir, "declared")
-    after = record_plots(final, out_dir, "final")
+    before = record_plots(initial, out, "declared")
+    after = record_plots(final, out, "final")
     lines += ["", "## Plots", "", "Declared model:", "", *[f"![{p.stem}]({p.name})" for p in before], "", "Final model:", "",
               *[f"![{p.stem}]({p.name})" for p in after], ""]
-    path = out_dir / "report.md"
-    path.write_text("\n".join(lines))
-    return path
+    out.write_text("report.md", "\n".join(lines))
+    return out.final("report.md")
 
 
 def fit_summary(result: FitResult) -> dict[str, Any]:

@@ -17,16 +17,16 @@ from typing import Any, Literal
 import numpy as np
 
 from hpctl import _core
+from hpctl.caveats import Caveat, Code
 from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, OilNode, Unit
-from hpctl.sim import metrics
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, OilNode, Unit
+from hpctl.sim import checks, metrics
 from hpctl.sim.run import (
     Motion,
     Progress,
     Result,
     Sine,
     Step,
-    Steps,
     run_characterisation,
     run_sdof,
 )
@@ -38,12 +38,14 @@ SEED_AMPLITUDE_M = 0.1
 
 @dataclass
 class Experiment:
-    """One simulated test: its record and what it showed."""
+    """One simulated test: its record, what it showed, and what the result
+    cannot stand behind (:mod:`hpctl.caveats`)."""
 
     name: str
     record: RigRecord
     result: Result
     summary: dict[str, Any] = field(default_factory=dict)
+    caveats: list[Caveat] = field(default_factory=list)
 
 
 def spring_name(hard: bool) -> Literal["hard", "soft"]:
@@ -126,12 +128,35 @@ def characterisation(
         "peak_p_gas_pa": float(result["p_gas_true_pa"].max()),
         "peak_t_gas_k": float(result["t_gas_k"].max()),
     }
+    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, result.time_s, name)
     if isinstance(motion, Sine) and motion.frequency_hz * (t[-1] - t[0]) >= 1.0 - 1e-9:
         m = metrics.last_cycle(t, motion.frequency_hz)
         summary["loop_area_j"] = metrics.loop_area_j(x[m], f[m])
         spring_force = unit.piston_area_m2 * (result["p_gas_true_pa"] - unit.ambient_pressure_pa)
         summary["gas_loop_area_j"] = metrics.loop_area_j(x[m], spring_force[m])
-    return Experiment(name, record, result, summary)
+        caveats += _loop_caveats(unit, result, m, summary["gas_loop_area_j"], name)
+    return Experiment(name, record, result, summary, caveats)
+
+
+def _loop_caveats(unit: Unit, result: Result, cycle: Any, gas_loop_area_j: float, name: str) -> list[Caveat]:
+    """The gas loops of the last cycle: the gas's own p-V work cannot be
+    negative (second law); its force over the strut's stroke can be only
+    when the gas volume does not follow the strut (the oil cavitated)."""
+    work = sum(metrics.gas_work_j(result[p][cycle], result[v][cycle]) for p, v in (("p_gas_true_pa", "v_gas_m3"), ("p_gas2_true_pa", "v_gas2_m3")))
+    pv_scale = float(np.ptp(result["p_gas_true_pa"][cycle]) * np.ptp(result["v_gas_m3"][cycle]))
+    out = checks.loop_energy(work, pv_scale, name, "gas p-V")
+    stroke_scale = float(np.ptp(result["force_n"][cycle]) * np.ptp(result["disp_m"][cycle]))
+    if gas_loop_area_j < -1e-6 * stroke_scale:
+        if np.any(result["cavitating"][cycle] > 0.5):
+            out.append(Caveat(
+                Code.CAVITATION,
+                f"{name}: the oil cavitated in the strut, so the gas volume did not follow the strut and the gas spring's loop over the "
+                f"stroke is negative ({gas_loop_area_j:.4g} J); the unit is far outside its operating range",
+                {"run": name, "gas_loop_area_j": gas_loop_area_j},
+            ))
+        elif not out:
+            out += checks.loop_energy(gas_loop_area_j, stroke_scale, name, "gas force over the stroke")
+    return out
 
 
 def spring_characterisation(
@@ -172,7 +197,8 @@ def sdof_step(
     )
     summary: dict[str, Any] = {"spring": spring_name(spring_hard), "damper": damper_name(damper_on)}
     summary.update(metrics.step_response(result["time_s"], result["body_disp_m"], result["disp_m"], result["p_gas_true_pa"], height_m, start_s, rise_s))
-    return Experiment(name, record, result, summary)
+    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, result.time_s, name)
+    return Experiment(name, record, result, summary, caveats)
 
 
 def seed_experiments(unit: Unit, progress: Callable[[str], Progress | None] | None = None) -> list[Experiment]:
@@ -196,13 +222,6 @@ def headline(experiments: list[Experiment]) -> dict[str, Any]:
         if "natural_frequency_hz" in s and s["damper"] == "off" and s["natural_frequency_hz"] is not None:
             out[f"natural_frequency_{s['spring']}_hz"] = s["natural_frequency_hz"]
     return out
-
-
-def slow_steps(unit: Unit, *, spring_hard: bool, increment_m: float = 0.02, count: int = 4, dwell_s: float = 30.0, progress: Progress | None = None) -> Experiment:
-    """Slow increments with dwells: the isothermal characteristic."""
-    motion = Steps(increment_m, count, ramp_s=2.0, dwell_s=dwell_s)
-    return characterisation(unit, motion, motion.duration_s, spring_hard=spring_hard, damper_on=False, dt_s=1e-3, sample_dt_s=0.1, progress=progress)
-
 
 
 def seed_oil_node() -> OilNode:
@@ -252,7 +271,7 @@ def heat_buildup(
     last = metrics.last_cycle(t, frequency_hz)
     t_gas_end = float(np.mean(r["t_gas_k"][last]))
     t_oil_end = float(np.mean(r["t_oil_k"][last]))
-    load = sprung_mass_kg * 9.80665
+    load = sprung_mass_kg * STANDARD_GRAVITY_M_S2
 
     def rate(t_k: float) -> float:
         h = 1e-3

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, Union
+from typing import Any, Literal, Union, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
+from hpctl._coretypes import CaseDict, CharacterisationRigDict, MotionDict, SampledDict, SdofRigDict
+from hpctl.errors import bad_argument, check_flags, check_float_array, check_number
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 
 FloatArray = NDArray[np.float64]
@@ -81,13 +83,16 @@ class Sampled:
 Motion = Union[Hold, Sine, Step, Steps, Sampled]
 
 
-def _motion_dict(m: Motion) -> dict[str, Any]:
+def _motion_dict(m: Motion) -> MotionDict:
     if isinstance(m, Sampled):
-        d: dict[str, Any] = {"kind": "sampled", "time_s": np.ascontiguousarray(m.time_s, float), "disp_m": np.ascontiguousarray(m.disp_m, float)}
+        d: SampledDict = {"kind": "sampled", "time_s": check_float_array(m.time_s, "Sampled.time_s"),
+                          "disp_m": check_float_array(m.disp_m, "Sampled.disp_m")}
         if m.vel_m_s is not None:
-            d["vel_m_s"] = np.ascontiguousarray(m.vel_m_s, float)
+            d["vel_m_s"] = check_float_array(m.vel_m_s, "Sampled.vel_m_s")
         return d
-    return dict(vars(m))
+    if not isinstance(m, (Hold, Sine, Step, Steps)):
+        raise bad_argument("motion", m, "one of hpctl.Hold, Sine, Step, Steps, Sampled")
+    return cast(MotionDict, dict(vars(m)))
 
 
 @dataclass(frozen=True)
@@ -109,7 +114,7 @@ Progress = Callable[[int, int], None]
 
 def _case(
     unit: Unit,
-    rig: dict[str, Any],
+    rig: Rig,
     times_s: ArrayLike,
     *,
     spring_hard: bool | ArrayLike,
@@ -117,41 +122,84 @@ def _case(
     dt_s: float,
     ambient_k: float | None,
     channels: Sequence[str] | None,
-) -> dict[str, Any]:
-    def flags(v: bool | ArrayLike) -> bool | list[bool]:
-        return bool(v) if np.ndim(v) == 0 else [bool(x) for x in np.asarray(v).ravel()]
-
+) -> CaseDict:
+    if not isinstance(unit, Unit):
+        raise bad_argument("unit", unit, "an hpctl.Unit")
+    if channels is not None and (isinstance(channels, str) or not all(isinstance(c, str) for c in channels)):
+        raise bad_argument("channels", channels, f"a sequence of channel names ({', '.join(CHANNELS)})")
+    if not isinstance(rig, (CharacterisationRig, SdofRig)):
+        raise bad_argument("rig", rig, "a rig (hpctl.sim.run.characterisation_rig or sdof_rig)")
     return {
         "unit": unit.to_dict(),
-        "rig": rig,
-        "times_s": np.ascontiguousarray(times_s, dtype=float),
-        "dt_s": float(dt_s),
-        "ambient_k": unit.static_temperature_k if ambient_k is None else float(ambient_k),
-        "spring_hard": flags(spring_hard),
-        "damper_on": flags(damper_on),
+        "rig": rig.to_core(),
+        "times_s": check_float_array(times_s, "times_s"),
+        "dt_s": check_number(dt_s, "dt_s"),
+        "ambient_k": unit.static_temperature_k if ambient_k is None else check_number(ambient_k, "ambient_k"),
+        "spring_hard": check_flags(spring_hard, "spring_hard"),
+        "damper_on": check_flags(damper_on, "damper_on"),
         "channels": None if channels is None else list(channels),
     }
 
 
-def characterisation_rig(strut: Motion) -> dict[str, Any]:
-    """The rig description for a prescribed strut compression."""
-    return {"kind": "characterisation", "strut": _motion_dict(strut)}
+@dataclass(frozen=True)
+class CharacterisationRig:
+    """The characterisation rig: the actuator prescribes the strut's
+    compression."""
+
+    strut: Motion
+
+    def to_core(self) -> CharacterisationRigDict:
+        """The plain-dict form the Rust core reads."""
+        return {"kind": "characterisation", "strut": _motion_dict(self.strut)}
 
 
-def sdof_rig(base: Motion, sprung_mass_kg: float = SEED_SPRUNG_MASS_KG) -> dict[str, Any]:
-    """The rig description for a sprung mass on the unit over a moving base."""
-    return {"kind": "sdof", "sprung_mass_kg": float(sprung_mass_kg), "base": _motion_dict(base)}
+@dataclass(frozen=True)
+class SdofRig:
+    """The single-degree-of-freedom rig: a sprung mass on the unit over a
+    moving base."""
+
+    base: Motion
+    sprung_mass_kg: float = SEED_SPRUNG_MASS_KG
+
+    def to_core(self) -> SdofRigDict:
+        """The plain-dict form the Rust core reads."""
+        return {"kind": "sdof", "sprung_mass_kg": float(self.sprung_mass_kg), "base": _motion_dict(self.base)}
+
+
+Rig = Union[CharacterisationRig, SdofRig]
+
+
+def characterisation_rig(strut: Motion) -> CharacterisationRig:
+    """The rig for a prescribed strut compression."""
+    return CharacterisationRig(strut)
+
+
+def sdof_rig(base: Motion, sprung_mass_kg: float = SEED_SPRUNG_MASS_KG) -> SdofRig:
+    """The rig for a sprung mass on the unit over a moving base."""
+    return SdofRig(base, sprung_mass_kg)
+
+
+#: Most output samples of one run (8e8 bytes per channel).
+MAX_SAMPLES = 100_000_000
 
 
 def uniform_times(duration_s: float, sample_dt_s: float) -> FloatArray:
     """Output times 0, dt, 2 dt, ... up to ``duration_s``."""
+    duration_s = check_number(duration_s, "duration_s")
+    sample_dt_s = check_number(sample_dt_s, "sample_dt_s")
+    if duration_s < 0:
+        raise bad_argument("duration_s", duration_s, "a duration >= 0 s")
+    if sample_dt_s <= 0:
+        raise bad_argument("sample_dt_s", sample_dt_s, "an output interval > 0 s")
     n = int(round(duration_s / sample_dt_s))
+    if n > MAX_SAMPLES:
+        raise bad_argument("duration_s", duration_s, f"at most {MAX_SAMPLES:.0e} output samples ({n:.3g} at sample_dt_s = {sample_dt_s:g})")
     return np.arange(n + 1, dtype=float) * sample_dt_s
 
 
 def run(
     unit: Unit,
-    rig: dict[str, Any],
+    rig: Rig,
     times_s: ArrayLike,
     *,
     spring_hard: bool | ArrayLike = True,
@@ -199,7 +247,7 @@ class Case:
     """One run for :func:`run_many`."""
 
     unit: Unit
-    rig: dict[str, Any]
+    rig: Rig
     times_s: FloatArray
     spring_hard: bool | ArrayLike = True
     damper_on: bool | ArrayLike = True
@@ -209,9 +257,13 @@ class Case:
 
 
 def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result | Exception]:
-    """Runs cases in parallel in Rust (all cores unless ``threads``). A case
-    that fails yields its exception in place of a result."""
+    """Runs cases in parallel in Rust: ``threads`` None or 0 = all cores,
+    at most 4 x the cores (else :class:`~hpctl.errors.ParameterError`). A
+    case that fails yields its exception in place of a result. Ctrl-C stops
+    the batch between cases."""
     dicts = []
     for c in cases:
+        if not isinstance(c, Case):
+            raise bad_argument("cases", c, "a sequence of hpctl.sim.run.Case")
         dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, ambient_k=c.ambient_k, channels=c.channels))
     return [r if isinstance(r, Exception) else Result(dict(r)) for r in _core.simulate_many(dicts, threads)]

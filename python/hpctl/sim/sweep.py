@@ -8,8 +8,9 @@ import itertools
 from collections.abc import Callable
 from typing import Any
 
+from hpctl.caveats import Caveat
 from hpctl.model.unit import Unit
-from hpctl.sim import metrics
+from hpctl.sim import checks, metrics
 from hpctl.sim.run import Case, Step, run_many, sdof_rig, uniform_times
 
 START_S, RISE_S, DURATION_S = 0.5, 0.05, 6.0
@@ -38,26 +39,34 @@ def run_sweep(
     height_m: float,
     threads: int | None,
     say: Callable[[str], None] | None = None,
-) -> dict[str, Any]:
-    """Runs the grid; returns the summary with one row per case (:data:`COLUMNS`)."""
+) -> tuple[dict[str, Any], list[Caveat]]:
+    """Runs the grid; returns the summary with one row per case
+    (:data:`COLUMNS`) and the caveats: one per failed case, and what the
+    checks of :mod:`hpctl.sim.checks` find in the others."""
     cases = grid(unit, pressures_pa, taus_s, damper)
     times = uniform_times(DURATION_S, 1e-3)
     rig = sdof_rig(Step(height_m, START_S, RISE_S), mass_kg)
     sims = [
         Case(unit.replace(static_pressure_pa=p, tau_s=tau), rig, times, spring_hard=spring_hard, damper_on=on,
-             channels=("time_s", "disp_m", "body_disp_m", "p_gas_true_pa"))
+             channels=("time_s", "disp_m", "vel_m_s", "body_disp_m", "p_gas_true_pa", "p_gas2_true_pa", "t_gas_k", "t_gas2_k"))
         for p, tau, on in cases
     ]
     if say is not None:
         say(f"sweep: {len(sims)} SDOF step tests on {threads or 'all'} thread(s)")
     results = run_many(sims, threads=threads)
     rows = []
-    for (p, tau, on), r in zip(cases, results):
+    caveats: list[Caveat] = []
+    failed: dict[str, str] = {}
+    for (p, tau, on), sim, r in zip(cases, sims, results):
+        name = f"p = {p / 1e6:.4g} MPa, tau = {tau:g} s, damper {'on' if on else 'off'}"
         row: dict[str, Any] = {"static_pressure_pa": p, "tau_s": tau, "damper_on": int(on), "spring_hard": int(spring_hard)}
         if isinstance(r, Exception):
             row["error"] = str(r)
+            failed[name] = str(r)
         else:
             row.update(metrics.step_response(r["time_s"], r["body_disp_m"], r["disp_m"], r["p_gas_true_pa"], height_m, START_S, RISE_S))
             row["error"] = ""
+            caveats += checks.channels(sim.unit, r.channels, f"sweep case {name}")
         rows.append(row)
-    return {"test": "sweep", "cases": len(rows), "failed": sum(1 for r in rows if r["error"]), "rows": rows}
+    caveats = checks.failed_cases(failed, "sweep case") + caveats
+    return {"test": "sweep", "cases": len(rows), "failed": len(failed), "rows": rows}, caveats

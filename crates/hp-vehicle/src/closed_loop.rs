@@ -1,8 +1,10 @@
-//! The controller in closed loop with the plant model (`hp_core::rig`):
-//! for host simulation, tests and the Python closed-loop runner.
+//! The controller in closed loop with one unit on the SDOF rig
+//! (`hp_core::rig`): for host simulation, tests and the Python closed-loop
+//! runner. (The whole vehicle with one controller per wheel is
+//! [`crate::drive`].)
 //!
 //! Every control period the rig is sampled, the [`sensed`] inputs go
-//! through [`crate::step`], and the valve commands hold over the period
+//! through [`hp_ctrl::step`], and the valve commands hold over the period
 //! while the rig is integrated to the next one. No allocation and no
 //! panics, like the rest of the crate; the caller owns the road samples
 //! and receives each period through a callback.
@@ -16,7 +18,7 @@
 //! cannot follow the gas's adiabatic swings (tens of kelvin within
 //! milliseconds as valve 6 lets oil in), and the controller's plausibility
 //! limit on the temperature rate (200 K/s) assumes it does not. Vehicle
-//! signals and the driver's inputs come from a scenario ([`Vehicle`]).
+//! signals and the driver's inputs come from a scenario ([`VehicleSignals`]).
 //! Every input group is fresh every period.
 //!
 //! Timing: the controller acts on the sample at the start of a period and
@@ -26,11 +28,11 @@
 use hp_core::rig::{Rig, RigSample};
 use hp_core::unit::Valves;
 
-use crate::{input_group, step, DriverMode, Inputs, Outputs, Params, State};
+use hp_ctrl::{input_group, step, DriverMode, Inputs, Outputs, Params, State};
 
 /// The scenario's inputs of one period: what the vehicle and the driver do.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Vehicle {
+pub struct VehicleSignals {
     pub speed_m_s: f64,
     pub lat_acc_m_s2: f64,
     pub long_acc_m_s2: f64,
@@ -62,16 +64,16 @@ impl Default for Sensors {
 ///
 /// ```
 /// use hp_core::{presets, motion::Motion, rig::{Rig, RigKind}, unit::{Unit, Valves}};
-/// use hp_ctrl::closed_loop::{sensed, Vehicle};
+/// use hp_vehicle::closed_loop::{sensed, VehicleSignals};
 /// let unit = Unit::new(presets::seed_unit()).unwrap();
 /// let kind = RigKind::Sdof { sprung_mass_kg: presets::SEED_SPRUNG_MASS_KG, base: Motion::Hold { disp_m: 0.0 } };
 /// let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(false, true)).unwrap();
 /// let sample = rig.sample(0.0, &rig.initial_state().unwrap()).unwrap();
-/// let inputs = sensed(&sample, 293.15, &Vehicle { speed_m_s: 10.0, ..Vehicle::default() });
+/// let inputs = sensed(&sample, 293.15, &VehicleSignals { speed_m_s: 10.0, ..VehicleSignals::default() });
 /// assert_eq!(inputs.p_gas_pa, sample.unit.p_gas_pa);
 /// assert_eq!(inputs.speed_m_s, 10.0);
 /// ```
-pub fn sensed(sample: &RigSample, t_gas_k: f64, vehicle: &Vehicle) -> Inputs {
+pub fn sensed(sample: &RigSample, t_gas_k: f64, vehicle: &VehicleSignals) -> Inputs {
     Inputs {
         p_gas_pa: sample.unit.p_gas_pa,
         p_gas2_pa: sample.unit.p_gas2_pa,
@@ -116,7 +118,7 @@ pub struct Period<'a> {
 ///
 /// ```
 /// use hp_core::{presets, motion::Motion, rig::{Rig, RigKind}, unit::{Unit, Valves}};
-/// use hp_ctrl::closed_loop::{run, Sensors, Vehicle};
+/// use hp_vehicle::closed_loop::{run, Sensors, VehicleSignals};
 /// use hp_ctrl::{DriveMode, Params, State};
 /// let unit = Unit::new(presets::seed_unit()).unwrap();
 /// let kind = RigKind::Sdof { sprung_mass_kg: presets::SEED_SPRUNG_MASS_KG, base: Motion::Hold { disp_m: 0.0 } };
@@ -124,7 +126,7 @@ pub struct Period<'a> {
 /// let params = Params::seed_unit().unwrap();
 /// let mut state = State::new();
 /// let mut last = None;
-/// let vehicle = Vehicle { speed_m_s: 10.0, ..Vehicle::default() };
+/// let vehicle = VehicleSignals { speed_m_s: 10.0, ..VehicleSignals::default() };
 /// let sensors = Sensors::default();
 /// run(&rig, &params, &sensors, &mut state, 3000, 1e-3, 1e-3, |_, _| vehicle, |p| {
 ///     last = Some(*p.outputs);
@@ -143,7 +145,7 @@ pub fn run(
     periods: usize,
     dt_s: f64,
     max_dt_s: f64,
-    mut vehicle_at: impl FnMut(usize, f64) -> Vehicle,
+    mut vehicle_at: impl FnMut(usize, f64) -> VehicleSignals,
     mut on_period: impl FnMut(&Period<'_>) -> bool,
 ) -> Result<(), hp_core::Error> {
     hp_core::error::check_range("dt_s", dt_s, 1e-6, 10.0)?;

@@ -8,7 +8,7 @@ use hp_core::motion::Motion;
 use hp_core::presets;
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
-use hp_ctrl::closed_loop::{run, Sensors, Vehicle};
+use hp_vehicle::closed_loop::{run, Sensors, VehicleSignals};
 use hp_ctrl::{DriveMode, Params, SequencerState, State};
 
 const DT_S: f64 = 1.0e-3;
@@ -57,10 +57,10 @@ fn lowering_by_30_mm_on_a_rough_road_holds_what_the_gas_says() {
     let margin_pa = params.config().ride_height.valve6_margin_pa;
     let mut state = State::new();
     let request_s = 8.0;
-    let vehicle = |_: usize, t_s: f64| Vehicle {
+    let vehicle = |_: usize, t_s: f64| VehicleSignals {
         speed_m_s: 10.0,
         ride_height_request_m: if t_s >= request_s { -0.03 } else { 0.0 },
-        ..Vehicle::default()
+        ..VehicleSignals::default()
     };
     let (mut last_sample, mut last_out) = (None, None);
     let mut moved = false;
@@ -120,7 +120,7 @@ fn a_lane_change_enters_handling_at_once_and_ride_returns_after_the_hold() {
         }
     };
     let enter = params.config().mode.lat_acc_enter_m_s2;
-    let vehicle = |_: usize, t_s: f64| Vehicle { speed_m_s: 15.0, lat_acc_m_s2: lat(t_s), ..Vehicle::default() };
+    let vehicle = |_: usize, t_s: f64| VehicleSignals { speed_m_s: 15.0, lat_acc_m_s2: lat(t_s), ..VehicleSignals::default() };
     let mut modes = Vec::new();
     run(&rig, &params, &Sensors::default(), &mut State::new(), time_s.len() - 1, DT_S, DT_S, vehicle, |p| {
         modes.push((p.index as f64 * DT_S, p.inputs.lat_acc_m_s2, p.outputs.drive_mode, p.outputs.valve6_open));

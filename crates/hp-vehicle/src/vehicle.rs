@@ -1,0 +1,599 @@
+//! The full vehicle: a rigid body in heave, pitch and roll on two to four
+//! axles, one hydro-pneumatic unit and one tyre per wheel, each unit with
+//! its own valves, and the single-track handling model
+//! ([`crate::handling`]) for the lateral motion.
+//!
+//! Axes (ISO 8855): x forward, y left, z up. Displacements are from static
+//! equilibrium. Pitch is positive nose down, roll positive left side up
+//! (the body rolls that way in a left turn). Small angles: the body point
+//! above a wheel at `(x_i, y_i)` moves by `z - x_i pitch + y_i roll`.
+//!
+//! ```text
+//! heave:  m_s z''        = sum F_i - m_s g
+//! pitch:  I_yy pitch''   = -sum x_i F_i - m_s a_x h_cg
+//! roll:   I_ra roll''    = sum y_i F_i + m_s (a_y + g roll) (h_cg - h_rc)
+//! wheel:  m_u z_w,i''    = T_i - F_i - m_u g - dF_i
+//! ```
+//!
+//! `F_i` is strut `i`'s force (compression positive), `T_i` its tyre's
+//! (point contact, lifts off: [`crate::tyre`]). Roll is about the roll axis
+//! at height `h_rc` (`I_ra = I_xx + m_s (h_cg - h_rc)^2`): the springs carry
+//! the roll moment of the sprung mass's lateral inertia above it, with the
+//! destabilising shift of its weight; the part below it goes straight to
+//! the tyres through the links as the geometric load transfer `dF_i` (the
+//! sprung mass share of the axle at `h_rc` and the unsprung masses at the
+//! wheel centre, over the track). Pitch is about the centre of gravity
+//! with the braking or driving force at the ground (no anti-dive
+//! geometry). The lateral acceleration `a_y` comes from the single-track
+//! model; the longitudinal `a_x` and the speed are inputs.
+//!
+//! Static loads: the body sits at its nominal position with each wheel's
+//! share of the sprung weight distributed as equal linear springs would
+//! carry it (`L_i = a + b x_i`, with `sum L_i = m_s g` and no pitch moment);
+//! each unit sits where it carries its share ([`Unit::static_disp_for_load_m`]).
+//! The built-in vehicles put the centre of gravity at the middle of the
+//! axles, so every wheel carries the same load and the units sit at their
+//! static position.
+
+use hp_core::error::{check_range, Error, Result};
+use hp_core::ode::OdeSystem;
+use hp_core::unit::{Unit, UnitParams, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+
+use crate::corner::{self, CornerForces, CornerMotion};
+use crate::handling::{self, HandlingAxle, HandlingState};
+use crate::stepping;
+use crate::track::Road;
+use crate::tyre::Tyre;
+
+const G: f64 = STANDARD_GRAVITY_M_S2;
+
+/// Most axles a vehicle can have.
+pub const MAX_AXLES: usize = 4;
+/// Most wheels (two per axle).
+pub const MAX_CORNERS: usize = 2 * MAX_AXLES;
+/// States per corner: the unit's, wheel displacement and velocity.
+pub const CORNER_STATES: usize = UNIT_STATES + 2;
+/// States of the body: heave, pitch, roll with their rates; lateral
+/// velocity, yaw rate, heading, lateral position and distance travelled.
+pub const BODY_STATES: usize = 11;
+/// All states (unused corners stay at zero).
+pub const VEHICLE_STATES: usize = BODY_STATES + MAX_CORNERS * CORNER_STATES;
+
+/// The sprung mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Body {
+    /// Sprung mass, kg.
+    pub mass_kg: f64,
+    /// Roll inertia about the centre of gravity, kg m^2.
+    pub roll_inertia_kg_m2: f64,
+    /// Pitch inertia about the centre of gravity, kg m^2.
+    pub pitch_inertia_kg_m2: f64,
+    /// Yaw inertia of the whole vehicle, kg m^2.
+    pub yaw_inertia_kg_m2: f64,
+    /// Height of the centre of gravity above the ground, m.
+    pub cg_height_m: f64,
+    /// Height of the roll axis above the ground, m.
+    pub roll_centre_height_m: f64,
+}
+
+/// One axle: two wheels, each with its unit, tyre and unsprung mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Axle {
+    /// Position ahead of the centre of gravity, m (front axle first).
+    pub x_m: f64,
+    /// Track width (between the wheel centres), m.
+    pub track_m: f64,
+    /// Unsprung mass per wheel, kg.
+    pub unsprung_mass_kg: f64,
+    /// Wheel centre height (loaded radius), m.
+    pub wheel_radius_m: f64,
+    pub tyre: Tyre,
+    /// Cornering stiffness of the axle (both tyres), N/rad.
+    pub cornering_stiffness_n_per_rad: f64,
+    /// Road-wheel angle per unit of the front axle's (1 front, 0 unsteered).
+    pub steer_ratio: f64,
+    /// The unit at each wheel of this axle.
+    pub unit: UnitParams,
+}
+
+/// Where ride comfort is measured (ISO 2631-1 at the seat).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Seat {
+    /// Ahead of the centre of gravity, m.
+    pub x_m: f64,
+    /// Left of the centre line, m.
+    pub y_m: f64,
+    /// Height of the seat surface above the ground, m.
+    pub height_m: f64,
+}
+
+/// Everything that defines a vehicle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VehicleParams {
+    pub body: Body,
+    /// The axles, front first; only the first `axle_count` are used.
+    pub axles: [Axle; MAX_AXLES],
+    pub axle_count: usize,
+    /// Steering-wheel angle per front road-wheel angle.
+    pub steering_ratio: f64,
+    pub seat: Seat,
+}
+
+/// A wheel station's geometry and static state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CornerGeometry {
+    /// Index of its axle.
+    pub axle: usize,
+    /// Left wheel (else right).
+    pub left: bool,
+    pub x_m: f64,
+    pub y_m: f64,
+    /// Static share of the sprung weight, N.
+    pub static_load_n: f64,
+    /// Static strut compression, m.
+    pub static_disp_m: f64,
+    /// Static tyre deflection, m.
+    pub tyre_static_deflection_m: f64,
+    /// Geometric load transfer: extra downward force on the wheel per unit
+    /// of lateral acceleration, N / (m/s^2).
+    pub lateral_transfer_kg: f64,
+    /// Unsprung mass, kg.
+    pub unsprung_mass_kg: f64,
+    pub tyre: Tyre,
+}
+
+/// The inputs of one control period, held over it: what the driver does.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DriveInputs {
+    /// Forward speed, m/s.
+    pub speed_m_s: f64,
+    /// Longitudinal acceleration, m/s^2 (negative = braking).
+    pub long_acc_m_s2: f64,
+    /// Steering-wheel angle, rad (left positive).
+    pub steer_angle_rad: f64,
+}
+
+/// A validated vehicle with its static equilibrium.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vehicle {
+    params: VehicleParams,
+    /// The unit of each corner (a copy per wheel keeps the hot loop flat).
+    units: [Unit; MAX_CORNERS],
+    corners: [CornerGeometry; MAX_CORNERS],
+    handling: [HandlingAxle; MAX_AXLES],
+    ambient_k: f64,
+    total_mass_kg: f64,
+    roll_arm_m: f64,
+    roll_axis_inertia_kg_m2: f64,
+}
+
+/// The state of a vehicle: a flat array for the integrator, read through
+/// accessors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VehicleState {
+    pub y: [f64; VEHICLE_STATES],
+}
+
+impl VehicleState {
+    /// Corner `i`'s unit state (None beyond the array).
+    pub fn unit(&self, i: usize) -> Option<UnitState> {
+        corner_chunks(&self.y).nth(i).map(|c| split_corner(c).0)
+    }
+
+    /// Distance travelled, m.
+    pub fn distance_m(&self) -> f64 {
+        self.y.get(10).copied().unwrap_or(0.0)
+    }
+}
+
+/// The body's motion at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BodySample {
+    pub heave_m: f64,
+    pub heave_vel_m_s: f64,
+    pub heave_acc_m_s2: f64,
+    pub pitch_rad: f64,
+    pub pitch_rate_rad_s: f64,
+    pub pitch_acc_rad_s2: f64,
+    pub roll_rad: f64,
+    pub roll_rate_rad_s: f64,
+    pub roll_acc_rad_s2: f64,
+}
+
+/// One wheel station at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CornerSample {
+    /// Strut, unit and tyre (the tyre force is the wheel load on the road).
+    pub forces: CornerForces,
+    pub wheel_disp_m: f64,
+    pub wheel_vel_m_s: f64,
+    pub wheel_acc_m_s2: f64,
+    /// Road height under the wheel, m.
+    pub road_m: f64,
+    /// Vertical acceleration of the body above the wheel, gravity removed, m/s^2.
+    pub body_acc_m_s2: f64,
+    /// Gas volumes of S and L, m^3.
+    pub v_gas_m3: f64,
+    pub v_gas2_m3: f64,
+    pub valves: Valves,
+}
+
+/// Everything observed at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct VehicleSample {
+    pub time_s: f64,
+    pub distance_m: f64,
+    pub speed_m_s: f64,
+    pub long_acc_m_s2: f64,
+    pub steer_angle_rad: f64,
+    /// Lateral acceleration of the centre of gravity, m/s^2.
+    pub lat_acc_m_s2: f64,
+    pub lat_vel_m_s: f64,
+    pub yaw_rate_rad_s: f64,
+    pub heading_rad: f64,
+    /// Lateral position of the centre of gravity, m.
+    pub lateral_pos_m: f64,
+    pub body: BodySample,
+    /// Specific force at the seat in body axes (what an accelerometer on the
+    /// seat reads, gravity removed from z), m/s^2.
+    pub seat_acc_x_m_s2: f64,
+    pub seat_acc_y_m_s2: f64,
+    pub seat_acc_z_m_s2: f64,
+    pub corners: [CornerSample; MAX_CORNERS],
+    pub corner_count: usize,
+}
+
+impl Vehicle {
+    /// Checks every parameter, builds the units and finds the static
+    /// equilibrium with every unit's valves at `valves`, at ambient
+    /// temperature `ambient_k` (also the initial gas temperature).
+    pub fn new(params: VehicleParams, ambient_k: f64, valves: Valves) -> Result<Self> {
+        check_range("ambient_k", ambient_k, 200.0, 600.0)?;
+        let b = &params.body;
+        check_range("axle_count", params.axle_count as f64, 2.0, MAX_AXLES as f64)?;
+        check_range("body_mass_kg", b.mass_kg, 10.0, 1e6)?;
+        check_range("roll_inertia_kg_m2", b.roll_inertia_kg_m2, 1.0, 1e8)?;
+        check_range("pitch_inertia_kg_m2", b.pitch_inertia_kg_m2, 1.0, 1e8)?;
+        check_range("yaw_inertia_kg_m2", b.yaw_inertia_kg_m2, 1.0, 1e8)?;
+        check_range("cg_height_m", b.cg_height_m, 0.05, 10.0)?;
+        check_range("roll_centre_height_m", b.roll_centre_height_m, -1.0, b.cg_height_m)?;
+        check_range("steering_ratio", params.steering_ratio, 1.0, 100.0)?;
+        check_range("seat_x_m", params.seat.x_m, -50.0, 50.0)?;
+        check_range("seat_y_m", params.seat.y_m, -10.0, 10.0)?;
+        check_range("seat_height_m", params.seat.height_m, 0.0, 10.0)?;
+        let axles = params.axles.get(..params.axle_count).unwrap_or(&[]);
+        let mut last_x = f64::INFINITY;
+        for a in axles {
+            check_range("axle_x_m", a.x_m, -50.0, last_x)?;
+            if a.x_m == last_x {
+                return Err(Error::OutOfRange { name: "axle_x_m (front axle first, distinct)", value: a.x_m, min: -50.0, max: last_x });
+            }
+            last_x = a.x_m;
+            check_range("track_m", a.track_m, 0.2, 10.0)?;
+            check_range("unsprung_mass_kg", a.unsprung_mass_kg, 0.1, 1e5)?;
+            check_range("wheel_radius_m", a.wheel_radius_m, 0.05, 5.0)?;
+            a.tyre.validate()?;
+            check_range("cornering_stiffness_n_per_rad", a.cornering_stiffness_n_per_rad, 1e2, 1e8)?;
+            check_range("steer_ratio", a.steer_ratio, -1.0, 1.0)?;
+        }
+        // Static loads of equal linear springs: L_i = a + b x_i per wheel,
+        // sum L = m g, sum x L = 0 (two wheels per axle).
+        let n = 2.0 * axles.len() as f64;
+        let sx: f64 = axles.iter().map(|a| 2.0 * a.x_m).sum();
+        let sxx: f64 = axles.iter().map(|a| 2.0 * a.x_m * a.x_m).sum();
+        let weight = b.mass_kg * G;
+        let det = n * sxx - sx * sx;
+        let (ca, cb) = (weight * sxx / det, -weight * sx / det);
+        let [first, ..] = params.axles;
+        let mut units = [Unit::new(first.unit)?; MAX_CORNERS];
+        let unused = CornerGeometry {
+            axle: 0,
+            left: true,
+            x_m: 0.0,
+            y_m: 0.0,
+            static_load_n: 0.0,
+            static_disp_m: 0.0,
+            tyre_static_deflection_m: 0.0,
+            lateral_transfer_kg: 0.0,
+            unsprung_mass_kg: first.unsprung_mass_kg,
+            tyre: first.tyre,
+        };
+        let mut corners = [unused; MAX_CORNERS];
+        let mut handling = [HandlingAxle::default(); MAX_AXLES];
+        let mut unsprung_total = 0.0;
+        for (k, a) in axles.iter().enumerate() {
+            let unit = Unit::new(a.unit)?;
+            let load = ca + cb * a.x_m;
+            if !(load > 0.0) {
+                return Err(Error::OutOfRange { name: "axle_x_m (centre of gravity outside the axles)", value: a.x_m, min: f64::NAN, max: f64::NAN });
+            }
+            let static_disp_m = unit.static_disp_for_load_m(load, ambient_k, valves)?;
+            let axle_sprung_kg = 2.0 * load / G;
+            let transfer = (axle_sprung_kg * b.roll_centre_height_m + 2.0 * a.unsprung_mass_kg * a.wheel_radius_m) / a.track_m;
+            for (side, left) in [(0usize, true), (1usize, false)] {
+                let y = if left { 0.5 * a.track_m } else { -0.5 * a.track_m };
+                if let Some(c) = corners.get_mut(2 * k + side) {
+                    *c = CornerGeometry {
+                        axle: k,
+                        left,
+                        x_m: a.x_m,
+                        y_m: y,
+                        static_load_n: load,
+                        static_disp_m,
+                        tyre_static_deflection_m: (load + a.unsprung_mass_kg * G) / a.tyre.stiffness_n_per_m,
+                        // A left turn (a_y > 0) loads the right wheels.
+                        lateral_transfer_kg: if left { -transfer } else { transfer },
+                        unsprung_mass_kg: a.unsprung_mass_kg,
+                        tyre: a.tyre,
+                    };
+                }
+                if let Some(u) = units.get_mut(2 * k + side) {
+                    *u = unit;
+                }
+            }
+            if let Some(h) = handling.get_mut(k) {
+                *h = HandlingAxle { x_m: a.x_m, cornering_stiffness_n_per_rad: a.cornering_stiffness_n_per_rad, steer_ratio: a.steer_ratio };
+            }
+            unsprung_total += 2.0 * a.unsprung_mass_kg;
+        }
+        let roll_arm_m = b.cg_height_m - b.roll_centre_height_m;
+        Ok(Vehicle {
+            params,
+            units,
+            corners,
+            handling,
+            ambient_k,
+            total_mass_kg: b.mass_kg + unsprung_total,
+            roll_arm_m,
+            roll_axis_inertia_kg_m2: b.roll_inertia_kg_m2 + b.mass_kg * roll_arm_m * roll_arm_m,
+        })
+    }
+
+    /// The parameters it was built from.
+    pub fn params(&self) -> &VehicleParams {
+        &self.params
+    }
+
+    /// Number of wheels.
+    pub fn corner_count(&self) -> usize {
+        2 * self.params.axle_count
+    }
+
+    /// The wheel stations (the first [`Vehicle::corner_count`] are used):
+    /// axle by axle from the front, left wheel first.
+    pub fn corners(&self) -> &[CornerGeometry] {
+        self.corners.get(..self.corner_count()).unwrap_or(&[])
+    }
+
+    /// The unit of corner `i`.
+    pub fn unit(&self, i: usize) -> Option<&Unit> {
+        self.units.get(..self.corner_count()).and_then(|u| u.get(i))
+    }
+
+    /// Ambient temperature, K.
+    pub fn ambient_k(&self) -> f64 {
+        self.ambient_k
+    }
+
+    /// Total mass (sprung and unsprung), kg.
+    pub fn total_mass_kg(&self) -> f64 {
+        self.total_mass_kg
+    }
+
+    /// At rest in static equilibrium on a level road at height zero, every
+    /// unit's valves at `valves`.
+    pub fn initial_state(&self, valves: &[Valves; MAX_CORNERS]) -> Result<VehicleState> {
+        let mut y = [0.0; VEHICLE_STATES];
+        let (_, corner_y) = y.split_at_mut(BODY_STATES);
+        for (((c, unit), v), cy) in self.corners().iter().zip(&self.units).zip(valves).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
+            let s = unit.state_at_rest(c.static_disp_m, self.ambient_k, *v)?.to_array();
+            if let Some(o) = cy.first_chunk_mut::<UNIT_STATES>() {
+                *o = s;
+            }
+        }
+        Ok(VehicleState { y })
+    }
+
+    /// The vehicle on `road` with the period's `drive` inputs and valve
+    /// commands: the ODE system the integrator steps.
+    pub fn dynamics<'a>(&'a self, road: &'a Road<'a>, drive: DriveInputs, valves: [Valves; MAX_CORNERS]) -> Dynamics<'a> {
+        Dynamics { vehicle: self, road, drive, valves }
+    }
+}
+
+/// A vehicle on a road with the inputs and valves of one period.
+#[derive(Debug, Clone, Copy)]
+pub struct Dynamics<'a> {
+    vehicle: &'a Vehicle,
+    road: &'a Road<'a>,
+    pub drive: DriveInputs,
+    pub valves: [Valves; MAX_CORNERS],
+}
+
+/// The corners' parts of a state (or rate) array.
+fn corner_chunks(y: &[f64; VEHICLE_STATES]) -> core::slice::ChunksExact<'_, f64> {
+    y.get(BODY_STATES..).unwrap_or(&[]).chunks_exact(CORNER_STATES)
+}
+
+/// A corner's unit state and wheel displacement and velocity.
+#[inline]
+fn split_corner(cy: &[f64]) -> (UnitState, f64, f64) {
+    let unit = cy.first_chunk::<UNIT_STATES>().map(UnitState::from_array).unwrap_or_default();
+    let [wheel_disp, wheel_vel] = cy.last_chunk::<2>().copied().unwrap_or_default();
+    (unit, wheel_disp, wheel_vel)
+}
+
+impl Dynamics<'_> {
+    /// The state rate, and the sample when one is asked for.
+    #[inline]
+    fn evaluate(&self, t_s: f64, y: &[f64; VEHICLE_STATES], mut sample: Option<&mut VehicleSample>) -> [f64; VEHICLE_STATES] {
+        let v = self.vehicle;
+        let b = &v.params.body;
+        let mut rate = [0.0; VEHICLE_STATES];
+        let [heave, heave_vel, pitch, pitch_rate, roll, roll_rate, lat_vel, yaw_rate, heading, lateral_pos, distance, ..] = *y;
+        let u = self.drive.speed_m_s;
+        let steer = self.drive.steer_angle_rad / v.params.steering_ratio;
+        let lateral = handling::rate(
+            v.handling.get(..v.params.axle_count).unwrap_or(&[]),
+            v.total_mass_kg,
+            b.yaw_inertia_kg_m2,
+            u,
+            steer,
+            &HandlingState { lat_vel_m_s: lat_vel, yaw_rate_rad_s: yaw_rate },
+        );
+        let a_y = lateral.lat_acc_m_s2;
+        let (mut force, mut moment_pitch, mut moment_roll) = (0.0, 0.0, 0.0);
+        let (_, corner_rate) = rate.split_at_mut(BODY_STATES);
+        let corners = v.corners().iter().zip(&v.units).zip(&self.valves).zip(corner_chunks(y).zip(corner_rate.chunks_exact_mut(CORNER_STATES)));
+        for (i, (((c, unit), valves), (cy, cr))) in corners.enumerate() {
+            let (unit_state, wheel_disp, wheel_vel) = split_corner(cy);
+            let track = if c.left { &self.road.left } else { &self.road.right };
+            let (road_m, slope) = track.at(distance + c.x_m);
+            let motion = CornerMotion {
+                body_disp_m: heave - c.x_m * pitch + c.y_m * roll,
+                body_vel_m_s: heave_vel - c.x_m * pitch_rate + c.y_m * roll_rate,
+                wheel_disp_m: wheel_disp,
+                wheel_vel_m_s: wheel_vel,
+                road_m,
+                road_vel_m_s: slope * u,
+            };
+            let (unit_rate, f) =
+                corner::evaluate(unit, &c.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, *valves, v.ambient_k);
+            let strut = f.unit.force_true_n;
+            let wheel_acc = (f.tyre_force_n - strut - c.lateral_transfer_kg * a_y) / c.unsprung_mass_kg - G;
+            force += strut;
+            moment_pitch -= c.x_m * strut;
+            moment_roll += c.y_m * strut;
+            if let Some(o) = cr.first_chunk_mut::<UNIT_STATES>() {
+                *o = unit_rate.to_array();
+            }
+            if let Some(o) = cr.last_chunk_mut::<2>() {
+                *o = [wheel_vel, wheel_acc];
+            }
+            if let Some(s) = sample.as_deref_mut().and_then(|s| s.corners.get_mut(i)) {
+                s.forces = f;
+                s.wheel_disp_m = wheel_disp;
+                s.wheel_vel_m_s = wheel_vel;
+                s.wheel_acc_m_s2 = wheel_acc;
+                s.road_m = road_m;
+                s.v_gas_m3 = unit_state.v_gas_m3;
+                s.v_gas2_m3 = unit_state.v_gas2_m3;
+                s.valves = *valves;
+            }
+        }
+        let m = b.mass_kg;
+        let heave_acc = force / m - G;
+        let pitch_acc = (moment_pitch - m * self.drive.long_acc_m_s2 * b.cg_height_m) / b.pitch_inertia_kg_m2;
+        let roll_acc = (moment_roll + m * (a_y + G * roll) * v.roll_arm_m) / v.roll_axis_inertia_kg_m2;
+        let (sin_h, cos_h) = (libm::sin(heading), libm::cos(heading));
+        if let Some(o) = rate.first_chunk_mut::<BODY_STATES>() {
+            *o = [
+                heave_vel,
+                heave_acc,
+                pitch_rate,
+                pitch_acc,
+                roll_rate,
+                roll_acc,
+                lateral.lat_vel_m_s2,
+                lateral.yaw_acc_rad_s2,
+                yaw_rate,
+                u * sin_h + lat_vel * cos_h,
+                u,
+            ];
+        }
+        if let Some(s) = sample {
+            let seat = &v.params.seat;
+            let a_x = self.drive.long_acc_m_s2;
+            s.time_s = t_s;
+            s.distance_m = distance;
+            s.speed_m_s = u;
+            s.long_acc_m_s2 = a_x;
+            s.steer_angle_rad = self.drive.steer_angle_rad;
+            s.lat_acc_m_s2 = a_y;
+            s.lat_vel_m_s = lat_vel;
+            s.yaw_rate_rad_s = yaw_rate;
+            s.heading_rad = heading;
+            s.lateral_pos_m = lateral_pos;
+            s.body = BodySample {
+                heave_m: heave,
+                heave_vel_m_s: heave_vel,
+                heave_acc_m_s2: heave_acc,
+                pitch_rad: pitch,
+                pitch_rate_rad_s: pitch_rate,
+                pitch_acc_rad_s2: pitch_acc,
+                roll_rad: roll,
+                roll_rate_rad_s: roll_rate,
+                roll_acc_rad_s2: roll_acc,
+            };
+            // Specific force in body axes: the body's acceleration at the
+            // seat (roll about the roll axis, pitch about the centre of
+            // gravity, yaw) and gravity's share along the tilted axes.
+            s.seat_acc_x_m_s2 = a_x - G * pitch + (seat.height_m - b.cg_height_m) * pitch_acc - seat.y_m * lateral.yaw_acc_rad_s2;
+            s.seat_acc_y_m_s2 = a_y + G * roll - (seat.height_m - b.roll_centre_height_m) * roll_acc + seat.x_m * lateral.yaw_acc_rad_s2;
+            s.seat_acc_z_m_s2 = heave_acc - seat.x_m * pitch_acc + seat.y_m * roll_acc;
+            s.corner_count = v.corner_count();
+            for (cs, c) in s.corners.iter_mut().zip(v.corners()) {
+                cs.body_acc_m_s2 = heave_acc - c.x_m * pitch_acc + c.y_m * roll_acc;
+            }
+        }
+        rate
+    }
+
+    fn check(&self, t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<()> {
+        let v = self.vehicle;
+        for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_chunks(y)) {
+            unit.check_state(&split_corner(cy).0, t_s)?;
+        }
+        let sum: f64 = y.iter().sum();
+        if sum.is_finite() {
+            Ok(())
+        } else {
+            let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(sum);
+            Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
+        }
+    }
+
+    fn project(&self, y: &mut [f64; VEHICLE_STATES]) {
+        let v = self.vehicle;
+        let (_, corner_y) = y.split_at_mut(BODY_STATES);
+        for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
+            if let Some(a) = cy.first_chunk_mut::<UNIT_STATES>() {
+                let mut s = UnitState::from_array(a);
+                unit.project(&mut s, v.ambient_k);
+                *a = s.to_array();
+            }
+        }
+    }
+
+    /// The state rate at `(t_s, state)`, with the observed quantities
+    /// written into `sample`; fails if the state is outside the model's
+    /// valid region.
+    pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<VehicleState> {
+        self.check(t_s, &state.y)?;
+        Ok(VehicleState { y: self.evaluate(t_s, &state.y, Some(sample)) })
+    }
+
+    /// The state rate at `(t_s, state)`.
+    pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<VehicleState> {
+        self.check(t_s, &state.y)?;
+        Ok(VehicleState { y: self.evaluate(t_s, &state.y, None) })
+    }
+
+    /// Advances from `t_s` to `t_end_s` in equal RK4 steps of at most
+    /// `max_dt_s`; `rate` is the state rate at `t_s` with these inputs and
+    /// valves (from [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
+    pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &VehicleState, max_dt_s: f64) -> Result<VehicleState> {
+        let y = stepping::advance(self, t_s, t_end_s, &state.y, &rate.y, max_dt_s, |t, y| {
+            self.project(y);
+            self.check(t, y)
+        })?;
+        Ok(VehicleState { y })
+    }
+}
+
+impl OdeSystem<VEHICLE_STATES> for Dynamics<'_> {
+    #[inline]
+    fn derivatives(&self, t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<[f64; VEHICLE_STATES]> {
+        Ok(self.evaluate(t_s, y, None))
+    }
+}

@@ -1,0 +1,47 @@
+"""The effect registry as a document (``docs/effects.md`` is this module's
+output: ``python -m hpctl.report.effects > docs/effects.md``; a test keeps
+the two equal)."""
+
+from __future__ import annotations
+
+from hpctl.model.effects import CORE_RANGES, LIBRARY, MODELS
+
+
+def _num(x: float) -> str:
+    return f"{x:g}"
+
+
+def markdown() -> str:
+    """The effect library: what each effect is, what reveals it, and its
+    parameters with fit bounds, typical values and the core's valid range."""
+    lines = [
+        "# The effect library",
+        "",
+        "Generated from the registry (`hpctl.model.effects.LIBRARY`) by",
+        "`python -m hpctl.report.effects > docs/effects.md`; do not edit by hand.",
+        "`hpctl diagnose --list-effects [--json]` prints the same.",
+        "",
+        "Models by name: " + "; ".join(f"`{m}` = {', '.join(f'`{e}`' for e in effects) or 'the classical polytropic ideal gas'}"
+                                       for m, effects in MODELS.items()) + ".",
+        "",
+        "| effect | what it is | revealed by | virtual-rig tests |",
+        "|---|---|---|---|",
+    ]
+    for name, e in LIBRARY.items():
+        lines.append(f"| `{name}` | {e.description} | {e.revealed_by} | {', '.join(f'`{t}`' for t in e.tests) or 'the sine sweep'} |")
+    lines += [
+        "",
+        "| parameter | effect | fit bounds | fit start | typical | random range | scale | core's valid range |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, e in LIBRARY.items():
+        for p in e.params:
+            lo, hi = CORE_RANGES[p.name]
+            rnd = f"±[{_num(p.random[0])}, {_num(p.random[1])}]" if p.signed else f"[{_num(p.random[0])}, {_num(p.random[1])}]"
+            lines.append(f"| `{p.name}` | `{name}` | [{_num(p.lower)}, {_num(p.upper)}] | {_num(p.initial)} | {_num(p.typical)} | {rnd} | "
+                         f"{'log' if p.log else 'linear'} | [{_num(lo)}, {_num(hi)}] |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(markdown(), end="")

@@ -1,0 +1,93 @@
+"""The effect registry is the one place an effect is declared: its
+parameters are the core's, inside the core's ranges; the tests it names
+exist; the docs are generated from it; the controller's enums carry the
+controller's own values."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hpctl import _core
+from hpctl.control.controller import DamperMode, Diag, DriveMode, DriverMode, InputGroup, SequencerState, SpringMode
+from hpctl.identify import virtual_rig
+from hpctl.model import effects
+from hpctl.model.effects import LIBRARY, Param, RecordTraits
+from hpctl.model.unit import Unit
+from hpctl.report.effects import markdown
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_parameter_is_the_cores_and_nests_in_its_range() -> None:
+    for e in LIBRARY.values():
+        for p in e.params:
+            lo, hi = _core.PARAMETER_RANGES[p.name]
+            assert lo <= p.lower <= p.initial <= p.upper <= hi, p.name
+            assert lo <= p.typical <= hi, p.name
+
+
+def test_a_parameter_outside_the_cores_range_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    bad = effects.Effect("bad", "", (Param("valve_time_constant_s", 1e-9, 1.0, 0.01, 0.01, (0.01, 0.02)),), lambda u, p: u, "")
+    monkeypatch.setitem(LIBRARY, "bad", bad)
+    with pytest.raises(ValueError, match="valve_time_constant_s.*core's range"):
+        effects._check_against_core()
+    monkeypatch.setitem(LIBRARY, "bad", effects.Effect("bad", "", (Param("no_such_n", 0, 1, 0.5, 0.5, (0, 1)),), lambda u, p: u, ""))
+    with pytest.raises(ValueError, match="not a parameter of the core"):
+        effects._check_against_core()
+
+
+def test_the_tests_each_effect_names_exist_in_the_virtual_rig() -> None:
+    known = set(virtual_rig.effect_tests())
+    for e in LIBRARY.values():
+        assert set(e.tests) <= known, (e.name, e.tests)
+
+
+def test_random_draws_stay_in_the_declared_range() -> None:
+    rng = np.random.default_rng(1)
+    for e in LIBRARY.values():
+        for p in e.params:
+            for _ in range(50):
+                v = p.draw(rng)
+                mag = abs(v) if p.signed else v
+                assert p.random[0] <= mag <= p.random[1], (p.name, v)
+
+
+def test_applicability_follows_the_traits() -> None:
+    short = RecordTraits(longest_s=30.0, longest_damper_on_s=0.0, switches_valves=False, damper_works=False)
+    assert not LIBRARY["valve_lag"].applies(short)
+    assert not LIBRARY["heat_buildup"].applies(short)
+    assert not LIBRARY["leakage"].applies(short)
+    assert not LIBRARY["oil_compliance"].applies(short)
+    assert LIBRARY["friction"].applies(short)
+    rich = RecordTraits(longest_s=900.0, longest_damper_on_s=600.0, switches_valves=True, damper_works=True)
+    assert all(e.applies(rich) for e in LIBRARY.values())
+
+
+def test_max_step_is_the_fastest_time_constant_of_the_units_effects() -> None:
+    u = Unit.seed()
+    assert effects.max_step_s(u) == math.inf
+    v = {"valve_time_constant_s": 0.02, "oil_bulk_modulus_pa": 3e8, "sensor_time_constant_s": 0.005}
+    lagged = LIBRARY["valve_lag"].apply(u, v)
+    assert effects.max_step_s(lagged) == pytest.approx(0.02)
+    both = LIBRARY["sensor_lag"].apply(lagged, v)
+    assert effects.max_step_s(both) == pytest.approx(0.005)
+    compliant = LIBRARY["oil_compliance"].apply(u, v)
+    bleed = min(c.bleed_pa_s_per_m3 for c in vars(u.damper).values())
+    assert effects.max_step_s(compliant) == pytest.approx(effects.OIL_VOLUME_M3 * bleed / 3e8)
+
+
+def test_effects_doc_is_generated_from_the_registry() -> None:
+    doc = (ROOT / "docs" / "effects.md").read_text()
+    assert doc == markdown(), "docs/effects.md is stale: python -m hpctl.report.effects > docs/effects.md"
+
+
+def test_controller_enums_carry_the_controllers_values() -> None:
+    for enum, names in ((DriverMode, _core.CTRL_DRIVER_MODES), (DriveMode, _core.CTRL_DRIVE_MODES), (SpringMode, _core.CTRL_SPRING_MODES),
+                        (DamperMode, _core.CTRL_DAMPER_MODES), (SequencerState, _core.CTRL_SEQUENCER_STATES)):
+        assert [m.name.lower() for m in sorted(enum, key=int)] == names
+    assert {m.name: int(m) for m in Diag} == _core.CTRL_DIAG_FLAGS
+    assert {m.name: int(m) for m in InputGroup if m.name != "ALL"} == _core.CTRL_INPUT_GROUPS

@@ -1,0 +1,132 @@
+"""The vehicles from Python: presets, the stepping plant, runs and their
+metrics on a short route, the lane-change geometry, bad input, and the
+``hpctl evaluate`` command."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import hpctl
+from hpctl import _core
+from hpctl.cli import main
+from hpctl.data.records import read_record
+from hpctl.vehicle import comparison, route
+from hpctl.vehicle.model import preset
+
+
+@pytest.fixture(scope="module")
+def short_runs() -> comparison.Evaluation:
+    """The 4x4 on a short mixed route: soft/low, hard/high and semi-active."""
+    return comparison.evaluate([preset("4x4")], route.mixed(scale=0.15), (comparison.PASSIVE[0], comparison.PASSIVE[3], comparison.SEMI_ACTIVE), threads=2)
+
+
+def test_presets_carry_three_tonnes_per_wheel_on_the_seed_unit() -> None:
+    for name, wheels in (("4x4", 4), ("8x8", 8)):
+        v = preset(name)
+        assert v.corner_count == wheels
+        s = v.statics()
+        assert np.allclose(s.static_load_n, 3000.0 * 9.80665)
+        # The seed unit's charge matches 3 t: it sits at its static position.
+        assert np.allclose(s.static_disp_m, 0.0, atol=1e-6)
+        assert s.total_mass_kg == pytest.approx(wheels * 3400.0)
+        # Round trip through the core's dict form.
+        assert type(v).from_core(name, v.to_core()) == v
+
+
+def test_the_plant_steps_one_period_at_a_time_with_valves_per_wheel() -> None:
+    v = preset("8x8")
+    flat = {"start_m": 0.0, "dx_m": 1.0, "left_m": np.zeros(2), "right_m": np.zeros(2)}
+    plant = _core.VehiclePlant(v.to_core(), flat, 293.15)
+    assert plant.corner_count == 8
+    s = plant.sample()
+    for _ in range(200):
+        s = plant.step(1e-3, [False] * 8, [True] * 8, 10.0)
+    assert plant.time_s == pytest.approx(0.2)
+    assert abs(s["heave_m"]) < 1e-9 and s["valve6_open"] == [1.0] * 8
+    with pytest.raises(hpctl.ParameterError, match="8 wheels"):
+        plant.step(1e-3, [False] * 4, [True] * 4, 10.0)
+    with pytest.raises(hpctl.ParameterError, match="unknown key vehicle.body.colour"):
+        d = v.to_core()
+        d["body"]["colour"] = "green"
+        _core.VehiclePlant(d, flat, 293.15)
+    with pytest.raises(hpctl.ParameterError, match="cg_height_m"):
+        d = v.to_core()
+        d["body"]["cg_height_m"] = -1.0
+        _core.VehiclePlant(d, flat, 293.15)
+
+
+def test_the_lane_change_has_the_iso_3888_2_layout() -> None:
+    lc = route.LaneChange(at_m=0.0, length_scale=1.0)
+    assert sum(lc.sections_m()) == pytest.approx(61.0)  # the standard's track length
+    w = 2.0
+    assert lc.offset_m(w) == pytest.approx((1.1 * w + 0.25) / 2 + 1.0 + (w + 1.0) / 2)
+    x = np.linspace(-5, 70, 7501)
+    y = lc.path_m(x, w)
+    assert y[0] == 0.0 and y[-1] == 0.0 and y.max() == pytest.approx(lc.offset_m(w))
+    # In section 3 the path is in the middle lane, in 1 and 5 in the entry lane.
+    assert np.allclose(y[(x > 25.5) & (x < 36.5)], lc.offset_m(w))
+    assert np.allclose(y[(x > 0) & (x < 12)], 0.0) and np.allclose(y[x > 49], 0.0)
+
+
+def test_the_driver_keeps_to_the_speed_limits_and_accelerations(short_runs: comparison.Evaluation) -> None:
+    r = short_runs.results[0].route
+    assert r is not None
+    d = route.drive(r, preset("4x4"))
+    assert np.all(np.abs(d.long_acc_m_s2) <= r.spec.accel_m_s2 * 1.001)
+    for s in r.sections:
+        m = (d.distance_m >= s.start_m + 1.0) & (d.distance_m < s.end_m)
+        assert np.all(d.speed_m_s[m] <= s.speed_m_s + 1e-9)
+
+
+def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard(short_runs: comparison.Evaluation) -> None:
+    soft, hard, semi = short_runs.results
+    assert not short_runs.failed
+    assert [s.kind for s in semi.sections] == ["start", "highway", "lane_change", "rough", "obstacles"]
+    # Handling: the semi-active unit enters Handling (hard, high) in the
+    # lane change and rolls within 10 % of the hard passive setting, far
+    # less than the soft one.
+    assert semi.roll_peak_rad < 1.1 * hard.roll_peak_rad < 0.5 * soft.roll_peak_rad
+    assert comparison.mode_share(semi, "lane_change") > 0.2
+    # Comfort: soft/low is the most comfortable passive setting on the rough track.
+    assert soft.comfort_m_s2 < hard.comfort_m_s2
+    for r in short_runs.results:
+        for s in r.sections:
+            assert 0 < s.ride.a_v_m_s2 < 5 and 0 <= s.wheels.dynamic_load_coefficient < 1
+    # Every warning names its case; lift-off in the metrics is in the warnings.
+    lifted = [r for r in short_runs.results if any(s.wheels.lifted_wheels for s in r.sections)]
+    assert all(any("lift-off" in w for w in r.warnings) for r in lifted)
+
+
+def test_a_failed_case_is_kept_as_a_warning_not_raised() -> None:
+    bad = comparison.Setting("broken", semi_active=True, config={"unit": {}})
+    r = comparison.run_case(comparison.Case(preset("4x4"), route.mixed(scale=0.05), bad))
+    assert r.error is not None and r.sections == [] and "case failed" in r.warnings[0]
+
+
+def test_the_evaluate_command_writes_table_plots_records_and_warnings(tmp_path: Path) -> None:
+    out = tmp_path / "ev"
+    res = CliRunner().invoke(main, ["evaluate", "--vehicle", "4x4", "--scale", "0.1", "--setting", "soft-low", "--setting", "semi-active",
+                                    "--threads", "2", "--out", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "comparison.json").read_text())
+    assert {c["setting"] for c in summary["cases"]} == {"soft, low damping", "semi-active"}
+    assert isinstance(summary["warnings"], list) and summary["failed"] == []
+    assert (out / "ride_handling.png").stat().st_size > 10_000 and (out / "comparison.md").read_text().startswith("| vehicle")
+    # One rig record per wheel of the semi-active run, readable by the record reader.
+    assert len(summary["records"]) == 4
+    rec = read_record(out / "records" / summary["records"][0])
+    assert rec.kind == "sdof" and rec.test.excitation == "drive" and "tyre_force_n" in rec
+    assert rec.sprung_mass_kg == pytest.approx(3000.0)
+    assert math.isfinite(float(rec["disp_m"].max()))
+
+
+@pytest.mark.parametrize(("args", "message"), [(["--scale", "2"], "scale"), (["--threads", "0"], "threads")])
+def test_the_evaluate_command_rejects_bad_input_with_exit_2(tmp_path: Path, args: list[str], message: str) -> None:
+    res = CliRunner().invoke(main, ["evaluate", "--vehicle", "4x4", "--out", str(tmp_path), *args])
+    assert res.exit_code == 2 and message in res.output

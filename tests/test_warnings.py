@@ -1,0 +1,264 @@
+"""Warnings as data (hpctl.caveats): every command collects what its result
+cannot stand behind, prints it, writes it into its JSON under "warnings",
+and --strict turns any of it into exit code 3. The checks are tested on
+inputs whose answer is known without the code under test: a stroke, the
+core's exported ranges, an analytic sine speed."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import hpctl
+from hpctl import _core
+from hpctl.caveats import Caveat, Code
+from hpctl.cli import main
+from hpctl.cli.closed_loop import _height_title
+from hpctl.control import closed_loop
+from hpctl.control.controller import seed_config
+from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord, write_record
+from hpctl.sim import checks, experiments, metrics
+from hpctl.sim.run import Sine
+
+
+def run(*args: str) -> tuple[int, str, str]:
+    r = CliRunner().invoke(main, list(args))
+    return r.exit_code, r.stdout, r.stderr
+
+
+def codes(document: dict[str, Any]) -> list[str]:
+    return [w["code"] for w in document["warnings"]]
+
+
+# ------------------------------------------------------------ the checks
+
+
+def test_end_stop_contact_is_found_at_the_stroke(seed_unit: hpctl.Unit) -> None:
+    t = np.linspace(0.0, 1.0, 101)
+    stroke = seed_unit.stroke_compression_m
+    inside = {"time_s": t, "disp_m": stroke * np.sin(np.pi * t)}  # touches, never passes
+    assert checks.end_stop(seed_unit, inside, "run") == []
+    beyond = {"time_s": t, "disp_m": (stroke + 0.01) * np.sin(np.pi * t)}
+    (c,) = checks.end_stop(seed_unit, beyond, "run")
+    assert c.code == Code.END_STOP and c.details["side"] == "compression"
+    assert c.details["max_over_travel_m"] == pytest.approx(0.01)
+    (c,) = checks.end_stop(seed_unit, {"time_s": t, "disp_m": -(seed_unit.stroke_extension_m + 0.002) * t}, "run")
+    assert c.details["side"] == "extension" and c.details["max_over_travel_m"] == pytest.approx(0.002)
+
+
+def test_the_gas_range_comes_from_the_core() -> None:
+    for gas in ("ideal", "bwr-cg", "bwr-textbook"):
+        (p_lo, p_hi), (t_lo, t_hi) = checks.validated_range(gas)
+        r = _core.gas_validated_range(gas)
+        assert (p_lo, p_hi) == tuple(r["pressure_pa"]) and (t_lo, t_hi) == tuple(r["temperature_k"])
+        inside = {"p_gas_true_pa": np.array([p_lo, p_hi]), "t_gas_k": np.array([t_lo, t_hi])}
+        assert checks.eos_range(gas, inside, "run") == []
+        (c,) = checks.eos_range(gas, {"p_gas_true_pa": np.array([p_hi * 1.01])}, "run")
+        assert c.code == Code.EOS_RANGE and c.details["value"] == pytest.approx(p_hi * 1.01)
+        (c,) = checks.eos_range(gas, {"t_gas2_k": np.array([t_lo - 1.0])}, "run")
+        assert c.details["channel"] == "t_gas2_k"
+    with pytest.raises(hpctl.ParameterError, match="gas"):
+        _core.gas_validated_range("steam")
+
+
+def test_rated_speed_of_a_sine_is_its_analytic_peak(seed_unit: hpctl.Unit) -> None:
+    t = np.linspace(0.0, 1.0, 20001)
+    for amplitude, f in ((0.05, 5.0), (0.05, 7.0)):
+        x = amplitude * np.sin(2 * np.pi * f * t)
+        found = checks.rated_speed(seed_unit, {"time_s": t, "disp_m": x}, "run")
+        peak = 2 * np.pi * f * amplitude
+        assert bool(found) == (peak > seed_unit.rated_speed_m_s)
+        if found:
+            assert found[0].details["max_speed_m_s"] == pytest.approx(peak, rel=1e-3)
+
+
+def test_the_seed_unit_is_rated_in_the_core(seed_unit: hpctl.Unit) -> None:
+    assert seed_unit.rated_speed_m_s == _core.seed_unit()["rated_speed_m_s"] > 0
+    with pytest.raises(hpctl.ParameterError, match="rated_speed_m_s = 0 is outside the valid range"):
+        seed_unit.replace(rated_speed_m_s=0.0).check()
+
+
+def test_loop_areas_close_the_cycle() -> None:
+    # A single-valued force (an isothermal gas) has no loop, however the
+    # samples fall on the period; an open path would report f x gap.
+    t = np.linspace(0.0, 1.0, 667, endpoint=False)[:-3]
+    x = 0.02 * np.sin(2 * np.pi * t)
+    assert metrics.loop_area_j(x, 3e4 + 1e6 * x) == pytest.approx(0.0, abs=1e-9)
+    # A viscous loop: pi c omega A^2 per cycle.
+    t = np.linspace(0.0, 1.0, 2001)
+    v = 0.02 * 2 * np.pi * np.cos(2 * np.pi * t)
+    assert metrics.loop_area_j(0.02 * np.sin(2 * np.pi * t), 1e4 * v) == pytest.approx(np.pi * 1e4 * 2 * np.pi * 0.02**2, rel=1e-5)
+
+
+@pytest.mark.parametrize("tau_s", [0.0, 2.0, float("inf")])
+def test_a_gas_absorbs_work_over_a_cycle(seed_unit: hpctl.Unit, tau_s: float) -> None:
+    e = experiments.characterisation(seed_unit.replace(tau_s=tau_s), Sine(0.02, 1.0), 3.0, spring_hard=False, damper_on=False,
+                                     dt_s=1e-3, sample_dt_s=1e-3)
+    r = e.result
+    m = metrics.last_cycle(r.time_s, 1.0)
+    work = sum(metrics.gas_work_j(r[p][m], r[v][m]) for p, v in (("p_gas_true_pa", "v_gas_m3"), ("p_gas2_true_pa", "v_gas2_m3")))
+    assert work > -1e-6 * 50.0  # the second law, to rounding (p dV scale ~50 J)
+    if 0 < tau_s < float("inf"):
+        assert work > 1.0
+    assert not [c for c in e.caveats if c.code in (Code.ENERGY_BALANCE, Code.CAVITATION)]
+
+
+def test_caveats_are_json(seed_unit: hpctl.Unit) -> None:
+    c = Caveat(Code.EOS_RANGE, "m", {"value": float("inf"), "flags": ["A"]})
+    assert json.loads(json.dumps(c.to_json())) == {"code": "eos_range", "message": "m", "details": {"value": None, "flags": ["A"]}}
+
+
+# ------------------------------------------------------------- simulate
+
+
+def test_a_50_hz_sine_says_why_its_gas_loop_is_negative(tmp_path: Path) -> None:
+    code, _, err = run("simulate", "--test", "sine", "--frequency-hz", "50", "--spring", "hard", "--damper", "on", "--out", str(tmp_path), "--quiet")
+    assert code == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    (r,) = s["runs"]
+    assert r["gas_loop_area_j"] < 0
+    assert {"rated_speed", "cavitation"} <= set(codes(s))
+    rated = next(w for w in s["warnings"] if w["code"] == "rated_speed")
+    assert rated["details"]["max_speed_m_s"] == pytest.approx(2 * np.pi * 50 * 0.05, rel=1e-3)
+    assert "warning [rated_speed]" in err and "warning [cavitation]" in err
+
+
+def test_strict_exits_3_and_still_writes_everything(tmp_path: Path) -> None:
+    code, stdout, err = run("simulate", "--test", "sdof-step", "--dt-s", "0.1", "--duration-s", "1", "--spring", "hard", "--damper", "on",
+                            "--out", str(tmp_path), "--strict", "--json")
+    assert code == 3 and "--strict: exit code 3" in err
+    s = json.loads(stdout)
+    assert s == json.loads((tmp_path / "summary.json").read_text())
+    (w,) = s["warnings"]
+    assert w["code"] == "step_replaced" and w["details"]["requested_dt_s"] == 0.1 and w["details"]["used_dt_s"] == pytest.approx(1e-3)
+    assert (tmp_path / "records" / "sdof_step_hard_on.csv").exists()
+
+
+def test_a_clean_run_has_no_warnings_and_strict_passes(tmp_path: Path) -> None:
+    code, stdout, err = run("simulate", "--test", "sdof-step", "--duration-s", "2", "--spring", "hard", "--damper", "on",
+                            "--out", str(tmp_path), "--strict", "--json")
+    assert code == 0, err
+    assert json.loads(stdout)["warnings"] == []
+
+
+def test_sweep_reports_failed_cases_and_fails_when_all_do(tmp_path: Path) -> None:
+    code, stdout, err = run("simulate", "--sweep", "--sweep-pressure-pa", "14811300,1e3", "--sweep-tau-s", "2", "--damper", "on", "--spring", "hard",
+                            "--out", str(tmp_path / "some"), "--json")
+    assert code == 0, err
+    s = json.loads(stdout)
+    assert s["failed"] == 1 and codes(s) == ["case_failed"]
+    assert "static_pressure_pa = 1000 is outside the valid range" in s["warnings"][0]["details"]["error"]
+    assert "1 of 2 sweep cases failed" in err
+    code, stdout, err = run("simulate", "--sweep", "--sweep-pressure-pa", "1e3", "--out", str(tmp_path / "none"))
+    assert code == 2 and "every one of the 6 sweep cases failed" in err
+    assert "Wrote" not in stdout and not (tmp_path / "none" / "sweep.csv").exists()
+
+
+# ----------------------------------------------------------- closed loop
+
+
+@pytest.fixture(scope="module")
+def rough_road() -> tuple[closed_loop.ClosedLoop, closed_loop.ClosedLoop, dict[str, Any]]:
+    return closed_loop.demo(road_class="E", speed_m_s=20.0, lower_m=0.05, seed=1)
+
+
+def test_a_rough_road_says_what_went_wrong(rough_road: tuple[closed_loop.ClosedLoop, closed_loop.ClosedLoop, dict[str, Any]]) -> None:
+    height, modes, summary = rough_road
+    caveats = closed_loop.demo_caveats(height, modes, summary)
+    found = {(c.code, c.details.get("run", c.details.get("change"))) for c in caveats}
+    for code in (Code.END_STOP, Code.EOS_RANGE, Code.SAFE_STATE, Code.RATED_SPEED):
+        assert (code, "ride-height run") in found
+    assert (Code.SEQUENCER_BLOCKED, "lowering") in found and (Code.TARGET_MISSED, "lowering") in found
+    # The strut's travel and the pressure that the warnings claim are real.
+    assert height.plant["disp_m"].max() > height.case.unit.stroke_compression_m
+    assert height.plant["p_gas_true_pa"].max() > checks.validated_range("bwr-textbook")[0][1]
+    assert not summary["lowering"]["reached"]
+    title = _height_title(summary, 0.05, "class E")
+    assert "NOT reached" in title and "and back" not in title
+
+
+def test_the_calm_demo_is_clean_and_claims_its_lowering() -> None:
+    height, modes, summary = closed_loop.demo(road_class="C", speed_m_s=10.0, lower_m=0.03, seed=1)
+    assert closed_loop.demo_caveats(height, modes, summary) == []
+    assert summary["lowering"]["reached"] and summary["raising"]["reached"]
+    assert _height_title(summary, 0.03, "class C") == "Pump-free lowering by 30 mm and back (class C)"
+
+
+def test_closed_loop_with_another_unit_configures_the_controller_for_it(tmp_path: Path) -> None:
+    other = hpctl.Unit.seed().replace(large_acc_volume_m3=0.9e-3, static_temperature_k=303.15)
+    config = closed_loop.config_for_unit(other)
+    assert config["unit"]["large_acc_volume_m3"] == 0.9e-3 and config["unit"]["static_temperature_k"] == 303.15
+    assert {k: v for k, v in config.items() if k != "unit"} == {k: v for k, v in seed_config().items() if k != "unit"}
+    assert closed_loop.config_for_unit(hpctl.Unit.seed()) == seed_config()
+    path = tmp_path / "other.toml"
+    other.to_toml(path)
+    code, stdout, err = run("closed-loop", "--unit", str(path), "--out", str(tmp_path / "out"), "--json", "--quiet")
+    assert code == 0, err
+    s = json.loads(stdout)
+    assert s["lowering"]["reached"] and abs(s["lowering"]["error_m"]) <= s["lowering"]["tolerance_m"], s["warnings"]
+    assert "target_missed" not in codes(s)
+
+
+def test_a_config_for_another_unit_is_a_warning() -> None:
+    other = hpctl.Unit.seed().replace(large_acc_volume_m3=0.9e-3)
+    scenario = closed_loop.Scenario(2.0, 5.0)
+    r = closed_loop.run(closed_loop.Case(scenario, unit=other, config=seed_config()))
+    (c,) = [c for c in closed_loop.run_caveats(r, "run") if c.code == Code.CONFIG_NOT_DERIVED]
+    assert c.details["fields"] == ["large_acc_volume_m3"]
+    r = closed_loop.run(closed_loop.Case(scenario, unit=other, config=closed_loop.config_for_unit(other)))
+    assert not [c for c in closed_loop.run_caveats(r, "run") if c.code == Code.CONFIG_NOT_DERIVED]
+
+
+# -------------------------------------------------------- fit, diagnose, rig
+
+
+def _negative_time_record(tmp: Path) -> Path:
+    t = np.linspace(-0.5, 20.0, 206)
+    x = 0.02 * np.sin(2 * np.pi * 0.1 * t)
+    rec = RigRecord(kind="characterisation", unit=RecordUnit(2e-3, 0.3e-3, 0.7e-3), static=RecordStatic(14811300.0, 293.15, 293.15),
+                    test=RecordTest("hard", "off", "sine", 0.02, 0.1), data={"time_s": t, "disp_m": x, "force_n": 3e4 + 1e6 * x}, name="neg")
+    write_record(rec, tmp / "neg")
+    return tmp / "neg"
+
+
+def test_a_failed_simulation_in_a_fit_is_an_error_not_a_converged_fit(tmp_path: Path) -> None:
+    code, stdout, err = run("fit", str(_negative_time_record(tmp_path)), "--out", str(tmp_path / "fit"), "--json")
+    assert code == 2
+    assert "record neg: the model cannot be simulated on it: time_s = -0.5 is outside the valid range" in err
+    assert stdout == "" and not (tmp_path / "fit" / "fit.json").exists()
+
+
+def test_fit_and_diagnose_warn_about_what_their_model_misses(tmp_path: Path) -> None:
+    rig = tmp_path / "rig"
+    code, _, err = run("rig", "--out", str(rig), "--effect", "friction", "--set", "friction_coulomb_n=1500", "--quiet", "--strict")
+    assert code == 0, err  # a virtual rig within its ranges: nothing to warn about
+    assert json.loads((rig / "truth.json").read_text())["warnings"] == []
+    code, stdout, err = run("fit", str(rig), "--model", "seed", "--out", str(tmp_path / "fit"), "--json", "--strict")
+    assert code == 3, err
+    s = json.loads(stdout)
+    assert "residual_structured" in codes(s) and s["rms_ratio"] > 1.5
+    assert s == json.loads((tmp_path / "fit" / "fit.json").read_text())
+    assert "## Warnings" in (tmp_path / "fit" / "fit.md").read_text()
+
+
+def test_record_gas_states_outside_the_range_are_warned(tmp_path: Path) -> None:
+    t = np.linspace(0.0, 10.0, 11)
+    data = {"time_s": t, "p_gas_pa": np.full(11, 120e6)}
+    (c,) = checks.eos_range("bwr-textbook", data, "record r")
+    assert c.details["channel"] == "p_gas_pa" and "record r" in c.message
+
+
+def test_messages_are_printed_as_text_never_markup(capsys: pytest.CaptureFixture[str]) -> None:
+    from hpctl.cli._ui import Reporter
+
+    rep = Reporter(quiet=False, as_json=False)
+    rep.warn([Caveat(Code.EOS_RANGE, "record [/x]: [static] [bold]p[/bold] out of range")])
+    rep.say("Wrote to out[/x]/")
+    captured = capsys.readouterr()
+    assert "record [/x]: [static] [bold]p[/bold] out of range" in captured.err
+    assert "Wrote to out[/x]/" in captured.out
