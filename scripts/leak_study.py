@@ -33,7 +33,7 @@ finishes; a rerun skips the cases already there):
   days and plans, 4 h each, until ``--hours`` of healthy driving in all:
   false alarms (the production detector's own fault flag).
 
-    scripts/leak_study.py [--hours 1000] [--threads 2] [--out out/leak-study]
+    scripts/leak_study.py [--hours 1000] [--threads 2] [--scale 1] [--out out/leak-study]
     scripts/leak_study.py --report-only      # the tables from OUT/cases.jsonl
 
 Prints the report (markdown tables, as in docs/controller.md) and writes
@@ -67,28 +67,30 @@ HIDING, SHOWING = (P_TOL_PA, T_TOL_K), (-P_TOL_PA, -T_TOL_K)
 CORNERS = [(p, t) for p in (-P_TOL_PA, P_TOL_PA) for t in (-T_TOL_K, T_TOL_K)]
 
 
-def case_specs(fleet_hours: float) -> Iterator[dict[str, Any]]:
-    """Every case of the study, with a stable id."""
+def case_specs(fleet_hours: float, scale: float = 1.0) -> Iterator[dict[str, Any]]:
+    """Every case of the study, with a stable id; ``scale`` shortens the
+    calibration, step and leak drives (a quicker, coarser study)."""
     days = list(gc.DAYS)
     for d, day in enumerate(days):
         # Healthy with the sensors at each corner of their tolerances; 5 %
         # lost with the sensors that hide a loss most.
         for c, (p, t) in enumerate([*CORNERS, HIDING]):
             ratio = 1.0 if c < len(CORNERS) else 0.95
-            yield {"id": f"cal-{day}-{c}-{ratio}", "study": "calibration", "day": day, "hours": 2.0, "seed": 1000 + 10 * d + c,
+            yield {"id": f"cal-{day}-{c}-{ratio}", "study": "calibration", "day": day, "hours": 2.0 * scale, "seed": 1000 + 10 * d + c,
                    "p_offset_pa": p, "t_offset_k": t, "charge_ratio": ratio}  # fmt: skip
     for d, day in enumerate(days):
         for loss in (0.05, 0.10, 0.20):
             for name, (p, t) in (("hiding", HIDING), ("nominal", (0.0, 0.0))):
-                yield {"id": f"step-{day}-{loss}-{name}", "study": "steps", "day": day, "hours": 0.5, "seed": 2000 + d,
+                yield {"id": f"step-{day}-{loss}-{name}", "study": "steps", "day": day, "hours": 0.5 * scale, "seed": 2000 + d,
                        "p_offset_pa": p, "t_offset_k": t, "charge_ratio": 1.0 - loss, "sensors": name}  # fmt: skip
     for d, day in enumerate(("cold", "mild", "hot")):
         for rate in (0.02, 0.10, 0.40):
-            yield {"id": f"leak-{day}-{rate}", "study": "leaks", "day": day, "hours": 4.0, "seed": 3000 + d,
+            yield {"id": f"leak-{day}-{rate}", "study": "leaks", "day": day, "hours": 4.0 * scale, "seed": 3000 + d,
                    "p_offset_pa": 0.0, "t_offset_k": 0.0, "charge_ratio": 1.0, "leak_tau_s": -3600.0 / math.log(1.0 - rate)}  # fmt: skip
     rng = np.random.default_rng(4000)
-    for k in range(int(math.ceil(fleet_hours / 4.0))):
-        yield {"id": f"fleet-{k}", "study": "fleet", "day": days[k % len(days)], "hours": 4.0, "seed": 5000 + k,
+    fleet_drive_h = min(4.0, fleet_hours)
+    for k in range(int(math.ceil(fleet_hours / fleet_drive_h)) if fleet_hours > 0 else 0):
+        yield {"id": f"fleet-{k}", "study": "fleet", "day": days[k % len(days)], "hours": fleet_drive_h, "seed": 5000 + k,
                "p_offset_pa": float(rng.uniform(-P_TOL_PA, P_TOL_PA)), "t_offset_k": float(rng.uniform(-T_TOL_K, T_TOL_K)),
                "charge_ratio": 1.0}  # fmt: skip
 
@@ -133,11 +135,13 @@ def summarise(spec: dict[str, Any], r: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def run(out_dir: Path, fleet_hours: float, threads: int, studies: set[str]) -> None:
+def run(out_dir: Path, fleet_hours: float, threads: int, studies: set[str], scale: float = 1.0) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "cases.jsonl"
-    done = {json.loads(line)["id"] for line in path.read_text().splitlines()} if path.exists() else set()
-    todo = [s for s in case_specs(fleet_hours) if s["id"] not in done and s["study"] in studies]
+    # A case is done if its id and its length match (a rerun at another
+    # --scale runs the cases again).
+    done = {(c["id"], c["hours"]) for c in map(json.loads, path.read_text().splitlines())} if path.exists() else set()
+    todo = [s for s in case_specs(fleet_hours, scale) if (s["id"], s["hours"]) not in done and s["study"] in studies]
     total_h = sum(s["hours"] for s in todo)
     print(f"{len(done)} cases done, {len(todo)} to run ({total_h:.0f} h of driving)", file=sys.stderr)
     t0, hours_done = time.monotonic(), 0.0
@@ -159,8 +163,8 @@ def report(out_dir: Path) -> dict[str, Any]:
     summary: dict[str, Any] = {"config": config}
 
     cal = by["calibration"]
-    healthy = [c for c in cal if c["charge_ratio"] == 1.0]
-    lost5 = [c for c in cal if c["charge_ratio"] < 1.0]
+    healthy = [c for c in cal if c["charge_ratio"] == 1.0 and c["loss_max"] is not None]
+    lost5 = [c for c in cal if c["charge_ratio"] < 1.0 and c["loss_min"] is not None]
     if healthy and lost5:
         worst_healthy = max(c["loss_max"] for c in healthy)
         least_5 = min(c["loss_min"] for c in lost5)
@@ -187,11 +191,12 @@ def report(out_dir: Path) -> dict[str, Any]:
                 if not cs:
                     continue
                 times = [c["first_fault_s"] for c in cs if c["first_fault_s"] is not None]
-                est = [c["loss_mean"] for c in cs]
+                est = [c["loss_mean"] for c in cs if c["loss_mean"] is not None]
                 row = {"cases": len(cs), "flagged": len(times), "time_s": [min(times), float(np.median(times)), max(times)] if times else None}
                 summary["steps"][f"{loss}-{sensors}"] = row
                 tt = f"{min(times):.0f} / {np.median(times):.0f} / {max(times):.0f}" if times else "-"
-                print(f"| {100 * loss:.0f} % | {sensors} | {len(times)} of {len(cs)} | {tt} | {100 * min(est):.1f}-{100 * max(est):.1f} % |")
+                est_text = f"{100 * min(est):.1f}-{100 * max(est):.1f} %" if est else "no verdict"
+                print(f"| {100 * loss:.0f} % | {sensors} | {len(times)} of {len(cs)} | {tt} | {est_text} |")
         print()
 
     leaks = by["leaks"]
@@ -210,7 +215,7 @@ def report(out_dir: Path) -> dict[str, Any]:
                 print(f"| {100 * rate:.0f} %/h | {c['day']} | {ff / 60:.1f} | {100 * c['true_loss_at_fault']:.1f} % | {(ff - c['t_5pct_s']) / 60:+.1f} |")
         print()
 
-    fleet = by["fleet"] + [c for c in cal if c["charge_ratio"] == 1.0]
+    fleet = [c for c in by["fleet"] + cal if c["charge_ratio"] == 1.0 and c["loss_max"] is not None]
     if fleet:
         hours = sum(c["hours"] for c in fleet)
         settled = sum(c["settled_hours"] for c in fleet)
@@ -226,10 +231,13 @@ def report(out_dir: Path) -> dict[str, Any]:
         fa = summary["false_alarms"]
         print("## False alarms on healthy units\n")
         print(f"- {len(fleet)} healthy drives, {hours:.0f} h ({settled:.0f} h with a verdict), sensors anywhere within tolerance")
-        print(f"- false alarms: {alarms} ({fa['per_1000_h']:.2f} per 1,000 h)" + (f"; fewer than {bound:.1f} per 1,000 h with 95 % confidence" if bound else ""))
+        print(f"- false alarms: {alarms} ({fa['per_1000_h']:.2f} per 1,000 h with a verdict)" + (f"; fewer than {bound:.1f} per 1,000 h with 95 % confidence" if bound else ""))
         print(f"- loss estimates of healthy units: {100 * best:.2f} to {100 * worst:.2f} % (threshold {100 * config['loss_threshold']:.2f} %)")
         print(f"- gas {fa['t_gas_k_range'][0] - 273.15:.0f} to {fa['t_gas_k_range'][1] - 273.15:.0f} C, oil up to {fa['t_oil_k_max'] - 273.15:.0f} C\n")
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    # Atomically: a reader never sees half a summary.
+    tmp = out_dir / "summary.json.tmp"
+    tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    tmp.replace(out_dir / "summary.json")
     return summary
 
 
@@ -239,10 +247,15 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "leak-study")
     ap.add_argument("--studies", default="calibration,steps,leaks,fleet", help="which studies to run (comma-separated)")
+    ap.add_argument("--scale", type=float, default=1.0, help="shortens the calibration, step and leak drives (default 1: 2 h, 30 min, 4 h)")
     ap.add_argument("--report-only", action="store_true")
     args = ap.parse_args()
+    if not 0.0 < args.scale <= 1.0:
+        ap.error(f"--scale = {args.scale} must be within (0, 1]")
+    if args.hours < 0:
+        ap.error(f"--hours = {args.hours} must be >= 0")
     if not args.report_only:
-        run(args.out, args.hours, args.threads, set(args.studies.split(",")))
+        run(args.out, args.hours, args.threads, set(args.studies.split(",")), args.scale)
     report(args.out)
 
 

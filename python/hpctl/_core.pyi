@@ -56,10 +56,14 @@ __all__ = [
     "VEHICLE_CHANNELS",
     "VEHICLE_CORNER_CHANNELS",
     "VEHICLE_CONTROLLER_CHANNELS",
+    "gas_charge_drives",
+    "gas_charge_config",
 ]
 
 # The plain-dict forms the core reads and returns: hpctl._coretypes.
 from hpctl._coretypes import (
+    GasChargeConfigDict,
+    GasChargeDriveDict,
     CaseDict,
     Channels,
     ClosedLoopDict,
@@ -164,9 +168,9 @@ def can_encode(name: str, counter: int, values: dict[str, float]) -> tuple[int, 
 def can_decode(id: int, data: bytes | bytearray | memoryview, extended: bool = True) -> tuple[str, int, dict[str, float]]: ...
 @final
 class Ecu:
-    def __new__(cls, corners: Literal[4, 8] = 4) -> Ecu: ...
+    def __new__(cls, corners: Literal[4, 8] = 4, calibration: Literal["seed", "pil"] = "seed", identity_number: int = 1) -> Ecu: ...
     @property
-    def has_params(self) -> bool: ...
+    def corners(self) -> int: ...
     @property
     def tx_dropped(self) -> int: ...
     @property
@@ -174,6 +178,10 @@ class Ecu:
     def dtcs(self) -> list[tuple[int, int, int]]: ...
     def receive(self, id: int, data: bytes | bytearray | memoryview, extended: bool = True) -> int | None: ...
     def period(self) -> list[tuple[int, bytes]]: ...
+
+# The gas-charge detector on long drives (hp-py leak.rs): see hpctl.control.gas_charge.
+def gas_charge_drives(cases: list[dict[str, Any]], threads: int | None = None) -> list[GasChargeDriveDict | HpctlError]: ...
+def gas_charge_config() -> GasChargeConfigDict: ...
 
 # The vehicles (hp-vehicle): see hpctl.vehicle.
 VEHICLE_CHANNELS: list[str]

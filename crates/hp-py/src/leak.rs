@@ -4,8 +4,8 @@
 //! (`hp_ctrl::gas_charge`) on the same samples the vehicle step gives it.
 //! Many drives run in parallel; each returns one record per `record_dt_s`.
 
-use crate::errors::{guard, parameter};
-use crate::exec::run_parallel;
+use crate::errors::{bad_argument, guard, parameter};
+use crate::exec::{run_parallel, threads_arg};
 use crate::params::{self, MotionSpec, Reader};
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
@@ -243,8 +243,10 @@ fn to_dict<'py>(py: Python<'py>, r: Record) -> PyResult<Bound<'py, PyDict>> {
 /// arrays (one value per record) or the exception the case raised.
 #[pyfunction]
 #[pyo3(signature = (cases, threads=None))]
-pub fn gas_charge_drives<'py>(py: Python<'py>, cases: &Bound<'py, PyList>, threads: Option<usize>) -> PyResult<Bound<'py, PyList>> {
+pub fn gas_charge_drives<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
+        let threads = threads_arg(threads)?;
+        let cases = cases.cast::<PyList>().map_err(|_| bad_argument("cases", cases, "a list of drive dicts"))?;
         let drives = cases.iter().enumerate().map(|(i, c)| Drive::from_py(&c, &format!("cases[{i}]"))).collect::<PyResult<Vec<_>>>()?;
         run_parallel(py, &drives, threads, Drive::run, |_, r| to_dict(py, r))
     })

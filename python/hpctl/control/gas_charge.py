@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from hpctl import _core
+from hpctl._coretypes import GasChargeDriveDict
 from hpctl.control import road
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Leakage, OilNode, Sensor, Unit
 from hpctl.sim.run import Sampled, _motion_dict
@@ -174,7 +175,7 @@ def drive_case(
     }
 
 
-def run(cases: Sequence[dict[str, Any]], threads: int | None = None) -> list[dict[str, FloatArray]]:
+def run(cases: Sequence[dict[str, Any]], threads: int | None = None) -> list[GasChargeDriveDict]:
     """Runs the drives in parallel; a drive that failed raises its error."""
     out = []
     for r in _core.gas_charge_drives(list(cases), threads):
@@ -184,19 +185,19 @@ def run(cases: Sequence[dict[str, Any]], threads: int | None = None) -> list[dic
     return out
 
 
-def first_fault_s(record: Mapping[str, NDArray[Any]]) -> float | None:
+def first_fault_s(record: GasChargeDriveDict) -> float | None:
     """Time of the first record with the fault raised, s (None: never)."""
     hits = np.flatnonzero(record["fault"])
     return float(record["time_s"][hits[0]]) if hits.size else None
 
 
-def fault_episodes(record: Mapping[str, NDArray[Any]]) -> int:
+def fault_episodes(record: GasChargeDriveDict) -> int:
     """How many times the fault was raised."""
     f = np.asarray(record["fault"], bool)
     return int(np.count_nonzero(f[1:] & ~f[:-1]) + int(f[0])) if f.size else 0
 
 
-def settled_loss(record: Mapping[str, NDArray[Any]]) -> FloatArray:
+def settled_loss(record: GasChargeDriveDict) -> FloatArray:
     """The detector's loss estimate ``1 - charge_ratio`` once settled."""
     settled = np.asarray(record["settled"], bool)
     return np.asarray(1.0 - np.asarray(record["charge_ratio"], float)[settled], float)

@@ -157,7 +157,10 @@ class FrameCodec:
         self._spec: dict[str, tuple[Any, int, int, int, dict[str, tuple[float, float]]]] = {}
         for m in self.db.messages:
             a = m.dbc.attributes
-            value = lambda key: int(a[key].value) if key in a else 0  # noqa: E731
+
+            def value(key: str, a: Any = a) -> int:
+                return int(a[key].value) if key in a else 0
+
             ranges = {sig.name: (sig.minimum, sig.maximum) for sig in m.signals}
             self._spec[m.name] = (m, value("E2E_DataID"), value("GenMsgCycleTime"), value("GenMsgStartDelayTime"), ranges)
 

@@ -65,7 +65,7 @@ class CornerPlants:
         self.plants = []
         for k in range(n):
             u = unit.with_effects(leakage=Leakage(leaks[k])) if k in leaks else unit
-            self.plants.append(_core.Plant(u.to_dict(), sdof_rig(bases[k], sprung_mass_kg), ambient_k, True, True, max_dt_s))
+            self.plants.append(_core.Plant(u.to_dict(), sdof_rig(bases[k], sprung_mass_kg).to_core(), ambient_k, True, True, max_dt_s))
         self.samples = [p.sample() for p in self.plants]
         self.t_read_k = [s["t_gas2_k"] for s in self.samples]
         # Least squares of a plane z = a + b x + c y over the corners.
