@@ -114,7 +114,7 @@ build --features figures --bin hp-fw-figures --bin hp-fw-figures8
 echo "== cross-build (STM32F405 bxCAN board: hp-fw-stm32f4)" >&2
 build --features stm32f4 --bin hp-fw-stm32f4
 
-FLASH_BUDGET=$((64 * 1024))
+FLASH_BUDGET=$((32 * 1024))  # scripts/firmware_figures.py, docs/firmware.md
 RAM_BUDGET=$((8 * 1024))
 status=0
 # The production binaries; hp-fw-figures prints over semihosting with

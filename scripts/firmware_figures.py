@@ -13,9 +13,9 @@ files (scripts/firmware-build.sh), and checked against the budgets.
   lowering request on a class C road with the plant in the loop);
   cortex-m-rt painted the stack at reset, and the painted words left are
   read back through QEMU's monitor. The emulator board links with a
-  12 KiB RAM region (crates/hp-fw/memory-mps2.x), stack below the static
-  data, so an overflow of the 8-corner budget faults instead of passing
-  unnoticed.
+  24 KiB RAM region (crates/hp-fw/memory-mps2.x), stack below the static
+  data: an overflow of the region faults; the budget is checked here on
+  the measured high-water mark.
 - Instructions and stack: ``hp-fw-figures`` / ``hp-fw-figures8`` run a
   scripted 6 s drive through the whole ECU path under ``qemu-system-arm
   -icount shift=0`` (one instruction per virtual nanosecond) and time each

@@ -172,7 +172,7 @@ def report(out_dir: Path) -> dict[str, Any]:
         summary["calibration"] = {"healthy_loss_max": worst_healthy, "lost5_loss_min": least_5, "threshold_by_rule": rule,
                                   "healthy_faults": sum(c["fault_episodes"] for c in healthy),
                                   "lost5_detected": sum(c["first_fault_s"] is not None for c in lost5), "lost5_cases": len(lost5)}  # fmt: skip
-        print("## Calibration (sensors at their tolerance limits, 2 h per day and sensor corner)\n")
+        print(f"## Calibration (sensors at their tolerance limits, {max(c['hours'] for c in cal):g} h per day and sensor corner)\n")
         print(f"- largest loss estimate of a healthy unit: {100 * worst_healthy:.2f} %")
         print(f"- smallest loss estimate of a unit that lost 5 %: {100 * least_5:.2f} %")
         print(f"- threshold midway: {100 * rule:.2f} % (configured: {100 * config['loss_threshold']:.2f} %)")
@@ -181,8 +181,9 @@ def report(out_dir: Path) -> dict[str, Any]:
 
     steps = by["steps"]
     if steps:
-        print("## Detection time of a unit charged low (from power-on; 30 min drives, five days)\n")
-        print("| loss | sensors | flagged | detection time, s: min / median / max | loss estimate at the end |")
+        minutes = sorted({round(c["hours"] * 60) for c in steps})
+        print(f"## Detection time of a unit charged low (from power-on; {'/'.join(map(str, minutes))} min drives, {len({c['day'] for c in steps})} days)\n")
+        print("| loss | sensors | flagged | detection time, s: min / median / max | mean loss estimate once settled, range over the days |")
         print("|---|---|---|---|---|")
         summary["steps"] = {}
         for loss in (0.05, 0.10, 0.20):
@@ -201,7 +202,8 @@ def report(out_dir: Path) -> dict[str, Any]:
 
     leaks = by["leaks"]
     if leaks:
-        print("## Developing leaks (4 h drives, nominal sensors)\n")
+        hours_l = sorted({c["hours"] for c in leaks})
+        print(f"## Developing leaks ({'/'.join(f'{h:g}' for h in hours_l)} h drives, nominal sensors)\n")
         print("| leak rate | day | flagged after, min | true loss when flagged | minutes after the loss passed 5 % |")
         print("|---|---|---|---|---|")
         summary["leaks"] = []

@@ -8,8 +8,9 @@ the body's attitude from the corners' strut positions. What it leaves out
 (say so with any result): the body is not rigid (the corners do not pull
 on one another: no pitch and roll dynamics, no load transfer when a corner
 is lowered or on a slope); a slope tilts the body by its angle and nothing
-else. It stands in until the full-vehicle plant (heave, pitch and roll of
-a rigid body on 2-4 axles) is available from Python; the interface
+else. The full-vehicle plant (hp-vehicle's rigid body on 2-4 axles,
+``hpctl._core.VehiclePlant``) is now in the bindings; moving the
+processor-in-the-loop scenarios onto it is not done yet. The interface
 (valve commands per corner in, sensor readings per corner out) is the one
 such a plant has.
 
@@ -18,7 +19,7 @@ them, the strut compression from the unit's nominal static position (the
 geometric position the gas volumes are defined at), the body's vertical
 acceleration above the corner, and the gas temperature of L through a
 first-order lag (a real sensor cannot follow the gas's adiabatic swings;
-``hp_ctrl::closed_loop`` uses the same model).
+``hp_vehicle::closed_loop`` uses the same model).
 """
 
 from __future__ import annotations
