@@ -113,7 +113,7 @@ def ecu_frames(frames):
 @pytest.mark.parametrize("corners", [4, 8])
 def test_ecu_without_inputs_claims_its_address_and_sends_the_safe_state_on_the_dbc_schedule(corners):
     ecu = _core.Ecu(corners)
-    assert ecu.has_params and ecu.address == 0x2F
+    assert ecu.address == 0x2F
     for period in range(200):
         frames = ecu.period()
         names = [DBC.get_message_by_frame_id(i).name for i, _ in frames]
