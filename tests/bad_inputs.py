@@ -60,6 +60,7 @@ ROWS: tuple[Row, ...] = (
         "warning [case_failed]: sweep case p = 0.001 MPa, tau = 2 s, damper on failed"),
     Row("hpctl simulate --test sine --frequency-hz 50 --spring hard --damper on --strict --out OUT", "exit 3",
         "warning [rated_speed]: char_sine_hard_on: the strut moved at up to 15.7 m/s, beyond the unit's rated 2 m/s"),
+    Row("hpctl simulate --dt-s 0.1 --out OUT", "exit 2", "--dt-s does not apply to --test seed"),
     Row("hpctl simulate --test sdof-step --dt-s 0.1 --duration-s 1 --spring hard --damper on --strict --out OUT", "exit 3",
         "warning [step_replaced]: sdof_step_hard_on: the step asked for, 0.1 s, is longer than the output interval; steps of 0.001 s were taken"),
     Row("hpctl closed-loop --road-class E --speed-m-s 20 --lower-m 0.05 --strict --out OUT", "exit 3",

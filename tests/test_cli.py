@@ -142,3 +142,22 @@ def test_installed_entry_point_and_internal_error_exit_code(tmp_path: Path) -> N
     r = subprocess.run([sys.executable, "-m", "hpctl", "simulate", "--test", "sdof-step", "--duration-s", "1", "--out", str(blocker / "sub"), "--quiet"],
                        capture_output=True, text=True, check=False)
     assert r.returncode == 1 and f"error: {blocker / 'sub'}: Not a directory" in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["--dt-s", "0.1"], "--dt-s does not apply to --test seed"),
+        (["--test", "sine", "--mass-kg", "3000"], "--mass-kg does not apply to --test sine"),
+        (["--test", "heat", "--damper", "off"], "--damper does not apply to --test heat"),
+        (["--sweep", "--frequency-hz", "2", "--duration-s", "3"], "--frequency-hz, --duration-s does not apply to --sweep"),
+        (["--test", "sdof-step", "--threads", "2"], "--threads does not apply to --test sdof-step"),
+    ],
+)
+def test_an_option_the_run_does_not_read_is_refused(tmp_path: Path, args: list[str], named: str) -> None:
+    # The seed's experiments used to ignore --dt-s silently: the output
+    # looked as if the step had been taken.
+    code, stdout, stderr = simulate(*args, "--out", str(tmp_path / "out"))
+    assert code == 2, stdout + stderr
+    assert named in stderr
+    assert not (tmp_path / "out").exists()

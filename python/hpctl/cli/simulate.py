@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import click
+from click.core import ParameterSource
 from rich.table import Table
 
 from hpctl.caveats import Caveat
@@ -70,6 +71,7 @@ def simulate(
     result cannot stand behind (end stops, the gas model's range, the
     rated speed, a failed case...) is printed as a warning and listed in
     summary.json under "warnings"."""
+    _refuse_unused_options("sweep" if sweep else test)
     rep = Reporter(quiet, as_json)
     with errors(rep):
         unit = load_unit(unit_file, parse_tau(tau_s), gas)
@@ -86,6 +88,37 @@ def simulate(
             what = "sweep.csv, sweep.png" if sweep else "records, plots"
             rep.say(("Wrote", "bold"), f" {what} and summary.json to {out_dir}/")
         finish(rep, caveats, strict)
+
+
+# The options each kind of run reads (beyond --unit, --tau-s, --gas and the
+# output options). An option given to a run that does not read it is an
+# error: silently ignoring --dt-s on the seed's experiments looked as if the
+# step had been used.
+_READS: dict[str, frozenset[str]] = {
+    "seed": frozenset(),
+    "sine": frozenset({"amplitude_m", "frequency_hz", "spring", "damper", "duration_s", "dt_s"}),
+    "steps": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s"}),
+    "step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s"}),
+    "sdof-step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "mass_kg"}),
+    "heat": frozenset({"amplitude_m", "frequency_hz", "spring", "duration_s", "dt_s", "mass_kg"}),
+    "sweep": frozenset({"amplitude_m", "spring", "damper", "mass_kg", "sweep_pressure_pa", "sweep_tau_s", "threads"}),
+}
+_RUN_OPTIONS = frozenset().union(*_READS.values(), {"test"})
+
+
+def _refuse_unused_options(run: str) -> None:
+    ctx = click.get_current_context()
+    reads = _READS[run] | ({"test"} if run != "sweep" else frozenset())
+    given = [
+        p for p in ctx.command.params
+        if p.name in _RUN_OPTIONS and p.name not in reads
+        and ctx.get_parameter_source(p.name) in (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+    ]
+    if given:
+        names = ", ".join(p.opts[0] for p in given)
+        what = "--sweep" if run == "sweep" else f"--test {run}"
+        reads_names = ", ".join(p.opts[0] for p in ctx.command.params if p.name in _READS[run]) or "none of the run options"
+        raise click.UsageError(f"{names} does not apply to {what} (it reads {reads_names})")
 
 
 def _sweep(
