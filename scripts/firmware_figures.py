@@ -129,6 +129,11 @@ def measure(elf: Path) -> dict[str, float]:
             f = {k: int(v) for k, v in (w.split("=") for w in words[3:])}
             fig[f"frame_{words[1]}_{words[2]}_instr_mean"] = f["sum"] * INSTR_PER_TICK / max(f["n"], 1)
             fig[f"frame_{words[1]}_{words[2]}_instr_max"] = f["max"] * INSTR_PER_TICK
+        # The gas table: `table pressure|offset sum=.. max=.. n=..` (ticks).
+        if len(words) == 5 and words[0] == "table":
+            f = {k: int(v) for k, v in (w.split("=") for w in words[2:])}
+            fig[f"table_{words[1]}_instr_mean"] = f["sum"] * INSTR_PER_TICK / max(f["n"], 1)
+            fig[f"table_{words[1]}_instr_max"] = f["max"] * INSTR_PER_TICK
     return fig
 
 
@@ -238,6 +243,11 @@ def main() -> None:
         for key in sorted(k for k in runs[4] if k.startswith(f"frame_{direction}_") and k.endswith("_mean")):
             name = key[len(f"frame_{direction}_") : -len("_instr_mean")]
             print(f"    {label} {name:31s} {runs[4][key]:8.0f} / {runs[4][key.replace('_mean', '_max')]:6.0f}")
+    run = runs[4]
+    if "table_pressure_instr_mean" in run:
+        print("  gas table of L (reference EOS in single precision, built on the host), instructions (mean / max over 100 lookups):")
+        print(f"    pressure from volume offset and temperature {run['table_pressure_instr_mean']:8.0f} / {run['table_pressure_instr_max']:6.0f}")
+        print(f"    volume offset from pressure and temperature {run['table_offset_instr_mean']:8.0f} / {run['table_offset_instr_max']:6.0f}")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(figures, indent=2) + "\n")

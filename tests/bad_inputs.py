@@ -61,7 +61,7 @@ ROWS: tuple[Row, ...] = (
     Row("hpctl simulate --test sine --frequency-hz 50 --spring hard --damper on --strict --out OUT", "exit 3",
         "warning [rated_speed]: char_sine_hard_on: the strut moved at up to 15.7 m/s, beyond the unit's rated 2 m/s"),
     Row("hpctl simulate --dt-s 0.1 --out OUT", "exit 2", "--dt-s does not apply to --test seed"),
-    Row("hpctl simulate --test sdof-step --dt-s 0.1 --duration-s 1 --spring hard --damper on --strict --out OUT", "exit 3",
+    Row("hpctl simulate --test sdof-step --fixed-steps --dt-s 0.1 --duration-s 1 --spring hard --damper on --strict --out OUT", "exit 3",
         "warning [step_replaced]: sdof_step_hard_on: the step asked for, 0.1 s, is longer than the output interval; steps of 0.001 s were taken"),
     Row("hpctl closed-loop --road-class E --speed-m-s 20 --lower-m 0.05 --strict --out OUT", "exit 3",
         "warning [sequencer_blocked]: lowering: the ride-height sequencer was blocked"),
@@ -76,6 +76,10 @@ ROWS: tuple[Row, ...] = (
         "would overwrite files hpctl did not write (or that changed since): summary.json; move them away, choose another --out, or pass --force"),
     Row("hpctl simulate --test sdof-step --duration-s 1 --out BUSY_OUT", "exit 2", "is in use by another hpctl run (pid"),
     Row("hpctl simulate --test sdof-step --duration-s 1 --out FILE/sub", "exit 1", "Not a directory"),
+    Row("hpctl can decode FILE --out BUSY_OUT", "exit 2", "is in use by another hpctl run (pid"),
+    # Data in and out.
+    Row("hpctl convert TORN OUT/torn.parquet", "exit 2", "torn.csv: does not match the csv_sha256 in torn.toml"),
+    Row("hpctl can decode FILE --out OUT", "exit 2", "python-can cannot read this log: No read support for unknown log format"),
     # The Python API and the bindings.
     Row('_core.can_encode("HP_Driver", 0, {"DriverMode": 1.5, "HeightMode": 0, "RideHeightRequest": 0.0})', "raises ParameterError",
         "values.DriverMode = 1.5: expected a whole number (a flag, an enumeration or a count)"),

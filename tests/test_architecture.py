@@ -17,6 +17,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "python" / "hpctl"
 LAYERS: dict[str, int] = {
     "_core": 0,
     "_coretypes": 0,
+    "_version": 0,
     "errors": 1,
     "caveats": 1,
     "model": 2,

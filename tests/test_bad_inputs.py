@@ -41,14 +41,31 @@ def test_zero_mass(seed_unit: hpctl.Unit) -> None:
 
 
 @pytest.mark.parametrize("dt_s", [0.0, -1e-3, math.nan, math.inf, 1e3, 1e-12])
-def test_absurd_step_sizes(seed_unit: hpctl.Unit, dt_s: float) -> None:
+def test_absurd_fixed_step_sizes(seed_unit: hpctl.Unit, dt_s: float) -> None:
     with pytest.raises(hpctl.HpctlError, match="dt_s"):
+        hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 1.0, dt_s=dt_s, rtol=None)
+
+
+@pytest.mark.parametrize("dt_s", [0.0, -1e-3, 1e-12])
+def test_absurd_largest_adaptive_steps(seed_unit: hpctl.Unit, dt_s: float) -> None:
+    with pytest.raises(hpctl.ParameterError, match=r"dt_s = .* is outside the valid range \[1e-9, inf\]"):
         hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 1.0, dt_s=dt_s)
 
 
+@pytest.mark.parametrize("rtol", [0.0, -1e-6, math.nan, math.inf, 0.5])
+def test_absurd_tolerances(seed_unit: hpctl.Unit, rtol: float) -> None:
+    with pytest.raises(hpctl.ParameterError, match=r"rtol = .* is outside the valid range \[1e-14, 0\.01\]"):
+        hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 1.0, rtol=rtol)
+
+
 def test_unstable_step_size_is_a_simulation_error_not_garbage(seed_unit: hpctl.Unit) -> None:
+    # Fixed RK4 steps of 0.2 s with valve 6 open (its orifice has a time
+    # constant of about 1 ms): an error, not garbage ...
     with pytest.raises(hpctl.SimulationError, match="reduce the step size"):
-        hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 20.0, dt_s=0.2, sample_dt_s=0.2, spring_hard=False)
+        hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 20.0, dt_s=0.2, sample_dt_s=0.2, spring_hard=False, rtol=None)
+    # ... while the error-controlled steps, however long they may be, follow it.
+    r = hpctl.run_sdof(seed_unit, hpctl.Step(0.043), 20.0, dt_s=0.2, sample_dt_s=0.2, spring_hard=False)
+    assert abs(r["body_disp_m"][-1] - 0.043) < 1e-3
 
 
 def test_empty_and_broken_arrays(seed_unit: hpctl.Unit) -> None:

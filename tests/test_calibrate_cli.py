@@ -10,6 +10,7 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
+from hpctl import __version__ as hpctl_version
 from hpctl.cli import main
 from hpctl.data.records import read_record
 from hpctl.model.effects import LIBRARY
@@ -52,6 +53,11 @@ def test_diagnose_finds_the_leak_and_reports_it(leaky_rig: Path, tmp_path: Path)
     assert s["error_after"]["rms_ratio"] < s["error_before"]["rms_ratio"]
     report = (tmp_path / "report.md").read_text()
     assert "`leakage`" in report and "Error before and after" in report
+    # Who wrote it: the version and the exact command, in the JSON and the report.
+    command = f"hpctl diagnose {leaky_rig} --model seed --out {tmp_path} --json --quiet"
+    assert s["hpctl"] == {"version": hpctl_version, "command": command}
+    assert json.loads((tmp_path / "diagnosis.json").read_text())["hpctl"]["command"] == command
+    assert f"Written by hpctl {hpctl_version}: `{command}`" in report.splitlines()[:4]
     for line in report.splitlines():
         if line.startswith("!["):
             assert (tmp_path / line.split("(")[1].rstrip(")")).exists()
@@ -65,6 +71,8 @@ def test_fit_prints_parameters_with_uncertainty(leaky_rig: Path, tmp_path: Path)
     assert s["params"]["leak_time_constant_s"] == pytest.approx(40000, rel=0.1)
     assert 0 < s["stderr"]["leak_time_constant_s"] < 4000
     assert (tmp_path / "fit.md").exists() and (tmp_path / "fit_hold.png").exists()
+    assert s["hpctl"]["version"] == hpctl_version and s["hpctl"]["command"].startswith("hpctl fit ") and "--model seed,leakage" in s["hpctl"]["command"]
+    assert s["hpctl"]["command"] in (tmp_path / "fit.md").read_text()
 
 
 def test_list_effects_names_the_library() -> None:

@@ -152,6 +152,7 @@ def test_installed_entry_point_and_internal_error_exit_code(tmp_path: Path) -> N
         (["--test", "heat", "--damper", "off"], "--damper does not apply to --test heat"),
         (["--sweep", "--frequency-hz", "2", "--duration-s", "3"], "--frequency-hz, --duration-s does not apply to --sweep"),
         (["--test", "sdof-step", "--threads", "2"], "--threads does not apply to --test sdof-step"),
+        (["--sweep", "--fixed-steps"], "--fixed-steps does not apply to --sweep"),
     ],
 )
 def test_an_option_the_run_does_not_read_is_refused(tmp_path: Path, args: list[str], named: str) -> None:

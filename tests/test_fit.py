@@ -14,7 +14,7 @@ from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
 from hpctl.identify.signals import apply_sensor_lag, derivative, noise_sigma
 from hpctl.model.unit import Friction, Sensor
-from hpctl.sim.run import characterisation_rig, uniform_times
+from hpctl.sim.run import characterisation_rig, sdof_rig, uniform_times
 
 
 def test_noise_estimate_ignores_a_smooth_signal() -> None:
@@ -92,11 +92,27 @@ def test_fit_reports_every_record_and_channel(friction_fit: tuple[dict[str, floa
 
 def test_fit_of_sdof_records_compares_body_displacement() -> None:
     unit = hpctl.Unit.seed().replace(tau_s=1.5)
-    records = virtual_rig.make_records(unit, tests=[virtual_rig.effect_tests()["sdof"]], seed=5)
-    r = fit(prepare(records), ("heat_transfer", "real_gas"))
+    test = virtual_rig.effect_tests()["sdof"]
+    records = virtual_rig.make_records(unit, tests=[test], seed=5)
+    datasets = prepare(records)
+    r = fit(datasets, ("heat_transfer", "real_gas"))
     assert {s.channel for s in r.stats} >= {"body_disp_m"}
     assert r.values["tau_s"] == pytest.approx(1.5, rel=0.3)
-    assert r.rms_ratio < 1.2
+    # The pressures are fitted to their noise; the body displacement is
+    # left about 1.5 x its noise: the fit drives the rig with the base
+    # displacement as measured (6 ms samples with noise, smoothed and
+    # interpolated through the 50 ms step), which is not the step that made
+    # the record. Driven by the true step, the true unit's residual is the
+    # noise alone (below). (With fixed steps, the record's and the fit's
+    # step errors partly cancelled this and the pooled ratio was 1.05.)
+    by_channel = {s.channel: s.rms / s.noise for s in r.stats}
+    assert by_channel["p_gas_pa"] < 1.1 and by_channel["p_gas2_pa"] < 1.1
+    assert r.rms_ratio < 1.3
+    d = datasets[0]
+    exact = hpctl.run(unit, sdof_rig(test.motion, hpctl.SEED_SPRUNG_MASS_KG), d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on,
+                      ambient_k=d.ambient_k)
+    noise_only = np.sqrt(np.mean((exact["body_disp_m"] - d.targets["body_disp_m"]) ** 2)) / d.sigma["body_disp_m"]
+    assert noise_only == pytest.approx(1.0, abs=0.05)
 
 
 def test_fitting_nothing_is_an_error() -> None:

@@ -99,4 +99,6 @@ def test_progress_callback_exception_stops_the_run(seed_unit: hpctl.Unit) -> Non
         raise RuntimeError("stop here")
 
     with pytest.raises(RuntimeError, match="stop here"):
-        hpctl.run_characterisation(seed_unit, hpctl.Sine(0.06, 0.5), 600.0, sample_dt_s=0.01, progress=boom)
+        # Fixed 1 ms steps: progress is reported every 100 ms of wall time,
+        # and an adaptive run of these 600 s can end before the first report.
+        hpctl.run_characterisation(seed_unit, hpctl.Sine(0.06, 0.5), 600.0, sample_dt_s=0.01, rtol=None, dt_s=1e-3, progress=boom)

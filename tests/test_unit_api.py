@@ -49,5 +49,5 @@ def test_bad_value_names_parameter_value_and_range(seed_unit: hpctl.Unit) -> Non
 
 
 def test_unknown_gas_model_is_rejected(seed_unit: hpctl.Unit) -> None:
-    with pytest.raises(hpctl.ParameterError, match='gas = .helium. is not a known model .one of: ideal, bwr-cg, bwr-textbook'):
+    with pytest.raises(hpctl.ParameterError, match='gas = .helium. is not a known model .one of: span, ideal, bwr-cg, bwr-textbook'):
         seed_unit.replace(gas="helium").check()

@@ -104,7 +104,8 @@ def test_runs_are_reduced_to_section_metrics_and_the_semi_active_rolls_like_hard
 
 
 def test_a_failed_case_is_kept_as_a_warning_not_raised() -> None:
-    bad = comparison.Setting("broken", semi_active=True, config={"unit": {}})
+    # A configuration is merged over the vehicle's (a part is a whole configuration): a value out of range breaks it.
+    bad = comparison.Setting("broken", semi_active=True, config={"unit": {"piston_area_m2": -1.0}})
     r = comparison.run_case(comparison.Case(preset("4x4"), route.mixed(scale=0.05), bad))
     assert r.error is not None and r.sections == [] and "case failed" in r.warnings[0]
 
@@ -117,7 +118,9 @@ def test_the_evaluate_command_writes_table_plots_records_and_warnings(tmp_path: 
     summary = json.loads((out / "comparison.json").read_text())
     assert {c["setting"] for c in summary["cases"]} == {"soft, low damping", "semi-active"}
     assert isinstance(summary["warnings"], list) and summary["failed"] == []
-    assert (out / "ride_handling.png").stat().st_size > 10_000 and (out / "comparison.md").read_text().startswith("| vehicle")
+    md = (out / "comparison.md").read_text().splitlines()
+    assert (out / "ride_handling.png").stat().st_size > 10_000 and md[0].startswith("Written by hpctl ") and md[2].startswith("| vehicle")
+    assert summary["hpctl"]["command"].startswith("hpctl evaluate --vehicle 4x4 --scale 0.1")
     # One rig record per wheel of the semi-active run, readable by the record reader.
     assert len(summary["records"]) == 4
     rec = read_record(out / "records" / summary["records"][0])
@@ -130,3 +133,15 @@ def test_the_evaluate_command_writes_table_plots_records_and_warnings(tmp_path: 
 def test_the_evaluate_command_rejects_bad_input_with_exit_2(tmp_path: Path, args: list[str], message: str) -> None:
     res = CliRunner().invoke(main, ["evaluate", "--vehicle", "4x4", "--out", str(tmp_path), *args])
     assert res.exit_code == 2 and message in res.output
+
+
+@pytest.mark.parametrize(("command", "mine"), [("evaluate", "comparison.md"), ("tune", "tuned.json")])
+def test_evaluate_and_tune_never_overwrite_a_users_file(tmp_path: Path, command: str, mine: str) -> None:
+    # Checked before the drives: the run stops at once, the user's file is
+    # untouched and nothing else is written.
+    (tmp_path / mine).write_text("the user's notes\n")
+    res = CliRunner().invoke(main, [command, "--vehicle", "4x4", "--scale", "0.05", "--out", str(tmp_path)])
+    assert res.exit_code == 2, res.output
+    assert "would overwrite files hpctl did not write" in res.output and mine in res.output
+    assert (tmp_path / mine).read_text() == "the user's notes\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [mine]

@@ -5,6 +5,7 @@ The physics and the controller are in Rust (``hpctl._core``); this package
 is the Python API and the ``hpctl`` command line.
 """
 
+from hpctl._version import __version__
 from hpctl.errors import (
     ConvergenceError,
     HpctlError,
@@ -27,9 +28,8 @@ from hpctl.sim.run import (
     run_sdof,
 )
 
-__version__ = "0.1.0"
-
 __all__ = [
+    "__version__",
     "SEED_SPRUNG_MASS_KG",
     "ConvergenceError",
     "Damper",

@@ -1,6 +1,6 @@
 # Hand-kept stub of the Rust extension hpctl._core (checked by stubtest).
 from collections.abc import Callable, Sequence
-from typing import Literal, Any, final
+from typing import Any, Literal, final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +24,9 @@ __all__ = [
     "seed_sprung_mass_kg",
     "seed_oil_node",
     "CHANNELS",
+    "GAS_MODELS",
+    "DEFAULT_GAS",
+    "DEFAULT_RTOL",
     "STANDARD_GRAVITY_M_S2",
     "PARAMETER_RANGES",
     "load_pressure_pa",
@@ -46,6 +49,7 @@ __all__ = [
     "CanRejectError",
     "can_encode",
     "can_decode",
+    "CanCounter",
     "Ecu",
     "vehicle_presets",
     "vehicle_controller_config",
@@ -80,6 +84,9 @@ from hpctl._coretypes import (
 )
 
 CHANNELS: list[str]
+GAS_MODELS: list[str]
+DEFAULT_GAS: str
+DEFAULT_RTOL: float
 STANDARD_GRAVITY_M_S2: float
 #: Every unit parameter's valid range (hp_core::ranges), inclusive.
 PARAMETER_RANGES: dict[str, tuple[float, float]]
@@ -100,6 +107,9 @@ def simulate(
     damper_on: bool | Sequence[bool],
     channels: Sequence[str] | None = None,
     progress: Callable[[int, int], object] | None = None,
+    rtol: float | None = None,
+    steps_s: Sequence[float] | NDArray[np.float64] | None = None,
+    record_steps: bool = False,
 ) -> Channels: ...
 def simulate_many(cases: list[CaseDict], threads: int | None = None) -> list[Channels | HpctlError]: ...
 def static_force_n(unit: UnitDict, disp_m: float, t_k: float, spring_hard: bool) -> float: ...
@@ -166,6 +176,13 @@ class CanRejectError(HpctlError): ...
 
 def can_encode(name: str, counter: int, values: dict[str, float]) -> tuple[int, bytes]: ...
 def can_decode(id: int, data: bytes | bytearray | memoryview, extended: bool = True) -> tuple[str, int, dict[str, float]]: ...
+@final
+class CanCounter:
+    """One message's E2E alive-counter check (hp_ctrl::can::e2e::CounterState)."""
+    def __new__(cls) -> CanCounter: ...
+    def check(self, counter: int) -> Literal["next", "repeated", "skipped", "synced"]: ...
+    def reset(self) -> None: ...
+
 @final
 class Ecu:
     def __new__(cls, corners: Literal[4, 8] = 4, calibration: Literal["seed", "pil"] = "seed", identity_number: int = 1) -> Ecu: ...

@@ -142,6 +142,12 @@ class CaseDict(TypedDict):
     spring_hard: bool | list[bool]
     damper_on: bool | list[bool]
     channels: list[str] | None
+    # Error-controlled steps to this relative tolerance (None: fixed RK4
+    # steps of dt_s); steps_s replays recorded step end times;
+    # record_steps adds them to the result as step_end_s.
+    rtol: float | None
+    steps_s: NDArray[np.float64] | None
+    record_steps: bool
 
 #: Channel name (CHANNELS) -> values at the output times.
 Channels = dict[str, NDArray[np.float64]]

@@ -57,6 +57,11 @@ class Code(StrEnum):
     NOT_CONVERGED = "not_converged"
     #: The residual is more than noise: the model misses something.
     RESIDUAL_STRUCTURED = "residual_structured"
+    #: CAN frames of a log failed the ECU's checks (CRC, alive counter,
+    #: length, ranges) and were left out of the decoded tables.
+    CAN_FRAMES_REJECTED = "can_frames_rejected"
+    #: A CAN log holds identifiers the CAN database does not know.
+    CAN_UNKNOWN_IDS = "can_unknown_ids"
 
 
 @dataclass(frozen=True)

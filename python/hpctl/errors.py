@@ -36,6 +36,8 @@ __all__ = [
     "ConvergenceError",
     "HpctlError",
     "InternalError",
+    "MappingError",
+    "MissingDependencyError",
     "OutputError",
     "ParameterError",
     "RecordError",
@@ -53,6 +55,17 @@ class RecordError(HpctlError):
 
     The message says which file, which line or key, and what was expected.
     """
+
+
+class MappingError(HpctlError):
+    """A channel-mapping file (foreign channel names and units to the
+    record's) is malformed, names a channel the file does not have, or a
+    unit that is unknown or of the wrong kind. The message says which."""
+
+
+class MissingDependencyError(HpctlError):
+    """An optional dependency is not installed; the message names the
+    extra that installs it (``pip install 'hpctl[interop]'``)."""
 
 
 class OutputError(HpctlError):

@@ -96,7 +96,57 @@ def static_states() -> None:
     write("n2_static.csv", rows)
 
 
+# The reference model's golden states: a dense grid over the envelope, and
+# states beyond it up to the limits the code accepts (1 kPa - 300 MPa,
+# 60 - 1000 K; CoolProp, and the formulation, start at the triple point,
+# 63.151 K). Region 0 = envelope, 1 = beyond.
+DENSE_PRESSURES_MPA = [2, 3, 4, 5, 6, 8, 10, 12, 15] + list(range(20, 111, 5))
+DENSE_TEMPERATURES_K = [233.15 + 10.0 * k for k in range(25)]
+BEYOND_PRESSURES_MPA = [0.001, 0.01, 0.1, 0.5, 1, 2, 5, 10, 30, 60, 110, 150, 200, 250, 300]
+BEYOND_TEMPERATURES_K = [64.0, 80.0, 100.0, 120.0, 126.2, 140.0, 160.0, 200.0, 233.15, 473.15, 500.0, 600.0, 700.0, 800.0, 1000.0]
+
+
+def span_golden() -> None:
+    """Properties at fixed (p, T) states, to all digits: the golden values
+    the reference model (`--gas span`) is held to."""
+    state = CoolProp.AbstractState("HEOS", FLUID)
+    rows = []
+
+    def add(region: int, p: float, t: float) -> None:
+        try:
+            state.update(CoolProp.PT_INPUTS, p, t)
+        except ValueError as e:  # solid nitrogen: outside every model
+            print(f"skipped {p:g} Pa, {t:g} K: {e}")
+            return
+        # The derivatives at exactly this density: after a (p, T) update
+        # CoolProp reports some from its solver's last iterate (1e-9 off).
+        rho = state.rhomass()
+        state.update(CoolProp.DmassT_INPUTS, rho, t)
+        rows.append(
+            {
+                "region": region,
+                "p_pa": p,
+                "t_k": t,
+                "rho_kg_m3": rho,
+                "dp_dt_pa_per_k": state.first_partial_deriv(CoolProp.iP, CoolProp.iT, CoolProp.iDmass),
+                "dp_drho_pa_m3_per_kg": state.first_partial_deriv(CoolProp.iP, CoolProp.iDmass, CoolProp.iT),
+                "cv_j_per_kg_k": state.cvmass(),
+            }
+        )
+
+    for p_mpa in DENSE_PRESSURES_MPA:
+        for t_k in DENSE_TEMPERATURES_K:
+            add(0, p_mpa * 1e6, t_k)
+    for p_mpa in BEYOND_PRESSURES_MPA:
+        for t_k in BEYOND_TEMPERATURES_K:
+            inside = 2 <= p_mpa <= 110 and 233.15 <= t_k <= 473.15
+            if not inside:
+                add(1, p_mpa * 1e6, t_k)
+    write("n2_span_golden.csv", rows)
+
+
 if __name__ == "__main__":
     grid()
     isentropes()
     static_states()
+    span_golden()

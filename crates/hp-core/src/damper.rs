@@ -209,4 +209,13 @@ impl Orifice {
         let dp_t = self.transition_pa;
         coefficient * dp_pa / libm::sqrt(libm::sqrt(dp_pa * dp_pa + dp_t * dp_t))
     }
+
+    /// `d(flow)/d(dp)` of [`Orifice::flow_m3_s`], m^3/(s Pa):
+    /// `Cd A sqrt(2/rho) (dp^2/2 + dp_t^2) / (dp^2 + dp_t^2)^(5/4)`.
+    pub fn flow_slope_m3_s_pa(&self, dp_pa: f64, coefficient: f64) -> f64 {
+        let dp_t = self.transition_pa;
+        let s = dp_pa * dp_pa + dp_t * dp_t;
+        let quarter = libm::sqrt(libm::sqrt(s));
+        coefficient * (0.5 * dp_pa * dp_pa + dp_t * dp_t) / (s * quarter)
+    }
 }

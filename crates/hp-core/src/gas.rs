@@ -1,15 +1,19 @@
-//! Equations of state of nitrogen: ideal gas and Benedict-Webb-Rubin.
+//! Equations of state of nitrogen: the reference equation of Span et al.
+//! (2000) ([`span`], the default), ideal gas and Benedict-Webb-Rubin.
 //!
 //! All quantities are per unit *mass* and SI at this interface (kg/m^3, K,
 //! Pa, J/(kg K)). The BWR constant sets are published in molar, non-SI units
 //! and are evaluated in their own units internally; converting the constants
 //! instead would be a second place for unit mistakes to hide.
 //!
-//! The ideal-gas heat capacity `c_v0(T)` shared by every model is NIST's
-//! Shomate fit for N2 (Chase, NIST-JANAF Thermochemical Tables, 1998), which
-//! the tests check against CoolProp's ideal-gas part.
+//! The ideal-gas heat capacity `c_v0(T)` of the ideal and BWR models is
+//! NIST's Shomate fit for N2 (Chase, NIST-JANAF Thermochemical Tables, 1998),
+//! which the tests check against CoolProp's ideal-gas part; the reference
+//! model has its own.
 
 use crate::error::{check_range, Error, Result};
+
+pub mod span;
 
 /// Molar mass of nitrogen (N2), g/mol (= kg/kmol).
 pub const N2_MOLAR_MASS_G_PER_MOL: f64 = 28.0134;
@@ -43,7 +47,7 @@ pub struct ValidatedRange {
     pub temperature_k: (f64, f64),
 }
 
-/// The range over which `gas` has been validated against the reference.
+/// The range over which `gas` has been validated against CoolProp.
 ///
 /// ```
 /// use hp_core::gas::{validated_range, Gas};
@@ -55,7 +59,12 @@ pub fn validated_range(gas: Gas) -> ValidatedRange {
     // The accuracy grid of docs/accuracy.md (every model is checked on it
     // against CoolProp by tests/eos_reference.rs).
     const GRID: ValidatedRange = ValidatedRange { pressure_pa: (PRESSURE_RANGE_PA.0, 110.0e6), temperature_k: (233.15, 473.15) };
+    // The reference model is checked against CoolProp beyond the grid too:
+    // every pressure the solver accepts, from the lowest temperature of the
+    // fixture (just above the triple point, 63.151 K) to the highest.
+    const REFERENCE: ValidatedRange = ValidatedRange { pressure_pa: PRESSURE_RANGE_PA, temperature_k: (64.0, TEMPERATURE_RANGE_K.1) };
     match gas {
+        Gas::Span => REFERENCE,
         Gas::Ideal | Gas::BwrCooperGoldfrank | Gas::BwrTextbook => GRID,
     }
 }
@@ -88,6 +97,20 @@ pub trait EquationOfState {
         self.props(rho_kg_m3, t_k).p_pa
     }
 
+    /// Pressure in Pa and `(dp/drho)_T` in Pa m^3/kg: what the density
+    /// solve needs (models may compute it cheaper than [`EquationOfState::props`]).
+    fn pressure_and_slope(&self, rho_kg_m3: f64, t_k: f64) -> (f64, f64) {
+        let p = self.props(rho_kg_m3, t_k);
+        (p.p_pa, p.dp_drho_pa_m3_per_kg)
+    }
+
+    /// Where the density solve starts, kg/m^3; `None`: from the ideal gas.
+    /// Below the critical temperature `p(rho)` has two branches, and the
+    /// iteration converges to the one on the side it starts from.
+    fn density_start_kg_m3(&self, _p_pa: f64, _t_k: f64) -> Option<f64> {
+        None
+    }
+
     /// Density in kg/m^3 at pressure `p_pa` and temperature `t_k`.
     ///
     /// A Newton iteration kept inside a bracket that always contains the
@@ -103,30 +126,37 @@ pub trait EquationOfState {
     fn density_kg_m3(&self, p_pa: f64, t_k: f64) -> Result<f64> {
         check_range("p_pa", p_pa, PRESSURE_RANGE_PA.0, PRESSURE_RANGE_PA.1)?;
         check_range("t_k", t_k, TEMPERATURE_RANGE_K.0, TEMPERATURE_RANGE_K.1)?;
-        solve_density(|rho| self.props(rho, t_k), p_pa)
+        solve_density(|rho| self.pressure_and_slope(rho, t_k), p_pa, self.density_start_kg_m3(p_pa, t_k))
     }
 }
 
-fn solve_density(props: impl Fn(f64) -> GasProps, p_pa: f64) -> Result<f64> {
+/// The density at which `pressure_and_slope(rho) = (p, dp/drho)` reaches
+/// `p_pa`, starting from `start` (or the ideal gas).
+fn solve_density(pressure_and_slope: impl Fn(f64) -> (f64, f64), p_pa: f64, start: Option<f64>) -> Result<f64> {
     const MAX_ITERATIONS: usize = 100;
     let fail = Error::NoConvergence { what: "density from pressure and temperature", target: p_pa };
     // Bracket [lo, hi] with p(lo) < p_pa < p(hi); p(0) = 0 < p_pa.
     let mut lo = 0.0_f64;
     let mut hi = DENSITY_RANGE_KG_M3.1;
-    let p_hi = props(hi).p_pa;
+    let (p_hi, _) = pressure_and_slope(hi);
     if !(p_hi > p_pa) {
         return Err(fail);
     }
     // Start from the ideal gas: accurate to a few per cent where the unit works.
-    let t_guess = props(1.0);
-    let mut rho = if t_guess.dp_drho_pa_m3_per_kg > 0.0 {
-        (p_pa / t_guess.dp_drho_pa_m3_per_kg).clamp(0.0, hi)
-    } else {
-        0.5 * hi
+    let mut rho = match start {
+        Some(rho) => rho.clamp(0.0, hi),
+        None => {
+            let (_, slope_dilute) = pressure_and_slope(1.0);
+            if slope_dilute > 0.0 {
+                (p_pa / slope_dilute).clamp(0.0, hi)
+            } else {
+                0.5 * hi
+            }
+        }
     };
     for _ in 0..MAX_ITERATIONS {
-        let s = props(rho);
-        let residual = s.p_pa - p_pa;
+        let (p, slope) = pressure_and_slope(rho);
+        let residual = p - p_pa;
         if !residual.is_finite() {
             return Err(fail);
         }
@@ -138,8 +168,8 @@ fn solve_density(props: impl Fn(f64) -> GasProps, p_pa: f64) -> Result<f64> {
         if libm::fabs(residual) <= 1e-12 * p_pa {
             return Ok(rho);
         }
-        let newton = rho - residual / s.dp_drho_pa_m3_per_kg;
-        let next = if s.dp_drho_pa_m3_per_kg > 0.0 && newton > lo && newton < hi {
+        let newton = rho - residual / slope;
+        let next = if slope > 0.0 && newton > lo && newton < hi {
             newton
         } else {
             0.5 * (lo + hi)
@@ -314,25 +344,50 @@ fn bwr_props(k: &BwrConstants, rho_kg_m3: f64, t_k: f64) -> GasProps {
     }
 }
 
+/// Nitrogen's reference equation of state, Span et al. (2000), as CoolProp
+/// implements it (see [`span`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Span;
+
+impl EquationOfState for Span {
+    #[inline]
+    fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
+        span::props(rho_kg_m3, t_k)
+    }
+
+    #[inline]
+    fn pressure_and_slope(&self, rho_kg_m3: f64, t_k: f64) -> (f64, f64) {
+        span::pressure_and_slope(rho_kg_m3, t_k)
+    }
+
+    fn density_start_kg_m3(&self, p_pa: f64, t_k: f64) -> Option<f64> {
+        span::density_start_kg_m3(p_pa, t_k)
+    }
+}
+
 /// The selectable gas models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Gas {
+    /// The reference equation of state, Span et al. (2000): CoolProp's
+    /// nitrogen to rounding.
+    #[default]
+    Span,
     /// Ideal gas, `p = rho R T`, with `c_v0(T)`.
     Ideal,
-    /// BWR with the Cooper & Goldfrank constants: best below 30 MPa.
+    /// BWR with the Cooper & Goldfrank constants: best of the two sets below 30 MPa.
     BwrCooperGoldfrank,
-    /// BWR with the textbook constants: best over the whole 2-110 MPa range.
-    #[default]
+    /// BWR with the textbook constants: the better set over 2-110 MPa.
     BwrTextbook,
 }
 
 impl Gas {
-    /// Every model, for tables and sweeps.
-    pub const ALL: [Gas; 3] = [Gas::Ideal, Gas::BwrCooperGoldfrank, Gas::BwrTextbook];
+    /// Every model, for tables and sweeps (the default first).
+    pub const ALL: [Gas; 4] = [Gas::Span, Gas::Ideal, Gas::BwrCooperGoldfrank, Gas::BwrTextbook];
 
     /// Stable short name (used on the command line and in files).
     pub fn name(self) -> &'static str {
         match self {
+            Gas::Span => "span",
             Gas::Ideal => "ideal",
             Gas::BwrCooperGoldfrank => "bwr-cg",
             Gas::BwrTextbook => "bwr-textbook",
@@ -349,9 +404,28 @@ impl EquationOfState for Gas {
     #[inline]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         match self {
+            Gas::Span => span::props(rho_kg_m3, t_k),
             Gas::Ideal => IdealGas.props(rho_kg_m3, t_k),
             Gas::BwrCooperGoldfrank => bwr_cooper_goldfrank_props(rho_kg_m3, t_k),
             Gas::BwrTextbook => bwr_textbook_props(rho_kg_m3, t_k),
+        }
+    }
+
+    #[inline]
+    fn pressure_and_slope(&self, rho_kg_m3: f64, t_k: f64) -> (f64, f64) {
+        match self {
+            Gas::Span => span::pressure_and_slope(rho_kg_m3, t_k),
+            _ => {
+                let p = self.props(rho_kg_m3, t_k);
+                (p.p_pa, p.dp_drho_pa_m3_per_kg)
+            }
+        }
+    }
+
+    fn density_start_kg_m3(&self, p_pa: f64, t_k: f64) -> Option<f64> {
+        match self {
+            Gas::Span => span::density_start_kg_m3(p_pa, t_k),
+            _ => None,
         }
     }
 }

@@ -8,13 +8,16 @@
 //! - [`damper`]: the damper pack, bypass valve 5 and the valve-6 orifice.
 //! - [`unit`]: the spring-damper unit and its optional effects.
 //! - [`motion`], [`rig`]: the characterisation and SDOF rigs.
-//! - [`ode`]: fixed-step RK4.
+//! - [`ode`]: fixed-step RK4; [`adaptive`]: error-controlled steps
+//!   (Dormand-Prince 5(4), and Rosenbrock-W for the stiff valve-6 exchange)
+//!   with dense output.
 //! - [`presets`]: the seed's unit.
 //! - [`ranges`]: the valid range of every unit parameter.
 #![no_std]
 // `!(x > y)` is how NaN is rejected together with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod adaptive;
 pub mod damper;
 pub mod error;
 pub mod gas;

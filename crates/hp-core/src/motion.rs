@@ -129,6 +129,62 @@ impl<'a> Motion<'a> {
         }
     }
 
+    /// The next time after `t_s` at which the motion's smoothness breaks
+    /// (a ramp starts or ends), if any: an adaptive integrator stops there,
+    /// so that a step from a quiet stretch cannot jump over a ramp.
+    pub fn next_breakpoint_s(&self, t_s: f64) -> Option<f64> {
+        match *self {
+            Motion::Step { start_s, rise_s, .. } => [start_s, start_s + rise_s].into_iter().find(|&b| b > t_s),
+            Motion::Steps { count, ramp_s, dwell_s, .. } => {
+                let period = ramp_s + dwell_s;
+                let end = 2.0 * f64::from(count) * period;
+                if !(t_s < end) {
+                    return None;
+                }
+                let k = libm::floor(t_s / period).max(0.0);
+                [k * period, k * period + ramp_s, (k + 1.0) * period].into_iter().find(|&b| b > t_s && b <= end)
+            }
+            _ => None,
+        }
+    }
+
+    /// The largest step that resolves the motion at `t_s`, s: a quarter of
+    /// a ramp while one runs, an eighth of a sine's period, four sample
+    /// intervals of sampled data; unlimited where the motion is at rest.
+    pub fn max_dt_s(&self, t_s: f64) -> f64 {
+        match *self {
+            Motion::Hold { .. } => f64::INFINITY,
+            Motion::Sine { frequency_hz, .. } => {
+                if frequency_hz > 0.0 {
+                    0.125 / frequency_hz
+                } else {
+                    f64::INFINITY
+                }
+            }
+            Motion::Step { start_s, rise_s, .. } => {
+                if t_s >= start_s && t_s < start_s + rise_s {
+                    0.25 * rise_s
+                } else {
+                    f64::INFINITY
+                }
+            }
+            Motion::Steps { ramp_s, dwell_s, .. } => {
+                let period = ramp_s + dwell_s;
+                if t_s - libm::floor(t_s / period) * period < ramp_s {
+                    0.25 * ramp_s
+                } else {
+                    f64::INFINITY
+                }
+            }
+            Motion::Sampled { time_s, .. } | Motion::SampledVelocity { time_s, .. } => {
+                match (time_s.first(), time_s.last()) {
+                    (Some(&first), Some(&last)) if time_s.len() > 1 => 4.0 * (last - first) / (time_s.len() - 1) as f64,
+                    _ => f64::INFINITY,
+                }
+            }
+        }
+    }
+
     /// Time at which the motion's own schedule ends (for `Steps`), if it has one.
     pub fn natural_duration_s(&self) -> Option<f64> {
         match *self {

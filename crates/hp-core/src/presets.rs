@@ -9,8 +9,8 @@
 //! `sqrt(1.0 / 0.3) = 1.83` whatever it is: the seed's 1.5 cannot both be
 //! matched with these volumes. `A = 2.0e-3 m^2` splits the difference (soft
 //! about 10 % below 1 Hz, hard about 10 % above 1.5 Hz with the real-gas
-//! isentropic exponent near 1.6 at 14.8 MPa), keeps the hard setting inside
-//! the BWR range over a 100 mm characterisation stroke, and puts the
+//! isentropic exponent near 1.6 at 14.8 MPa), keeps the hard setting's gas inside
+//! the seed's 2-110 MPa envelope over a 100 mm characterisation stroke, and puts the
 //! temperature-driven ride-height change of the seed's heat build-up test
 //! (15 % of the 0.3 L gas volume) at 23 mm against the seed's 18 mm. The
 //! numbers this model gives are in the README.
@@ -76,7 +76,7 @@ pub fn seed_unit() -> UnitParams {
         large_acc_volume_m3: SEED_LARGE_VOLUME_M3,
         static_pressure_pa: static_pressure_for_load_pa(SEED_SPRUNG_MASS_KG, area),
         static_temperature_k: SEED_STATIC_TEMPERATURE_K,
-        gas: Gas::BwrTextbook,
+        gas: Gas::Span,
         heat: HeatTransfer::TimeConstant(SEED_TAU_S),
         // A 10 mm solenoid valve seat with a discharge coefficient of 0.62.
         valve6: Orifice { flow_area_m2: 0.62 * core::f64::consts::PI * 0.005 * 0.005, transition_pa: 1.0e5 },

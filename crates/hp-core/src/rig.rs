@@ -12,7 +12,10 @@
 use crate::error::{check_range, Error, Result};
 use crate::motion::Motion;
 use crate::ode::{rk4_step, rk4_step_from, OdeSystem};
-use crate::unit::{StrutMotion, Unit, UnitOutputs, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+use crate::unit::{Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+
+mod adaptive;
+pub use adaptive::{run_adaptive, Adaptive, SampleDetail, Steps, DEFAULT_RTOL};
 
 /// Number of states of a rig: the unit's plus body position and velocity.
 pub const RIG_STATES: usize = UNIT_STATES + 2;
@@ -37,7 +40,9 @@ pub struct RigState {
 }
 
 impl RigState {
-    fn to_array(self) -> [f64; RIG_STATES] {
+    /// As a flat array (the integrator's view): the unit's states, then
+    /// the body's position and velocity.
+    pub fn to_array(self) -> [f64; RIG_STATES] {
         let mut out = [0.0; RIG_STATES];
         let u = self.unit.to_array();
         for (o, v) in out.iter_mut().zip(u.iter().chain([self.body_disp_m, self.body_vel_m_s].iter())) {
@@ -46,7 +51,8 @@ impl RigState {
         out
     }
 
-    fn from_array(a: &[f64; RIG_STATES]) -> Self {
+    /// From a flat array, the inverse of [`RigState::to_array`].
+    pub fn from_array(a: &[f64; RIG_STATES]) -> Self {
         let mut u = [0.0; UNIT_STATES];
         for (o, v) in u.iter_mut().zip(a.iter()) {
             *o = *v;
@@ -182,8 +188,20 @@ impl<'a> Rig<'a> {
     /// step's result catches; the arithmetic cannot panic).
     #[inline]
     fn rate(&self, t_s: f64, s: &RigState) -> (RigState, StrutMotion, f64, f64, UnitOutputs) {
+        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: true });
+        (rate, motion, base, body_acc, out)
+    }
+
+    /// [`Rig::rate`] with only what `needs` asks for (see [`Unit::evaluate_parts`]).
+    #[inline(always)]
+    fn rate_parts(
+        &self,
+        t_s: f64,
+        s: &RigState,
+        needs: Needs,
+    ) -> (RigState, StrutMotion, f64, f64, UnitOutputs, Option<Valve6Coupling>) {
         let (motion, base) = self.strut_motion(t_s, s);
-        let (unit_rate, out) = self.unit.evaluate(&s.unit, motion, self.valves, self.ambient_k);
+        let (unit_rate, out, coupling) = self.unit.evaluate_parts(&s.unit, motion, self.valves, self.ambient_k, needs);
         let body_acc = match self.kind {
             RigKind::Characterisation { .. } => 0.0,
             RigKind::Sdof { sprung_mass_kg, .. } => out.force_true_n / sprung_mass_kg - STANDARD_GRAVITY_M_S2,
@@ -192,7 +210,7 @@ impl<'a> Rig<'a> {
             RigKind::Characterisation { .. } => RigState { unit: unit_rate, body_disp_m: 0.0, body_vel_m_s: 0.0 },
             RigKind::Sdof { .. } => RigState { unit: unit_rate, body_disp_m: s.body_vel_m_s, body_vel_m_s: body_acc },
         };
-        (rate, motion, base, body_acc, out)
+        (rate, motion, base, body_acc, out, coupling)
     }
 
     fn evaluate(&self, t_s: f64, s: &RigState) -> Result<(RigState, RigSample)> {
@@ -204,7 +222,19 @@ impl<'a> Rig<'a> {
     /// returns was).
     fn evaluate_checked(&self, t_s: f64, s: &RigState) -> (RigState, RigSample) {
         let (rate, motion, base, body_acc, out) = self.rate(t_s, s);
-        let sample = RigSample {
+        (rate, self.sample_from(t_s, s, motion, base, body_acc, out))
+    }
+
+    /// The observed quantities at `(t_s, state)` without the state rate
+    /// (the gas evaluated for its pressure alone).
+    fn sample_outputs(&self, t_s: f64, s: &RigState) -> Result<RigSample> {
+        self.check(t_s, s)?;
+        let (_, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: false });
+        Ok(self.sample_from(t_s, s, motion, base, body_acc, out))
+    }
+
+    fn sample_from(&self, t_s: f64, s: &RigState, motion: StrutMotion, base: f64, body_acc: f64, out: UnitOutputs) -> RigSample {
+        RigSample {
             time_s: t_s,
             disp_m: motion.disp_m,
             vel_m_s: motion.vel_m_s,
@@ -219,8 +249,7 @@ impl<'a> Rig<'a> {
             e_friction_j: s.unit.e_friction_j,
             e_valve6_j: s.unit.e_valve6_j,
             unit: out,
-        };
-        (rate, sample)
+        }
     }
 
     /// The initial state: at rest, gas at ambient temperature. On the

@@ -102,3 +102,14 @@ pub fn temperature_rate_k_s(
         HeatTransfer::Polytropic(n) => -(n - 1.0) * t_k * dv_dt() * mass_kg / volume_m3,
     }
 }
+
+/// `d(dT/dt) / d(dV/dt)`: how the temperature rate of one gas volume
+/// changes with its volume rate (the compression term is linear in it),
+/// K/m^3. Used for the linearisation of the stiff valve-6 exchange.
+pub fn temperature_rate_per_volume_rate(heat: HeatTransfer, props: &GasProps, t_k: f64, mass_kg: f64, volume_m3: f64) -> f64 {
+    match heat {
+        HeatTransfer::Isothermal => 0.0,
+        HeatTransfer::Adiabatic | HeatTransfer::TimeConstant(_) => -(t_k / props.cv_j_per_kg_k) * props.dp_dt_pa_per_k / mass_kg,
+        HeatTransfer::Polytropic(n) => -(n - 1.0) * t_k / volume_m3,
+    }
+}

@@ -18,9 +18,9 @@
 
 use crate::damper::{Damper, Orifice};
 use crate::error::{check_range, Error, Result};
+use crate::gas::{EquationOfState, Gas, GasProps, DENSITY_RANGE_KG_M3, TEMPERATURE_RANGE_K};
 use crate::ranges;
-use crate::gas::{EquationOfState, Gas, DENSITY_RANGE_KG_M3, TEMPERATURE_RANGE_K};
-use crate::thermal::{gas_temperature_k, temperature_rate_k_s, HeatTransfer};
+use crate::thermal::{gas_temperature_k, temperature_rate_k_s, temperature_rate_per_volume_rate, HeatTransfer};
 
 /// Standard gravity, m/s^2.
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.80665;
@@ -304,6 +304,36 @@ pub struct UnitOutputs {
     pub cavitating: bool,
 }
 
+/// The linearisation of the valve-6 exchange, the unit's one stiff mode
+/// (the orifice equalises S and L within about a millisecond): the state
+/// rate depends on the flow `q6` through `u = d(rate)/d(q6)`, the flow on
+/// the state through `v = d(q6)/d(state)`, so `u v^T` is the stiff part of
+/// the Jacobian (see [`crate::adaptive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Valve6Coupling {
+    pub u: UnitState,
+    pub v: UnitState,
+}
+
+/// What [`Unit::evaluate_parts`] must produce besides the state rate and
+/// the strut force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Needs {
+    /// Every output (else only `force_true_n`, `p_gas_true_pa`, `p_strut_pa` and
+    /// the flows are meaningful in the returned outputs, and L's gas is
+    /// evaluated only where the rate needs it).
+    pub outputs: bool,
+    /// The valve-6 coupling (when valve 6 is open).
+    pub coupling: bool,
+    /// The state rate (else only the outputs are meaningful, and the gas is
+    /// evaluated for its pressure alone: an output sample).
+    pub rates: bool,
+}
+
+/// Placeholder properties for a gas whose properties nothing reads:
+/// finite, so that terms multiplied by a zero rate stay zero.
+const UNUSED_PROPS: GasProps = GasProps { p_pa: 0.0, dp_dt_pa_per_k: 0.0, dp_drho_pa_m3_per_kg: 0.0, cv_j_per_kg_k: 1.0 };
+
 /// A validated unit with its derived gas masses.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Unit {
@@ -555,6 +585,23 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
     ) -> (UnitState, UnitOutputs) {
+        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false, rates: true });
+        (rate, outputs)
+    }
+
+    /// [`Unit::evaluate`] computing only what `needs` asks for beyond the
+    /// state rate and strut force: with valve 6 closed and neither
+    /// leakage nor lagging transducers, L's gas does not enter the rate and
+    /// its equation of state is skipped unless the outputs are wanted.
+    #[inline(always)]
+    pub fn evaluate_parts(
+        &self,
+        state: &UnitState,
+        motion: StrutMotion,
+        valves: Valves,
+        ambient_k: f64,
+        needs: Needs,
+    ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
         let p = &self.params;
         let e = &p.effects;
         let area = p.piston_area_m2;
@@ -578,8 +625,19 @@ impl Unit {
         // Gas states.
         let t_s = gas_temperature_k(p.heat, state.t_gas_k, t_wall);
         let t_l = gas_temperature_k(p.heat, state.t_gas2_k, t_wall);
-        let props_s = p.gas.props(state.m_small_kg / state.v_gas_m3, t_s);
-        let props_l = p.gas.props(state.m_large_kg / state.v_gas2_m3, t_l);
+        let (rho_s, rho_l) = (state.m_small_kg / state.v_gas_m3, state.m_large_kg / state.v_gas2_m3);
+        let gas = |rho: f64, t: f64| {
+            if needs.rates {
+                p.gas.props(rho, t)
+            } else {
+                let (p_pa, dp_drho_pa_m3_per_kg) = p.gas.pressure_and_slope(rho, t);
+                GasProps { p_pa, dp_drho_pa_m3_per_kg, ..UNUSED_PROPS }
+            }
+        };
+        let props_s = gas(rho_s, t_s);
+        let lagging_sensor = matches!(e.sensor, Some(s) if s.time_constant_s > 0.0);
+        let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor;
+        let props_l = if large_needed { gas(rho_l, t_l) } else { UNUSED_PROPS };
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
         // Valve 6.
@@ -647,7 +705,7 @@ impl Unit {
         // Forces and dissipation.
         let damper_force = area * (p_strut - p_s);
         let damper_power = (p_strut - p_s) * q_damper;
-        let valve6_power = (p_s - p_l) * q6;
+        let valve6_power = if s6 > 0.0 { (p_s - p_l) * q6 } else { 0.0 };
         let (friction_force, friction_power) = match e.friction {
             Some(f) => {
                 let v = motion.vel_m_s;
@@ -707,7 +765,58 @@ impl Unit {
             flow_valve6_m3_s: q6,
             cavitating,
         };
-        (rate, outputs)
+        let coupling = if needs.coupling && s6 > 0.0 {
+            Some(self.valve6_coupling(state, &props_s, &props_l, (t_s, t_l), s6, e.valve_lag.is_some()))
+        } else {
+            None
+        };
+        (rate, outputs, coupling)
+    }
+
+    /// The valve-6 exchange linearised (see [`Valve6Coupling`]).
+    fn valve6_coupling(
+        &self,
+        state: &UnitState,
+        props_s: &GasProps,
+        props_l: &GasProps,
+        (t_s, t_l): (f64, f64),
+        s6: f64,
+        lagging_valve: bool,
+    ) -> Valve6Coupling {
+        let p = &self.params;
+        let dp = props_s.p_pa - props_l.p_pa;
+        let (rho_s, rho_l) = (state.m_small_kg / state.v_gas_m3, state.m_large_kg / state.v_gas2_m3);
+        // q6 = s6 Q(p_S - p_L).
+        let slope = s6 * p.valve6.flow_slope_m3_s_pa(dp, self.valve6_coefficient);
+        let isothermal = p.heat == HeatTransfer::Isothermal;
+        let mut v = UnitState {
+            v_gas_m3: -slope * props_s.dp_drho_pa_m3_per_kg * rho_s / state.v_gas_m3,
+            m_small_kg: slope * props_s.dp_drho_pa_m3_per_kg / state.v_gas_m3,
+            v_gas2_m3: slope * props_l.dp_drho_pa_m3_per_kg * rho_l / state.v_gas2_m3,
+            m_large_kg: -slope * props_l.dp_drho_pa_m3_per_kg / state.v_gas2_m3,
+            ..UnitState::default()
+        };
+        if !isothermal {
+            v.t_gas_k = slope * props_s.dp_dt_pa_per_k;
+            v.t_gas2_k = -slope * props_l.dp_dt_pa_per_k;
+        }
+        if lagging_valve {
+            v.valve6_open_frac = p.valve6.flow_m3_s(dp, self.valve6_coefficient);
+        }
+        // The rate: V_S gains and V_L loses q6; each gas is compressed or
+        // expanded by it; valve 6 dissipates dp q6.
+        let mut u = UnitState {
+            v_gas_m3: 1.0,
+            v_gas2_m3: -1.0,
+            t_gas_k: temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
+            t_gas2_k: -temperature_rate_per_volume_rate(p.heat, props_l, t_l, state.m_large_kg, state.v_gas2_m3),
+            e_valve6_j: dp,
+            ..UnitState::default()
+        };
+        if let Some(n) = p.effects.oil_node {
+            u.t_oil_k = dp / n.heat_capacity_j_per_k;
+        }
+        Valve6Coupling { u, v }
     }
 
     /// Force of the end stops when the strut is beyond its stroke, N. The

@@ -79,17 +79,28 @@ fn density_solve_inverts_pressure_everywhere_on_the_grid() {
 #[test]
 fn the_validated_range_is_the_reference_grid() {
     // `validated_range` says where the models were checked; it must be the
-    // grid these tests check them on (from the ideal-gas limit up).
-    let rows = fixture("n2_grid.csv");
-    let (mut p_max, mut t_min, mut t_max) = (0.0_f64, f64::INFINITY, 0.0_f64);
-    for row in &rows {
-        p_max = p_max.max(row["p_pa"]);
-        t_min = t_min.min(row["t_k"]);
-        t_max = t_max.max(row["t_k"]);
-    }
+    // grid these tests check them on (from the ideal-gas limit up), and for
+    // the reference model the golden fixture's states, envelope and beyond
+    // (tests/span.rs).
+    let bounds = |name: &str| {
+        let (mut p_min, mut p_max, mut t_min, mut t_max) = (f64::INFINITY, 0.0_f64, f64::INFINITY, 0.0_f64);
+        for row in &fixture(name) {
+            p_min = p_min.min(row["p_pa"]);
+            p_max = p_max.max(row["p_pa"]);
+            t_min = t_min.min(row["t_k"]);
+            t_max = t_max.max(row["t_k"]);
+        }
+        ((p_min, p_max), (t_min, t_max))
+    };
+    let (grid_p, grid_t) = bounds("n2_grid.csv");
+    let golden = bounds("n2_span_golden.csv");
     for gas in Gas::ALL {
         let r = hp_core::gas::validated_range(gas);
-        assert_eq!(r.pressure_pa, (hp_core::gas::PRESSURE_RANGE_PA.0, p_max), "{gas:?}");
-        assert_eq!(r.temperature_k, (t_min, t_max), "{gas:?}");
+        if gas == Gas::Span {
+            assert_eq!((r.pressure_pa, r.temperature_k), golden, "{gas:?}");
+        } else {
+            assert_eq!(r.pressure_pa, (hp_core::gas::PRESSURE_RANGE_PA.0, grid_p.1), "{gas:?}");
+            assert_eq!(r.temperature_k, grid_t, "{gas:?}");
+        }
     }
 }

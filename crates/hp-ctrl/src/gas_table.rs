@@ -14,9 +14,9 @@
 //! estimated load pressure (the soft-mode rest state), a request `h` is the
 //! target `u_ref + h`, and the held offset is `u(p_L) - u_ref`.
 //!
-//! The step function must not solve the equation of state (a BWR pressure
-//! costs thousands of instructions on the ECU's double-precision-less FPU),
-//! so [`LargeTable::new`] tabulates `p_L` once, over the volume offsets of
+//! The step function must not solve the equation of state (a pressure of
+//! the reference model costs thousands of instructions on the ECU), so
+//! [`LargeTable::new`] tabulates `p_L` once, over the volume offsets of
 //! the stroke widened by the largest request on both sides (so any
 //! reference within the stroke plus any request is inside the table) and
 //! the whole valid temperature range, on a grid of gas density (where the
@@ -25,8 +25,15 @@
 //! volume offset) for the reference and the held offset. The same table
 //! serves all three, so the held offset reaches the request exactly when
 //! `p_L` reaches the target pressure.
+//!
+//! The table is built with the reference equation of state in single
+//! precision ([`hp_core::gas::span::single`]): the ECU's FPU has no double
+//! precision, and the double-precision model in software would not fit its
+//! flash (it made the firmware 21 KiB larger). The other models are
+//! evaluated as the core has them. Its error against the double-precision
+//! model and the cost of a lookup are in docs/firmware.md.
 
-use hp_core::gas::{EquationOfState, Gas};
+use hp_core::gas::{span, Bwr, EquationOfState, Gas, IdealGas, BWR_COOPER_GOLDFRANK, BWR_TEXTBOOK};
 use hp_core::presets;
 
 use crate::config::{check, check_below, ParamError};
@@ -161,15 +168,37 @@ impl Column<'_> {
     }
 }
 
+/// Pressure of `gas` at `rho_kg_m3` and `t_k`, Pa, as the table is built
+/// from it (each model by name, so that a firmware links only what it
+/// evaluates: the reference model in single precision).
+fn table_pressure_pa(gas: Gas, rho_kg_m3: f64, t_k: f64) -> f64 {
+    match gas {
+        Gas::Span => f64::from(span::single::pressure_and_slope(rho_kg_m3 as f32, t_k as f32).0),
+        Gas::Ideal => IdealGas.pressure_pa(rho_kg_m3, t_k),
+        Gas::BwrCooperGoldfrank => Bwr { constants: BWR_COOPER_GOLDFRANK }.pressure_pa(rho_kg_m3, t_k),
+        Gas::BwrTextbook => Bwr { constants: BWR_TEXTBOOK }.pressure_pa(rho_kg_m3, t_k),
+    }
+}
+
+/// Density of `gas` at `p_pa` and `t_k`, kg/m^3 (see [`table_pressure_pa`]).
+fn table_density_kg_m3(gas: Gas, p_pa: f64, t_k: f64) -> hp_core::Result<f64> {
+    let fail = hp_core::Error::NoConvergence { what: "density from pressure and temperature", target: p_pa };
+    match gas {
+        Gas::Span => span::single::density_kg_m3(p_pa as f32, t_k as f32).map(f64::from).ok_or(fail),
+        Gas::Ideal => IdealGas.density_kg_m3(p_pa, t_k),
+        Gas::BwrCooperGoldfrank => Bwr { constants: BWR_COOPER_GOLDFRANK }.density_kg_m3(p_pa, t_k),
+        Gas::BwrTextbook => Bwr { constants: BWR_TEXTBOOK }.density_kg_m3(p_pa, t_k),
+    }
+}
+
 impl LargeTable {
     /// Tabulates `p_L` for volume offsets over the stroke widened by
     /// `margin_m` on both sides (the largest ride-height request) and
     /// temperatures over `[t_min_k, t_max_k]`.
     pub fn new(unit: &UnitConfig, t_min_k: f64, t_max_k: f64, margin_m: f64) -> Result<Self, ParamError> {
         let gas = unit.gas;
-        let rho_static = gas
-            .density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k)
-            .map_err(ParamError::Gas)?;
+        let rho_static =
+            table_density_kg_m3(gas, unit.static_pressure_pa, unit.static_temperature_k).map_err(ParamError::Gas)?;
         let mass_kg = rho_static * unit.large_acc_volume_m3;
         let u_range_m = (-(unit.stroke_compression_m + margin_m), unit.stroke_extension_m + margin_m);
         let volume_m3 = |u_m: f64| unit.large_acc_volume_m3 + unit.piston_area_m2 * u_m;
@@ -182,7 +211,7 @@ impl LargeTable {
             let mut previous = 0.0_f32;
             for (j, cell) in row.iter_mut().enumerate() {
                 let rho = rho0 + rho_step * j as f64;
-                let p = gas.pressure_pa(rho, t_k);
+                let p = table_pressure_pa(gas, rho, t_k);
                 let p32 = p as f32;
                 let usable = rho.is_finite()
                     && rho > 0.0

@@ -29,6 +29,8 @@ const WARMUP: u32 = 3000;
 const SLOPE_PERIODS: u32 = 1500;
 /// Frames timed per message in the per-frame figures.
 const FRAME_REPS: u32 = 100;
+/// Lookups timed per direction in the gas-table figures.
+const TABLE_REPS: u32 = 100;
 
 /// Counts what the ECU sends instead of sending it.
 struct CountingLink {
@@ -186,6 +188,33 @@ fn send_costs<const N: usize>(out: &VehicleOutputs<N>) {
     }
 }
 
+/// The gas table's cost per lookup, both ways (`LargeTable::pressure_pa`,
+/// `LargeTable::offset_m`, the ride height's and the gas-charge detector's
+/// lookups): `TABLE_REPS` lookups each at points spread over the table,
+/// each timed alone. Prints `table NAME sum=.. max=.. n=..`. (The table
+/// itself is built on the host, `hp_ctrl::calibration`: no start-up cost.)
+fn table_costs<const N: usize>(params: &VehicleParams<N>) {
+    let table = params.corner().large_table();
+    let (u_min, u_max) = table.offset_range_m();
+    let t_k = params.corner().config().unit.static_temperature_k as f32;
+    let p_pa = params.corner().config().unit.static_pressure_pa as f32;
+    let (mut forward, mut backward) = (Stat::default(), Stat::default());
+    for k in 0..TABLE_REPS {
+        let x = libm::sinf(k as f32 * 0.37);
+        let u = u_min + (u_max - u_min) * 0.5 * (1.0 + x);
+        let t = t_k + 40.0 * x;
+        let t0 = now();
+        black_box(table.pressure_pa(black_box(u), black_box(t)));
+        let t1 = now();
+        black_box(table.offset_m(black_box(p_pa * (1.0 + 0.3 * x)), black_box(t)));
+        let t2 = now();
+        forward.add(elapsed(t0, t1));
+        backward.add(elapsed(t1, t2));
+    }
+    hprintln!("table pressure sum={} max={} n={}", forward.sum, forward.max, TABLE_REPS);
+    hprintln!("table offset sum={} max={} n={}", backward.sum, backward.max, TABLE_REPS);
+}
+
 /// 4000 `nop`s for the calibration (plus the call and return: within the
 /// check's one-tick tolerance). A function of its own, never inlined:
 /// LLVM sizes the inline assembly as one instruction, not 8000 bytes, so in
@@ -262,6 +291,7 @@ pub fn main<const N: usize>(params: &'static VehicleParams<N>) -> ! {
     let stack_loop = stack::high_water_bytes();
     receive_costs(&cfg);
     send_costs(&last);
+    table_costs(params);
     let n = PERIODS - WARMUP;
     hprintln!(
         "figures corners={} calib_4000_nops={} stack_init_bytes={} periods={} rx_sum={} rx_max={} step_sum={} step_max={} send_sum={} send_max={} period_sum={} period_max={} stack_loop_bytes={} frames_sent={} safe_periods={} valve5_open={} valve6_open={} tx_dropped={} slope_level_periods={}",

@@ -7,6 +7,7 @@ use pyo3::prelude::*;
 mod args;
 mod can;
 mod ctrl;
+mod e2e_counter;
 mod errors;
 mod exec;
 mod leak;
@@ -24,6 +25,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     leak::register(m)?;
     vehicle::register(m)?;
     m.add_class::<plant::Plant>()?;
+    m.add_class::<e2e_counter::CanCounter>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

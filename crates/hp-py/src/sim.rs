@@ -5,7 +5,7 @@ use crate::errors::{bad_argument, guard, parameter, to_py};
 use crate::exec::{detached_with_progress, run_parallel, threads_arg};
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
-use hp_core::rig::{run, Rig, RigKind, RigSample};
+use hp_core::rig::{run, run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail, Steps};
 use hp_core::unit::{Unit, UnitParams, Valves};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -43,6 +43,24 @@ pub const CHANNELS: [&str; 31] = [
     "body_acc_m_s2",
     "base_disp_m",
     "cavitating",
+    "spring_hard",
+    "damper_on",
+];
+
+/// The channels a sample gives from the integrated state alone, without
+/// evaluating the unit (see [`SampleDetail::States`]).
+const STATE_CHANNELS: [&str; 13] = [
+    "time_s",
+    "disp_m",
+    "vel_m_s",
+    "v_gas_m3",
+    "v_gas2_m3",
+    "e_damper_j",
+    "e_friction_j",
+    "e_valve6_j",
+    "body_disp_m",
+    "body_vel_m_s",
+    "base_disp_m",
     "spring_hard",
     "damper_on",
 ];
@@ -96,7 +114,19 @@ struct Case {
     spring_hard: Vec<bool>,
     damper_on: Vec<bool>,
     channels: Vec<usize>,
+    /// Relative tolerance of the adaptive integrator; `None`: fixed-step
+    /// RK4 with steps of at most `dt_s` (with a tolerance, `dt_s` caps the
+    /// adaptive step).
+    rtol: Option<f64>,
+    /// Adaptive only: replay these step ends (from a recorded run) instead
+    /// of choosing steps.
+    replay_steps_s: Option<Vec<f64>>,
+    /// Adaptive only: return the step ends as `step_end_s`.
+    record_steps: bool,
 }
+
+/// What a run returns: the channels' columns and, when recorded, the step ends.
+type RunOutput = (Vec<Vec<f64>>, Option<Vec<f64>>);
 
 fn bools(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<bool>> {
     let v: Vec<bool> = if let Ok(b) = obj.extract::<bool>() {
@@ -136,12 +166,21 @@ impl Case {
         spring_hard: &Bound<'_, PyAny>,
         damper_on: &Bound<'_, PyAny>,
         channels: Option<Vec<String>>,
+        rtol: Option<f64>,
+        replay_steps_s: Option<Vec<f64>>,
+        record_steps: bool,
     ) -> PyResult<Case> {
         if times_s.is_empty() {
             return Err(parameter("times_s is empty; expected at least one output time"));
         }
+        if rtol.is_none() && (replay_steps_s.is_some() || record_steps) {
+            return Err(parameter("steps_s and record_steps need the adaptive integrator (rtol given)"));
+        }
         let n = times_s.len();
         Ok(Case {
+            rtol,
+            replay_steps_s,
+            record_steps,
             unit: params::unit(unit)?,
             rig: params::rig(rig)?,
             times_s,
@@ -155,7 +194,7 @@ impl Case {
 
     /// Runs the case; `tick(index)` is called for every sample and may
     /// stop the run by returning false.
-    fn run(&self, mut tick: impl FnMut(usize) -> bool) -> Result<Vec<Vec<f64>>, hp_core::Error> {
+    fn run(&self, mut tick: impl FnMut(usize) -> bool) -> Result<RunOutput, hp_core::Error> {
         let unit = Unit::new(self.unit)?;
         let kind = match &self.rig {
             RigSpec::Characterisation { strut } => RigKind::Characterisation { strut: strut.motion() },
@@ -165,20 +204,40 @@ impl Case {
         let valves_at = |i: usize| Valves::from_modes(at(&self.spring_hard, i), at(&self.damper_on, i));
         let rig = Rig::new(&unit, kind, self.ambient_k, valves_at(0))?;
         let mut out: Vec<Vec<f64>> = self.channels.iter().map(|_| Vec::with_capacity(self.times_s.len())).collect();
-        run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), |i, s| {
+        let on_sample = |i: usize, s: &RigSample| {
             let values = channel_values(s);
             for (column, &c) in out.iter_mut().zip(&self.channels) {
                 column.push(values.get(c).copied().unwrap_or(f64::NAN));
             }
             tick(i)
-        })?;
-        Ok(out)
+        };
+        let mut ends: Vec<f64> = Vec::new();
+        match self.rtol {
+            None => run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), on_sample)?,
+            Some(rtol) => {
+                let states_only =
+                    self.channels.iter().all(|&c| CHANNELS.get(c).is_some_and(|name| STATE_CHANNELS.contains(name)));
+                let detail = if states_only { SampleDetail::States } else { SampleDetail::Full };
+                let settings = Adaptive { rtol, max_dt_s: self.dt_s };
+                let mut record = |t: f64| ends.push(t);
+                let steps = match (&self.replay_steps_s, self.record_steps) {
+                    (Some(replay), _) => Steps::Replay(replay),
+                    (None, true) => Steps::Record(&mut record),
+                    (None, false) => Steps::Controlled,
+                };
+                run_adaptive(&rig, &self.times_s, settings, detail, steps, |i, _| valves_at(i), on_sample)?;
+            }
+        }
+        Ok((out, if self.record_steps { Some(ends) } else { None }))
     }
 
-    fn to_dict<'py>(&self, py: Python<'py>, columns: Vec<Vec<f64>>) -> PyResult<Bound<'py, PyDict>> {
+    fn to_dict<'py>(&self, py: Python<'py>, (columns, ends): RunOutput) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         for (column, &c) in columns.into_iter().zip(&self.channels) {
             d.set_item(CHANNELS.get(c).copied().unwrap_or("?"), column.into_pyarray(py))?;
+        }
+        if let Some(ends) = ends {
+            d.set_item("step_end_s", ends.into_pyarray(py))?;
         }
         Ok(d)
     }
@@ -186,10 +245,18 @@ impl Case {
 
 /// Runs one rig simulation and returns its channels as numpy arrays.
 ///
+/// With `rtol` the steps are error-controlled (relative tolerance `rtol`,
+/// at most `dt_s` long, which may be infinite) and the samples come from
+/// the dense output; without, fixed RK4 steps of at most `dt_s` land on
+/// every output time. `record_steps` adds the adaptive steps' end times as
+/// `step_end_s`; `steps_s` replays such a list without error control (a
+/// run whose steps do not move when a parameter does, for
+/// finite-difference derivatives).
+///
 /// `progress(done, total)` is called about ten times a second from the
 /// simulation thread; the GIL is released otherwise. Ctrl-C stops the run.
 #[pyfunction]
-#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None))]
+#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None, rtol=None, steps_s=None, record_steps=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -202,10 +269,13 @@ pub fn simulate<'py>(
     damper_on: &Bound<'py, PyAny>,
     channels: Option<Vec<String>>,
     progress: Option<Py<PyAny>>,
+    rtol: Option<f64>,
+    steps_s: Option<Vec<f64>>,
+    record_steps: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let times = f64_array(times_s, "times_s")?;
-        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels)?;
+        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels, rtol, steps_s, record_steps)?;
         let total = case.times_s.len();
         let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         let columns = result.map_err(to_py)?;
@@ -232,7 +302,28 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: O
                 Some(v) => Some(v.extract::<Vec<String>>().map_err(|_| parameter(format!("cases[{i}].channels must be a list of names")))?),
                 None => None,
             };
-            let case = Case::from_py(&r.get("unit")?, &r.get("rig")?, r.vec("times_s")?, r.f64("dt_s")?, r.f64("ambient_k")?, &spring_hard, &damper_on, channels)?;
+            let rtol = match r.get_opt("rtol")? {
+                Some(v) => Some(v.extract::<f64>().map_err(|_| parameter(format!("cases[{i}].rtol must be a number or None")))?),
+                None => None,
+            };
+            let steps = if r.get_opt("steps_s")?.is_some() { Some(r.vec("steps_s")?) } else { None };
+            let record = match r.get_opt("record_steps")? {
+                Some(v) => v.extract::<bool>().map_err(|_| parameter(format!("cases[{i}].record_steps must be a bool")))?,
+                None => false,
+            };
+            let case = Case::from_py(
+                &r.get("unit")?,
+                &r.get("rig")?,
+                r.vec("times_s")?,
+                r.f64("dt_s")?,
+                r.f64("ambient_k")?,
+                &spring_hard,
+                &damper_on,
+                channels,
+                rtol,
+                steps,
+                record,
+            )?;
             r.finish()?;
             specs.push(case);
         }
@@ -372,6 +463,11 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
     m.add_function(wrap_pyfunction!(load_pressure_pa, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
+    // The gas models by name, the default (the reference equation of state) first.
+    m.add("GAS_MODELS", hp_core::gas::Gas::ALL.map(|g| g.name()).to_vec())?;
+    m.add("DEFAULT_GAS", hp_core::gas::Gas::default().name())?;
+    // The adaptive integrator's relative tolerance unless a caller asks for another.
+    m.add("DEFAULT_RTOL", hp_core::rig::DEFAULT_RTOL)?;
     m.add("STANDARD_GRAVITY_M_S2", hp_core::unit::STANDARD_GRAVITY_M_S2)?;
     let ranges = PyDict::new(m.py());
     for r in hp_core::ranges::ALL {

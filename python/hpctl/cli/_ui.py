@@ -9,22 +9,30 @@ user's cell must not crash the printer."""
 from __future__ import annotations
 
 import math
+import os
 import sys
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.text import Text
 
 from hpctl.caveats import Caveat
 from hpctl.caveats import to_json as caveats_json
+from hpctl.data import output
 from hpctl.errors import HpctlError
 from hpctl.model.unit import Unit
+
+if TYPE_CHECKING:
+    from rich.table import Table
+
+#: Where the root command keeps the arguments it was given (click's
+#: context ``meta``), for :func:`invocation`.
+ARGS_KEY = "hpctl.args"
 
 #: Exit codes: 0 ok; 1 internal error or the environment failed (an
 #: output that cannot be written: disk full, no permission); 2 bad input
@@ -41,9 +49,7 @@ class Reporter:
     def __init__(self, quiet: bool, as_json: bool) -> None:
         self.quiet = quiet
         self.as_json = as_json
-        # Tables keep their columns when written to a file or a pipe.
-        wide = None if sys.stdout.isatty() else 160
-        self.out = Console(quiet=quiet or as_json, width=wide)
+        self.out = Console(quiet=quiet or as_json, width=console_width(sys.stdout.isatty(), os.environ))
         self.err = Console(stderr=True, quiet=quiet)
         # Errors are printed even with --quiet.
         self.errors = Console(stderr=True)
@@ -55,6 +61,8 @@ class Reporter:
         if self.quiet:
             yield lambda _name: None
             return
+        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
         with Progress(
             TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"), TimeRemainingColumn(),
             console=self.err, transient=True,
@@ -86,6 +94,63 @@ class Reporter:
             self.errors.print(Text.assemble(("warning", "yellow"), f" [{c.code}]: ", c.message), soft_wrap=True, highlight=False)
 
 
+def console_width(is_terminal: bool, environ: Mapping[str, str]) -> int | None:
+    """The width tables are laid out for: the terminal's (None: rich asks
+    it, and honours ``COLUMNS``); written to a file or a pipe, ``COLUMNS``
+    if set, else 160 (wide enough for every table, no wrapping in logs)."""
+    if is_terminal:
+        return None
+    try:
+        columns = int(environ.get("COLUMNS", ""))
+    except ValueError:
+        return 160
+    return columns if columns > 0 else 160
+
+
+def table(title: str, columns: Iterable[str], *, justify: str = "right") -> Table:
+    """A table that fits the console it is printed on: the first column
+    (the row's name) left-aligned, the others right-aligned. In a narrow
+    terminal the headers wrap at their spaces (or break), but a cell keeps
+    its width, up to 12 characters, so numbers stay whole; a longer cell
+    folds onto a second line instead of being cut with an ellipsis: no
+    digit is lost."""
+    from rich import box
+    from rich.table import Table
+
+    class _Fitting(Table):
+        def add_row(self, *cells: Any, **kwargs: Any) -> None:
+            super().add_row(*cells, **kwargs)
+            for column, cell in zip(self.columns, cells):
+                width = len(cell.plain if isinstance(cell, Text) else str(cell))
+                column.min_width = max(column.min_width or 0, min(width, 12))
+
+    # No vertical lines: in a narrow terminal every character goes to the cells.
+    t = _Fitting(title=title, box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, collapse_padding=True, title_justify="left")
+    for k, name in enumerate(columns):
+        t.add_column(name, justify="left" if k == 0 else justify, overflow="fold")  # type: ignore[arg-type]
+    return t
+
+
+def invocation() -> list[str]:
+    """The command line this process was given, as ``hpctl ARGS...`` (the
+    arguments the root command parsed; outside click, ``sys.argv``)."""
+    ctx = click.get_current_context(silent=True)
+    args = None if ctx is None else ctx.find_root().meta.get(ARGS_KEY)
+    return ["hpctl", *(sys.argv[1:] if args is None else args)]
+
+
+def provenance() -> dict[str, str]:
+    """hpctl's version and the exact command, for every summary and report
+    (:func:`hpctl.data.output.provenance`)."""
+    return output.provenance(invocation())
+
+
+def output_dir(root: Path, command: str, *, force: bool = False, protect: Iterable[str] = ()) -> output.OutputDir:
+    """The output folder of a command, knowing who writes it (its reports
+    carry :func:`provenance`)."""
+    return output.OutputDir(root, command, force=force, protect=protect, provenance=provenance())
+
+
 def finish(rep: Reporter, caveats: Sequence[Caveat], strict: bool) -> None:
     """The end of a command whose outputs are written: the warnings on
     stderr, and with ``--strict`` exit code 3 if there are any."""
@@ -96,13 +161,25 @@ def finish(rep: Reporter, caveats: Sequence[Caveat], strict: bool) -> None:
 
 
 def with_warnings(summary: dict[str, Any], caveats: Sequence[Caveat]) -> dict[str, Any]:
-    """The summary as JSON data, with its ``"warnings"`` list."""
-    document: dict[str, Any] = jsonable({**summary, "warnings": caveats_json(caveats)})
+    """The summary as JSON data, led by who wrote it (``"hpctl"``: the
+    version and the exact command) and ending with its ``"warnings"`` list."""
+    document: dict[str, Any] = jsonable({"hpctl": provenance(), **summary, "warnings": caveats_json(caveats)})
     return document
 
 
 def strict_option(f: Callable[..., Any]) -> Callable[..., Any]:
     return click.option("--strict", is_flag=True, help=f"Exit with code {EXIT_WARNINGS} if there is any warning (the outputs are still written).")(f)
+
+
+#: The figure formats (:data:`hpctl.report.plots.FORMATS`; repeated here so
+#: that the option does not import matplotlib at start-up: a test keeps
+#: the two equal).
+FIGURE_FORMATS = ("png", "svg", "pdf")
+
+
+def format_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    return click.option("--format", "fig_format", type=click.Choice(FIGURE_FORMATS), default="png", show_default=True,
+                        help="File format of the plots.")(f)
 
 
 def force_option(f: Callable[..., Any]) -> Callable[..., Any]:

@@ -7,24 +7,27 @@ import contextlib
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
-from rich.table import Table
 from rich.text import Text
 
 from hpctl.caveats import Caveat, Code
-from hpctl.cli._ui import FiniteFloat, Reporter, errors, finish, force_option, status, strict_option, with_warnings
+from hpctl.cli._ui import FiniteFloat, Reporter, errors, finish, force_option, output_dir, status, strict_option, table, with_warnings
 from hpctl.data import DEMO_DIR
-from hpctl.data.output import OutputDir, reading
+from hpctl.data.output import reading
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
 from hpctl.errors import ParameterError
-from hpctl.identify import diagnose, virtual_rig
-from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import FitResult, fit
+from hpctl.identify import virtual_rig
 from hpctl.model.effects import LIBRARY, MODELS, model_params, parse_model
-from hpctl.report import calibration as report
 from hpctl.sim import checks
+
+# SciPy (the fit) and matplotlib (the reports) are imported by the
+# commands that use them, not at start-up: `hpctl --help` stays fast.
+if TYPE_CHECKING:
+    from hpctl.identify import diagnose
+    from hpctl.identify.fit import FitResult
 
 
 def _records(paths: tuple[Path, ...]) -> list[RigRecord]:
@@ -65,6 +68,8 @@ def _record_caveats(recs: Sequence[RigRecord], gas: str) -> list[Caveat]:
 
 def _fit_caveats(result: FitResult) -> list[Caveat]:
     """A fit that did not converge, or left more than noise."""
+    from hpctl.identify import diagnose
+
     out = []
     if not result.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}", {"message": result.message}))
@@ -86,15 +91,12 @@ def _model_gas(result: FitResult) -> str:
 
 
 def _print_fit(rep: Reporter, result: FitResult) -> None:
-    t = Table(title=f"Fitted parameters ({', '.join(result.model.effects) or 'classical polytropic ideal gas'})")
-    for col in ("parameter", "value", "standard error"):
-        t.add_column(col, justify="right")
+    t = table(f"Fitted parameters ({', '.join(result.model.effects) or 'classical polytropic ideal gas'})", ("parameter", "value", "standard error"))
     for p in result.model.params:
         t.add_row(p.name, f"{result.values[p.name]:.5g}", f"{result.stderr.get(p.name, float('nan')):.2g}")
     rep.out.print(t)
-    t = Table(title=f"Residual per record and channel (RMS / noise overall {result.rms_ratio:.3f})")
-    for col in ("record", "channel", "noise", "RMS", "NRMS", "max", "loop area err [J]"):
-        t.add_column(col, justify="right")
+    t = table(f"Residual per record and channel (RMS / noise overall {result.rms_ratio:.3f})",
+              ("record", "channel", "noise", "RMS", "NRMS", "max", "loop area err [J]"))
     for s in result.stats:
         loop = "-" if s.loop_area_error_j is None else f"{s.loop_area_error_j:.2f}"
         # Record names come from file names: text, never markup.
@@ -120,10 +122,14 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
     not converge or left more than noise is a warning."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
+        from hpctl.identify.dataset import prepare
+        from hpctl.identify.fit import fit
+        from hpctl.report import calibration as report
+
         effects = parse_model(model)
         recs = _records(records)
         datasets = prepare(recs)
-        with OutputDir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
+        with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
             with status(rep, f"fitting {len(model_params(effects)) + 1} parameters to {len(datasets)} record(s)"):
                 result = fit(datasets, effects)
             caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result)
@@ -189,7 +195,7 @@ def rig_cmd(out_dir: Path, program: str, effects: tuple[str, ...], sets: tuple[s
         values = virtual_rig.effect_values(effects, rng if random_values else None, overrides)
         unit = virtual_rig.truth_unit(effects, values)
         tests = virtual_rig.tests_for(effects, program)
-        with OutputDir(out_dir, "rig", force=force, protect=("truth.json",)) as out:
+        with output_dir(out_dir, "rig", force=force, protect=("truth.json",)) as out:
             recs = virtual_rig.make_records(unit, tests=tests, noise=virtual_rig.Noise().scaled(noise_scale), seed=seed)
             caveats = [c for r in recs for c in checks.channels(unit, r.data, f"record {r.name}")]
             for r in recs:
@@ -234,7 +240,10 @@ def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
 
 def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool,
                    command: str, force: bool, strict: bool) -> None:
-    with OutputDir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
+    from hpctl.identify import diagnose
+    from hpctl.report import calibration as report
+
+    with output_dir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
         with status(rep, "diagnosing") as spinner:
             diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
         caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
@@ -252,19 +261,22 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
     out = []
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
-    if diag.verdict == "unexplained_structure":
+    j = diag.judgement
+    if j is not None and j.structure_remains:
+        found = f"after adding {', '.join(diag.found)} " if diag.found else "and no effect in the library explains it: "
         out.append(Caveat(
             Code.RESIDUAL_STRUCTURED,
-            f"structured residual remains that no effect in the library explains (RMS / noise {diag.final.rms_ratio:.3g})",
-            {"rms_ratio": diag.final.rms_ratio, "verdict": diag.verdict},
+            f"structure remains {found}(RMS / noise {j.rms_ratio:.3g}, worst channel {j.worst_rms_ratio:.3g}; "
+            f"'nothing left' needs at most {diagnose.NOISE_CEILING:g}): " + "; ".join(pl.describe() for pl in j.places[:3]),
+            {"rms_ratio": j.rms_ratio, "worst_rms_ratio": j.worst_rms_ratio, "verdict": diag.verdict, "found": list(diag.found),
+             "structured": [f"{pl.record}/{pl.channel}" for pl in j.places],
+             "regimes": [",".join(pl.worst_regimes.values()) for pl in j.places]},
         ))
     return out
 
 
 def _print_diagnosis(rep: Reporter, diag: diagnose.Diagnosis, path: Path) -> None:
-    t = Table(title=f"Diagnosis: {diag.verdict.replace('_', ' ')}")
-    for col in ("step", "model", "RMS / noise", "BIC", "added", "BIC gain", "parameters"):
-        t.add_column(col, justify="right")
+    t = table(f"Diagnosis: {diag.verdict.replace('_', ' ')}", ("step", "model", "RMS / noise", "BIC", "added", "BIC gain", "parameters"))
     for k, rnd in enumerate(diag.rounds):
         c = rnd.accepted
         params = "" if c is None else ", ".join(f"{p.name}={c.result.values[p.name]:.4g}" for e in c.effects for p in LIBRARY[e].params)
@@ -272,6 +284,8 @@ def _print_diagnosis(rep: Reporter, diag: diagnose.Diagnosis, path: Path) -> Non
                   "-" if c is None else c.effect, "-" if c is None else f"{c.delta_bic:.0f}", params)
     t.add_row("final", ", ".join(diag.final.model.effects) or "classical", f"{diag.final.rms_ratio:.3g}", f"{diag.final.bic:.0f}", "", "", "")
     rep.out.print(t)
+    if diag.judgement is not None:
+        rep.say(diag.judgement.describe())
     rep.say(f"Report: {path}")
 
 

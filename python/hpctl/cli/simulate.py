@@ -11,7 +11,6 @@ from typing import Any
 
 import click
 from click.core import ParameterSource
-from rich.table import Table
 
 from hpctl.caveats import Caveat
 from hpctl.cli._ui import (
@@ -21,11 +20,14 @@ from hpctl.cli._ui import (
     finish,
     fmt,
     force_option,
+    format_option,
     load_unit,
     modes,
+    output_dir,
     parse_floats,
     parse_tau,
     strict_option,
+    table,
     with_warnings,
 )
 from hpctl.data.output import OutputDir
@@ -33,7 +35,7 @@ from hpctl.data.records import write_record
 from hpctl.errors import SimulationError
 from hpctl.model.unit import GAS_MODELS, SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim import experiments
-from hpctl.sim.run import Sine, Step, Steps
+from hpctl.sim.run import DEFAULT_RTOL, Sine, Step, Steps
 
 
 @click.command()
@@ -48,8 +50,9 @@ from hpctl.sim.run import Sine, Step, Steps
 @click.option("--gas", type=click.Choice(GAS_MODELS), help="Equation of state.")
 @click.option("--duration-s", type=FINITE, help="Simulated duration, s.")
 @click.option("--dt-s", type=FINITE, default=None,
-              help="Integration step, s (default 1e-3; 2e-3 for the heat run; keep <= 1e-3 with valve 6 open). A step longer than the "
-                   "output interval is not taken: the output interval is, with a warning.")
+              help="Largest integration step, s (default: none; the steps are error-controlled and follow the dynamics). With --fixed-steps, "
+                   "the step (default 1e-3); a fixed step longer than the output interval is not taken: the output interval is, with a warning.")
+@click.option("--fixed-steps", is_flag=True, help="Fixed RK4 steps of --dt-s landing on every output time (as the firmware runs) instead of error-controlled steps.")
 @click.option("--mass-kg", type=FINITE, default=SEED_SPRUNG_MASS_KG, show_default=True, help="Sprung mass for SDOF tests, kg.")
 @click.option("--sweep", is_flag=True, help="Sweep a grid (charge pressure x tau x damper) of SDOF step tests in parallel.")
 @click.option("--sweep-pressure-pa", type=str, help="Comma-separated static charge pressures, Pa (default: the unit's x 0.8..1.2).")
@@ -57,17 +60,18 @@ from hpctl.sim.run import Sine, Step, Steps
 @click.option("--threads", type=click.IntRange(min=0), default=None,
               help="Threads for --sweep: 0 (the default) = all cores, at most 4 x the cores.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-out"), show_default=True, help="Output folder.")
+@format_option
 @force_option
 @strict_option
 @click.option("--quiet", "-q", is_flag=True, help="No progress bars or tables.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on stdout.")
 def simulate(
     unit_file: Path | None, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
-    tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, mass_kg: float, sweep: bool,
-    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, force: bool, strict: bool, quiet: bool, as_json: bool,
+    tau_s: str | None, gas: str | None, duration_s: float | None, dt_s: float | None, fixed_steps: bool, mass_kg: float, sweep: bool,
+    sweep_pressure_pa: str | None, sweep_tau_s: str | None, threads: int | None, out_dir: Path, fig_format: str, force: bool, strict: bool, quiet: bool, as_json: bool,
 ) -> None:
     """Run the seed's experiments (default) or one test on a unit, and write
-    rig records, PNG plots and a summary into the output folder. What a
+    rig records, plots (PNG, SVG or PDF) and a summary into the output folder. What a
     result cannot stand behind (end stops, the gas model's range, the
     rated speed, a failed case...) is printed as a warning and listed in
     summary.json under "warnings"."""
@@ -75,17 +79,18 @@ def simulate(
     rep = Reporter(quiet, as_json)
     with errors(rep):
         unit = load_unit(unit_file, parse_tau(tau_s), gas)
-        with OutputDir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
+        with output_dir(out_dir, "simulate", force=force, protect=("summary.json",)) as out:
             if sweep:
-                summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out)
+                summary, caveats = _sweep(rep, unit, spring, damper, amplitude_m, mass_kg, sweep_pressure_pa, sweep_tau_s, threads, out, fig_format)
             else:
-                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, mass_kg, out)
+                rtol = None if fixed_steps else DEFAULT_RTOL
+                summary, caveats = _simulate(rep, unit, test, amplitude_m, frequency_hz, spring, damper, duration_s, dt_s, rtol, mass_kg, out, fig_format)
             document = with_warnings(summary, caveats)
             out.write_json("summary.json", document)
         if as_json:
             click.echo(json.dumps(document, indent=2))
         else:
-            what = "sweep.csv, sweep.png" if sweep else "records, plots"
+            what = f"sweep.csv, sweep.{fig_format}" if sweep else "records, plots"
             rep.say(("Wrote", "bold"), f" {what} and summary.json to {out_dir}/")
         finish(rep, caveats, strict)
 
@@ -96,11 +101,11 @@ def simulate(
 # step had been used.
 _READS: dict[str, frozenset[str]] = {
     "seed": frozenset(),
-    "sine": frozenset({"amplitude_m", "frequency_hz", "spring", "damper", "duration_s", "dt_s"}),
-    "steps": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s"}),
-    "step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s"}),
-    "sdof-step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "mass_kg"}),
-    "heat": frozenset({"amplitude_m", "frequency_hz", "spring", "duration_s", "dt_s", "mass_kg"}),
+    "sine": frozenset({"amplitude_m", "frequency_hz", "spring", "damper", "duration_s", "dt_s", "fixed_steps"}),
+    "steps": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "fixed_steps"}),
+    "step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "fixed_steps"}),
+    "sdof-step": frozenset({"amplitude_m", "spring", "damper", "duration_s", "dt_s", "fixed_steps", "mass_kg"}),
+    "heat": frozenset({"amplitude_m", "frequency_hz", "spring", "duration_s", "dt_s", "fixed_steps", "mass_kg"}),
     "sweep": frozenset({"amplitude_m", "spring", "damper", "mass_kg", "sweep_pressure_pa", "sweep_tau_s", "threads"}),
 }
 _RUN_OPTIONS = frozenset().union(*_READS.values(), {"test"})
@@ -123,7 +128,7 @@ def _refuse_unused_options(run: str) -> None:
 
 def _sweep(
     rep: Reporter, unit: Unit, spring: str, damper: str, amplitude_m: float | None, mass_kg: float,
-    pressures: str | None, taus: str | None, threads: int | None, out: OutputDir,
+    pressures: str | None, taus: str | None, threads: int | None, out: OutputDir, fig_format: str = "png",
 ) -> tuple[dict[str, Any], list[Caveat]]:
     from hpctl.report.plots import sweep_plot
     from hpctl.sim import sweep
@@ -143,7 +148,8 @@ def _sweep(
     for row in summary["rows"]:
         w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in sweep.COLUMNS})
     out.write_text("sweep.csv", buf.getvalue())
-    sweep_plot(summary["rows"], out.path("sweep.png"), spring != "soft")
+    height_m = amplitude_m if amplitude_m is not None else experiments.SEED_STEP_M
+    sweep_plot(summary["rows"], out.path(f"sweep.{fig_format}"), spring != "soft", height_m=height_m, mass_kg=mass_kg)
     if summary["failed"]:
         rep.note(f"{summary['failed']} of {summary['cases']} sweep cases failed (see the warnings and the error column of sweep.csv)")
     return summary, caveats
@@ -151,7 +157,7 @@ def _sweep(
 
 def _simulate(
     rep: Reporter, unit: Unit, test: str, amplitude_m: float | None, frequency_hz: float | None, spring: str, damper: str,
-    duration_s: float | None, dt_s: float | None, mass_kg: float, out: OutputDir,
+    duration_s: float | None, dt_s: float | None, rtol: float | None, mass_kg: float, out: OutputDir, fig_format: str = "png",
 ) -> tuple[dict[str, Any], list[Caveat]]:
     def given(value: float | None, default: float) -> float:
         return default if value is None else value
@@ -169,14 +175,14 @@ def _simulate(
                 for on in dampers:
                     runs.append(experiments.sdof_step(
                         unit, spring_hard=hard, damper_on=on, height_m=given(amplitude_m, experiments.SEED_STEP_M),
-                        duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=given(dt_s, 1e-3),
+                        duration_s=given(duration_s, 6.0), sprung_mass_kg=mass_kg, dt_s=dt_s, rtol=rtol,
                         progress=bar(f"SDOF step ({experiments.spring_name(hard)}, damper {experiments.damper_name(on)})"),
                     ))
         elif test == "heat":
             for hard in springs:
                 runs.append(experiments.heat_buildup(
                     unit, duration_s=given(duration_s, 75 * 60.0), frequency_hz=given(frequency_hz, 0.5), amplitude_m=given(amplitude_m, 0.06),
-                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=given(dt_s, 2e-3), progress=bar(f"heat build-up ({experiments.spring_name(hard)})"),
+                    spring_hard=hard, sprung_mass_kg=mass_kg, dt_s=dt_s, rtol=rtol, progress=bar(f"heat build-up ({experiments.spring_name(hard)})"),
                 ))
         else:
             for hard in springs:
@@ -193,7 +199,7 @@ def _simulate(
                         motion = Step(given(amplitude_m, 0.05), start_s=1.0, rise_s=0.05)
                         dur = given(duration_s, 30.0)
                     sample = min(0.01, dur / 2000) if dur > 0 else 0.01
-                    runs.append(experiments.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=given(dt_s, min(1e-3, sample)), sample_dt_s=sample, progress=bar(name)))
+                    runs.append(experiments.characterisation(unit, motion, dur, spring_hard=hard, damper_on=on, dt_s=dt_s, rtol=rtol, sample_dt_s=sample, progress=bar(name)))
 
     for e in runs:
         write_record(e.record, out.path(f"records/{e.name}"))
@@ -201,16 +207,11 @@ def _simulate(
     steps = [e for e in runs if e.record.kind == "sdof"]
     if test == "heat":
         for e in runs:
-            r = e.result
-            plots.time_series(
-                [("gas", r["time_s"], r["t_gas_k"] - 273.15, "gas [C]"), ("oil", r["time_s"], r["t_oil_k"] - 273.15, "oil [C]"),
-                 ("force", r["time_s"], 1e-3 * r["force_n"], "force [kN]")],
-                out.path(f"{e.name}.png"), "Damper heat build-up",
-            )
+            plots.heat_buildup(e, out.path(f"{e.name}.{fig_format}"))
     elif chars:
-        plots.force_displacement(chars, out.path("force_displacement.png"))
+        plots.force_displacement(chars, out.path(f"force_displacement.{fig_format}"))
     if steps:
-        plots.step_responses(steps, out.path("step_responses.png"), title=f"SDOF step response ({mass_kg:g} kg)")
+        plots.step_responses(steps, out.path(f"step_responses.{fig_format}"))
     summary: dict[str, Any] = {"test": test, "unit": {"piston_area_m2": unit.piston_area_m2, "static_pressure_pa": unit.static_pressure_pa, "tau_s": unit.tau_s, "gas": unit.gas}}
     summary.update(experiments.headline(runs))
     summary["runs"] = [dict(e.summary, name=e.name) for e in runs]
@@ -224,26 +225,20 @@ def _print_summary(rep: Reporter, runs: Sequence[experiments.Experiment], test: 
     steps = [e.summary for e in runs if e.record.kind == "sdof"]
     chars = [e.summary for e in runs if e.record.kind == "characterisation"]
     if steps:
-        t = Table(title="SDOF step response")
-        for col in ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"):
-            t.add_column(col, justify="right")
+        t = table("SDOF step response", ("spring", "damper", "natural freq. [Hz]", "damping ratio", "overshoot [mm]", "settling [s]", "peak p_gas [MPa]"))
         for s in steps:
             t.add_row(s["spring"], s["damper"], fmt(s["natural_frequency_hz"]), fmt(s["damping_ratio"]), fmt(s["overshoot_m"], 1e3, 1),
                       fmt(s["settling_time_s"]), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if chars and test != "heat":
-        t = Table(title="Characterisation")
-        for col in ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"):
-            t.add_column(col, justify="right")
+        t = table("Characterisation", ("spring", "damper", "excitation", "force range [kN]", "loop area [J]", "gas loop area [J]", "peak p_gas [MPa]"))
         for s in chars:
             t.add_row(s["spring"], s["damper"], s["excitation"], f"{s['force_min_n'] / 1e3:.1f} .. {s['force_max_n'] / 1e3:.1f}",
                       fmt(s.get("loop_area_j"), 1, 0), fmt(s.get("gas_loop_area_j"), 1, 0), fmt(s["peak_p_gas_pa"], 1e-6, 1))
         rep.out.print(t)
     if test == "heat":
         seed = experiments.SEED_HEAT_BUILDUP
-        t = Table(title="Damper heat build-up: this model vs the seed")
-        for col in ("quantity", "hpctl", "seed"):
-            t.add_column(col, justify="right")
+        t = table("Damper heat build-up: this model vs the seed", ("quantity", "hpctl", "seed"))
         for s in (e.summary for e in runs):
             t.add_row("gas temperature [C]", f"{s['gas_temperature_start_k'] - 273.15:.0f} -> {s['gas_temperature_end_k'] - 273.15:.0f}",
                       f"{seed['gas_temperature_start_c']:.0f} -> {seed['gas_temperature_end_c']:.0f}")

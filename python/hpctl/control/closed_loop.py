@@ -33,7 +33,7 @@ from hpctl.caveats import Caveat, Code
 from hpctl.control import road
 from hpctl.control.controller import Diag, DriveMode, DriverMode, SequencerState
 from hpctl.errors import ParameterError, bad_argument, check_int, check_number
-from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, Unit
+from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim import checks
 from hpctl.sim.run import sdof_rig
 
@@ -218,7 +218,7 @@ class ClosedLoop:
     @property
     def static_load_pressure_pa(self) -> float:
         """The gas pressure that carries the sprung mass at rest (absolute), Pa."""
-        return self.case.unit.load_pressure_pa(self.case.sprung_mass_kg * STANDARD_GRAVITY_M_S2)
+        return self.case.unit.mass_pressure_pa(self.case.sprung_mass_kg)
 
     def held_offset_m(self) -> FloatArray:
         """The ride-height offset the oil in L gives at rest, from the
@@ -447,23 +447,26 @@ DEMO_LOWER_AT_S, DEMO_RAISE_AT_S, DEMO_END_S = 8.0, 40.0, 64.0
 DEMO_MANOEUVRE_END_S = 28.0
 
 
-def demo_cases(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None) -> tuple[Case, Case]:
+def demo_cases(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None,
+               config: Mapping[str, Any] | None = None) -> tuple[Case, Case]:
     """The two demonstration runs: (a) lowering by ``lower_m`` and back on
-    the random road, (b) a lane change and a braking burst."""
+    the random road, (b) a lane change and a braking burst. The controller
+    runs ``config`` (None: derived from the unit)."""
     u = Unit.seed() if unit is None else unit
     height = Scenario(DEMO_END_S, speed_m_s, requests=(HeightRequest(DEMO_LOWER_AT_S, -lower_m), HeightRequest(DEMO_RAISE_AT_S, 0.0)))
     modes = Scenario(DEMO_MANOEUVRE_END_S, speed_m_s, manoeuvres=(LaneChange(8.0), Braking(18.0)))
-    return Case(height, road_class, seed, u), Case(modes, road_class, seed + 1, u)
+    return Case(height, road_class, seed, u, config=config), Case(modes, road_class, seed + 1, u, config=config)
 
 
-def demo(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None, threads: int | None = None) -> tuple[ClosedLoop, ClosedLoop, dict[str, Any]]:
+def demo(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None, config: Mapping[str, Any] | None = None,
+         threads: int | None = None) -> tuple[ClosedLoop, ClosedLoop, dict[str, Any]]:
     """Runs the demonstration; returns the height-change run, the mode run
     and the summary (:mod:`hpctl.report.closed_loop` plots the runs)."""
     if not (np.isfinite(lower_m) and 0 < lower_m <= 0.1):
         raise ParameterError(f"lower_m = {lower_m} must be within (0, 0.1] m")
     if not (np.isfinite(speed_m_s) and 0 < speed_m_s <= 40):
         raise ParameterError(f"speed_m_s = {speed_m_s} must be within (0, 40] m/s")
-    cases = demo_cases(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit)
+    cases = demo_cases(road_class=road_class, speed_m_s=speed_m_s, lower_m=lower_m, seed=seed, unit=unit, config=config)
     results = run_many(cases, threads)
     for r in results:
         if isinstance(r, Exception):

@@ -31,7 +31,29 @@ from hpctl.errors import bad_argument, check_float_array, check_number
 # tables); the names are checked against those tables by the tests.
 
 
-class DriverMode(IntEnum):
+class _Named(IntEnum):
+    """An enum that prints as its name (``RIDE``, not ``0``: Python 3.11's
+    IntEnum prints its number); its value is still the controller's."""
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __format__(self, spec: str) -> str:
+        # A numeric format (f"{mode:d}") formats the number.
+        return self.name if not spec else int.__format__(int(self), spec)
+
+
+class _NamedFlags(IntFlag):
+    """Flags that print as their names joined by ``|`` (``0`` when none)."""
+
+    def __str__(self) -> str:
+        return self.name or "0"
+
+    def __format__(self, spec: str) -> str:
+        return str(self) if not spec else int.__format__(int(self), spec)
+
+
+class DriverMode(_Named):
     """The driver's mode switch."""
 
     AUTO = _core.CTRL_DRIVER_MODES.index("auto")
@@ -39,26 +61,26 @@ class DriverMode(IntEnum):
     SPORT = _core.CTRL_DRIVER_MODES.index("sport")
 
 
-class DriveMode(IntEnum):
+class DriveMode(_Named):
     RIDE = _core.CTRL_DRIVE_MODES.index("ride")
     HANDLING = _core.CTRL_DRIVE_MODES.index("handling")
 
 
-class SpringMode(IntEnum):
+class SpringMode(_Named):
     """Valve 6 closed (hard, S alone) or open (soft, S + L)."""
 
     HARD = _core.CTRL_SPRING_MODES.index("hard")
     SOFT = _core.CTRL_SPRING_MODES.index("soft")
 
 
-class DamperMode(IntEnum):
+class DamperMode(_Named):
     """Valve 5 closed (high damping) or open (bypass, low)."""
 
     HIGH = _core.CTRL_DAMPER_MODES.index("high")
     LOW = _core.CTRL_DAMPER_MODES.index("low")
 
 
-class SequencerState(IntEnum):
+class SequencerState(_Named):
     IDLE = _core.CTRL_SEQUENCER_STATES.index("idle")
     LOWERING = _core.CTRL_SEQUENCER_STATES.index("lowering")
     RAISING = _core.CTRL_SEQUENCER_STATES.index("raising")
@@ -66,7 +88,7 @@ class SequencerState(IntEnum):
     BLOCKED = _core.CTRL_SEQUENCER_STATES.index("blocked")
 
 
-class InputGroup(IntFlag):
+class InputGroup(_NamedFlags):
     """Input groups, one bit each (``Inputs.fresh``)."""
 
     PRESSURES = _core.CTRL_INPUT_GROUPS["PRESSURES"]
@@ -79,7 +101,7 @@ class InputGroup(IntFlag):
     ALL = sum(_core.CTRL_INPUT_GROUPS.values())
 
 
-class Diag(IntFlag):
+class Diag(_NamedFlags):
     """Diagnostic flags of ``Outputs.diag`` (``docs/controller.md``)."""
 
     SAFE_STATE = _core.CTRL_DIAG_FLAGS["SAFE_STATE"]

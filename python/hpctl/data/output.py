@@ -48,14 +48,16 @@ import datetime as _dt
 import hashlib
 import json
 import os
+import shlex
 import shutil
 import signal
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from hpctl._version import __version__
 from hpctl.errors import OutputError
 
 try:  # POSIX; elsewhere the lock falls back to an exclusive create.
@@ -67,6 +69,18 @@ MANIFEST = ".hpctl-manifest.json"
 LOCK = ".hpctl-lock"
 STAGING_PREFIX = ".hpctl-staging-"
 _FORMAT = "hpctl-manifest"
+
+
+def provenance(argv: Sequence[str]) -> dict[str, str]:
+    """Who wrote an output: hpctl's ``version`` and the exact ``command``
+    (``argv`` quoted as a POSIX shell reads it back), for every summary
+    (``"hpctl"`` in the JSON) and report (its first lines)."""
+    return {"version": __version__, "command": shlex.join(argv)}
+
+
+def provenance_line(p: Mapping[str, str]) -> str:
+    """The provenance as a Markdown line for a report."""
+    return f"Written by hpctl {p['version']}: `{p['command']}`"
 
 
 def sha256_file(path: Path) -> str:
@@ -309,9 +323,13 @@ class OutputDir:
     that a conflict stops the run before it computes for minutes.
     """
 
-    def __init__(self, root: str | Path, command: str, *, force: bool = False, protect: Iterable[str] = ()) -> None:
+    def __init__(self, root: str | Path, command: str, *, force: bool = False, protect: Iterable[str] = (),
+                 provenance: Mapping[str, str] | None = None) -> None:
         self.root = Path(root)
         self.command = command
+        #: Who writes this folder (:func:`provenance`), for the reports
+        #: written into it; None when not known (the Python API).
+        self.provenance = None if provenance is None else dict(provenance)
         self.force = force
         self.protect = tuple(protect)
         self._lock = _Lock(self.root, command)

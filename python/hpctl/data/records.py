@@ -23,6 +23,7 @@ import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Any, Literal
 
 import numpy as np
@@ -85,10 +86,12 @@ class RecordTest:
     frequency_hz: float | None = None
 
 
-@dataclass
+@dataclass(eq=False)
 class RigRecord:
     """One rig record. ``data`` keeps the CSV's columns in file order,
-    unknown columns included."""
+    unknown columns included. Two records are equal when everything a
+    record file holds is (the name, which is the file's, aside): the
+    tables and the columns, in order, sample for sample."""
 
     kind: Kind
     unit: RecordUnit
@@ -101,6 +104,19 @@ class RigRecord:
 
     def __getitem__(self, column: str) -> NDArray[np.float64]:
         return self.data[column]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RigRecord):
+            return NotImplemented
+        return (
+            (self.kind, self.unit, self.static, self.test, self.description, self.sprung_mass_kg)
+            == (other.kind, other.unit, other.static, other.test, other.description, other.sprung_mass_kg)
+            and list(self.data) == list(other.data)
+            and all(np.array_equal(self.data[c], other.data[c]) for c in self.data)
+        )
+
+    # Mutable (its arrays): not hashable, like the dataclass it was.
+    __hash__ = None  # type: ignore[assignment]
 
     def __contains__(self, column: str) -> bool:
         return column in self.data
@@ -184,6 +200,12 @@ def _read_toml(path: Path) -> dict[str, dict[str, Any]]:
         raise RecordError(f"{path}: cannot read: {e}") from None
     except tomllib.TOMLDecodeError as e:
         raise RecordError(f"{path}: not valid TOML: {e}") from None
+    return _check_meta(raw, path)
+
+
+def _check_meta(raw: Mapping[str, Any], path: Path | str) -> dict[str, dict[str, Any]]:
+    """The metadata tables checked against the schema (errors name ``path``)."""
+    path = Path(path)
     out: dict[str, dict[str, Any]] = {}
     for table, content in raw.items():
         if table not in _SCHEMA:
@@ -296,6 +318,71 @@ def read_record(path: str | Path) -> RigRecord:
     )
 
 
+def record_meta(record: RigRecord) -> dict[str, dict[str, Any]]:
+    """The record's metadata as the TOML file holds it (tables of plain
+    strings and floats): what other formats carry beside the columns."""
+    meta: dict[str, dict[str, Any]] = {
+        "record": {"kind": record.kind, "description": record.description},
+        "unit": _drop_none(vars(record.unit)),
+        "static": _drop_none(vars(record.static)),
+        "test": _drop_none(vars(record.test)),
+    }
+    if record.kind == "sdof":
+        meta["sdof"] = {"sprung_mass_kg": record.sprung_mass_kg}
+    return meta
+
+
+def record_from_parts(meta: Mapping[str, Any], data: Mapping[str, Any], source: str | Path, name: str = "record") -> RigRecord:
+    """A record from metadata tables (as :func:`record_meta` gives them) and
+    columns (name -> samples, in SI units), checked as :func:`read_record`
+    checks a file: the schema, the required columns, finite samples, time
+    strictly increasing, flags 0 or 1. Errors name ``source``, the table,
+    key, column and sample."""
+    checked = _check_meta(meta, source)
+    kind = checked["record"]["kind"]
+    columns: dict[str, NDArray[np.float64]] = {}
+    n = None
+    for column, values in data.items():
+        try:
+            a = np.array(values, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise RecordError(f"{source}: column {column!r}: not numbers") from None
+        if n is not None and a.size != n:
+            raise RecordError(f"{source}: column {column!r} has {a.size} samples, expected {n} (as the columns before it)")
+        n = a.size
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise RecordError(f"{source}: column {column!r}, sample {int(bad[0])}: {float(a[bad[0]])!r} is not a finite number")
+        columns[str(column)] = a
+    required = [c for c, (_u, kinds) in COLUMNS.items() if kind in kinds]
+    missing = [c for c in required if c not in columns]
+    if missing:
+        raise RecordError(f"{source}: missing required column {missing[0]!r} for a {kind} record (required: {', '.join(required)})")
+    if (n or 0) < 2:
+        raise RecordError(f"{source}: expected at least two samples, found {n or 0}")
+    t = columns["time_s"]
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise RecordError(f"{source}: column 'time_s', sample {i}: {float(t[i])!r} does not increase strictly (previous {float(t[i - 1])!r})")
+    for flag in FLAG_COLUMNS:
+        if flag in columns:
+            off = np.flatnonzero((columns[flag] != 0) & (columns[flag] != 1))
+            if off.size:
+                i = int(off[0])
+                raise RecordError(f"{source}: column {flag!r}, sample {i}: {float(columns[flag][i])!r}, expected 0 or 1")
+    return RigRecord(
+        kind=kind,
+        description=checked["record"].get("description", ""),
+        unit=RecordUnit(**checked["unit"]),
+        static=RecordStatic(**checked["static"]),
+        test=RecordTest(**checked["test"]),
+        sprung_mass_kg=checked.get("sdof", {}).get("sprung_mass_kg"),
+        data=columns,
+        name=name,
+    )
+
+
 def write_record(record: RigRecord, path: str | Path) -> tuple[Path, Path]:
     """Writes ``NAME.csv`` and ``NAME.toml``; floats are written with the
     shortest representation that reads back to the same value. Both go to
@@ -314,14 +401,8 @@ def write_record(record: RigRecord, path: str | Path) -> tuple[Path, Path]:
     for i in range(n):
         w.writerow([_fmt(c, a[i]) for c, a in zip(columns, arrays)])
     csv_bytes = buf.getvalue().encode("utf-8")
-    meta: dict[str, dict[str, Any]] = {
-        "record": {"kind": record.kind, "description": record.description, "csv_sha256": hashlib.sha256(csv_bytes).hexdigest()},
-        "unit": _drop_none(vars(record.unit)),
-        "static": _drop_none(vars(record.static)),
-        "test": _drop_none(vars(record.test)),
-    }
-    if record.kind == "sdof":
-        meta["sdof"] = {"sprung_mass_kg": record.sprung_mass_kg}
+    meta = record_meta(record)
+    meta["record"]["csv_sha256"] = hashlib.sha256(csv_bytes).hexdigest()
     csv_tmp, toml_tmp = temp_name(csv_path), temp_name(toml_path)
     try:
         for tmp, data in ((csv_tmp, csv_bytes), (toml_tmp, tomli_w.dumps(meta).encode("utf-8"))):

@@ -44,7 +44,6 @@ class Dataset:
     targets: dict[str, FloatArray]
     sigma: dict[str, float]
     ambient_k: float
-    max_dt_s: float
     # Per-sample standard deviation of each channel's residual: the
     # channel's own noise plus the input displacement's noise carried
     # through the local sensitivity (the effective-variance method).
@@ -110,12 +109,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
                 carried2 = (b * x_noise) ** 2 + (cv * v_noise) ** 2
             weight_sigma[c] = np.sqrt(sigma[c] ** 2 + carried2) * np.ones(len(t))
         hard, on = rec.spring_hard(), rec.damper_on()
-        # With valve 6 open its orifice is the fastest dynamics (about a
-        # millisecond); otherwise the gas, whose thermal time constant is
-        # seconds. Steps also never span more than one sample interval.
-        max_dt = 1e-3 if bool((~hard).any()) else 0.02
         strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
-        out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, max_dt, weight_sigma,
+        out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, weight_sigma,
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs))
     return out
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
-from hpctl.identify.dataset import Dataset, loop_area_j, prepare, traits, uses_damper
+from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, predict
 from hpctl.model.effects import LIBRARY
 
@@ -45,7 +45,17 @@ CHANNEL_RMS_RATIO = 1.5
 CORRELATED_RMS_RATIO = 1.2
 AUTOCORR_STRUCTURED = 0.5
 
-VERDICTS = ("effects_found", "nothing_left", "unexplained_structure")
+# "Nothing left" only at the noise: the pooled residual and every record's
+# channel at most this multiple of its noise level (and nothing structured
+# by the criteria above). Above it, the verdict says structure remains,
+# whether or not effects were found.
+NOISE_CEILING = 1.3
+
+#: effects_found: effects were added and the residual is now at the noise;
+#: effects_found_structure_remains: effects were added but more than noise
+#: is left; nothing_left: the declared model was already at the noise;
+#: unexplained_structure: more than noise, and no effect earned its place.
+VERDICTS = ("effects_found", "effects_found_structure_remains", "nothing_left", "unexplained_structure")
 
 
 def autocorr(r: NDArray[np.float64], lag: int = 1) -> float:
@@ -106,6 +116,116 @@ def analyse(result: FitResult) -> ResidualReport:
     return ResidualReport(result.rms_ratio, structured or result.rms_ratio > POOLED_RMS_RATIO, rows, corr)
 
 
+#: Regimes the residual is split into, per axis: the strut compressing or
+#: extending (rebound), fast or slow (the damper's working speed), the hard
+#: or soft spring (valve 6), and the strut compressed beyond or extended
+#: from its mean position.
+REGIME_AXES = ("direction", "speed", "spring", "stroke")
+#: A regime needs this share of a record's samples to be judged.
+REGIME_MIN_SHARE = 0.1
+
+
+@dataclass(frozen=True)
+class Place:
+    """Where a residual is more than noise: one record's channel, the RMS
+    over the noise in each regime, and the quantities it correlates with."""
+
+    record: str
+    channel: str
+    rms_ratio: float
+    autocorr: float
+    regimes: dict[str, float]
+    worst_regimes: dict[str, str]
+    correlates_with: list[tuple[str, float]]
+
+    def describe(self) -> str:
+        where = ", ".join(f"{r} ({self.regimes[r]:.2g}x)" for r in self.worst_regimes.values())
+        corr = ", ".join(f"{q} (r={c:+.2f})" for q, c in self.correlates_with)
+        return (f"{self.record}/{self.channel}: {self.rms_ratio:.2g}x noise" + (f", most in {where}" if where else "")
+                + (f"; correlates with {corr}" if corr else ""))
+
+    def to_json(self) -> dict[str, Any]:
+        return {"record": self.record, "channel": self.channel, "rms_ratio": self.rms_ratio, "autocorr": self.autocorr,
+                "regimes": self.regimes, "worst_regimes": self.worst_regimes,
+                "correlates_with": [{"quantity": q, "r": c} for q, c in self.correlates_with], "text": self.describe()}
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """What a fit leaves, judged against the noise: at the noise (nothing
+    left) or structure remains, and where."""
+
+    rms_ratio: float
+    worst_rms_ratio: float
+    at_noise: bool
+    places: list[Place]
+
+    @property
+    def structure_remains(self) -> bool:
+        return not self.at_noise
+
+    def describe(self, limit: int = 3) -> str:
+        if self.at_noise:
+            return f"residual at the noise (RMS / noise {self.rms_ratio:.3g}, worst channel {self.worst_rms_ratio:.3g})"
+        head = f"structure remains (RMS / noise {self.rms_ratio:.3g}, worst channel {self.worst_rms_ratio:.3g})"
+        return head + (": " + "; ".join(p.describe() for p in self.places[:limit]) if self.places else "")
+
+    def to_json(self) -> dict[str, Any]:
+        return {"rms_ratio": self.rms_ratio, "worst_rms_ratio": self.worst_rms_ratio, "noise_ceiling": NOISE_CEILING,
+                "at_noise": self.at_noise, "structure_remains": self.structure_remains,
+                "places": [p.to_json() for p in self.places], "text": self.describe()}
+
+
+def _regime_masks(d: Dataset) -> dict[str, dict[str, NDArray[np.bool_]]]:
+    v, x = d.strut_vel_m_s, d.strut_disp_m
+    moving = np.abs(v) > 0.02 * max(float(np.max(np.abs(v))), 1e-12)
+    out = {
+        "direction": {"compression": moving & (v > 0), "rebound": moving & (v < 0)},
+        "speed": {"fast": np.abs(v) >= DAMPER_WORKING_SPEED_M_S, "slow": np.abs(v) < DAMPER_WORKING_SPEED_M_S},
+        "spring": {"hard": d.spring_hard, "soft": ~d.spring_hard},
+        "stroke": {"compressed": x > np.mean(x), "extended": x <= np.mean(x)},
+    }
+    return out
+
+
+def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int = 12) -> Judgement:
+    """Judges what ``result`` leaves against the noise: at the noise only
+    when nothing is structured and the pooled residual and every record's
+    channel are within :data:`NOISE_CEILING` of their noise; otherwise the
+    places with more than noise, worst first, each with the regimes where
+    it is largest and the quantities it correlates with."""
+    a = analysis or analyse(result)
+    ratios = [r["rms_ratio"] for r in a.rows]
+    worst = max(ratios, default=0.0)
+    at_noise = not a.structured and result.rms_ratio <= NOISE_CEILING and worst <= NOISE_CEILING
+    places: list[Place] = []
+    index = {d.name: i for i, d in enumerate(result.datasets)}
+    above = sorted((r for r in a.rows if r["rms_ratio"] > NOISE_CEILING or r["structured"]), key=lambda r: -r["rms_ratio"])
+    for row in above[:limit]:
+        i = index[row["record"]]
+        d = result.datasets[i]
+        r = result.residuals(i, row["channel"])
+        z = r / d.weight_sigma[row["channel"]]
+        regimes: dict[str, float] = {}
+        worst_regimes: dict[str, str] = {}
+        if np.all(np.isfinite(z)):
+            for axis, masks in _regime_masks(d).items():
+                judged = {name: float(np.sqrt(np.mean(z[m] ** 2))) for name, m in masks.items() if m.mean() >= REGIME_MIN_SHARE}
+                regimes.update(judged)
+                if len(judged) == 2:
+                    (n1, r1), (n2, r2) = sorted(judged.items(), key=lambda kv: -kv[1])
+                    # A regime is where the structure is when it holds
+                    # clearly more of it than the other side of the axis.
+                    if r1 > 1.2 * r2:
+                        worst_regimes[axis] = n1
+        corr = sorted(((c["regressor"], c["r"]) for c in a.correlations
+                       if c["record"] == row["record"] and c["channel"] == row["channel"] and math.isfinite(c["r"])),
+                      key=lambda qc: -abs(qc[1]))
+        places.append(Place(row["record"], row["channel"], row["rms_ratio"], row["autocorr"], regimes, worst_regimes,
+                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3]))
+    return Judgement(result.rms_ratio, worst, at_noise, places)
+
+
 @dataclass
 class Candidate:
     """One effect (or, when no single one is enough, a pair) added to the model."""
@@ -141,6 +261,8 @@ class Round:
     analysis: ResidualReport
     candidates: list[Candidate]
     accepted: Candidate | None
+    # What the accepted candidate leaves, judged against the noise.
+    judgement: Judgement | None = None
 
 
 @dataclass
@@ -151,6 +273,11 @@ class Diagnosis:
     final_analysis: ResidualReport
     verdict: str
     found: list[str] = field(default_factory=list)
+    judgement: Judgement | None = None
+
+    @property
+    def structure_remains(self) -> bool:
+        return self.judgement is not None and self.judgement.structure_remains
 
     @property
     def initial(self) -> FitResult:
@@ -239,20 +366,25 @@ def diagnose(
             tried_pairs.sort(key=lambda c: c.score, reverse=True)
             accepted = _accept(datasets, current, effects, tried_pairs, say)
             tried += tried_pairs
-        rounds.append(Round(current, analysis, tried, accepted))
+        judgement = None
+        if accepted is not None:
+            judgement = judge(accepted.result)
+            say(f"added {accepted.effect}: {judgement.describe(1)}")
+        rounds.append(Round(current, analysis, tried, accepted, judgement))
         if accepted is None:
             break
         found += [e for e in LIBRARY if e in accepted.effects]
         effects = tuple(e for e in LIBRARY if e in effects + accepted.effects)
         current = accepted.result
     final_analysis = analyse(current)
+    final_judgement = judge(current, final_analysis)
     if found:
-        verdict = "effects_found"
-    elif final_analysis.structured:
+        verdict = "effects_found_structure_remains" if final_judgement.structure_remains else "effects_found"
+    elif final_judgement.structure_remains:
         verdict = "unexplained_structure"
     else:
         verdict = "nothing_left"
-    return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found)
+    return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found, final_judgement)
 
 
 @dataclass(frozen=True)
@@ -290,6 +422,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         if rnd.accepted is None:
             continue
         c = rnd.accepted
+        after = rnd.judgement or judge(c.result)
         for e in c.effects:
             steps.append({
                 "effect": e,
@@ -302,9 +435,16 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
                 "cv_rss_after": c.cv_after,
                 "rms_ratio_before": rnd.before.rms_ratio,
                 "rms_ratio_after": c.result.rms_ratio,
+                "worst_rms_ratio_before": max((row["rms_ratio"] for row in rnd.analysis.rows), default=None),
+                "worst_rms_ratio_after": after.worst_rms_ratio,
+                "residual_after": after.to_json(),
             })
+    final = diag.judgement or judge(diag.final, diag.final_analysis)
     return {
         "verdict": diag.verdict,
+        "found": list(diag.found),
+        "structure_remains": final.structure_remains,
+        "remaining_structure": final.to_json(),
         "start_model": list(diag.start_effects),
         "effects": steps,
         "final_model": list(diag.final.model.effects),

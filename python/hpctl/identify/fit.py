@@ -26,7 +26,6 @@ from hpctl.model.effects import (
     LIBRARY,
     Param,
     build_unit,
-    max_step_s,
     model_params,
 )
 from hpctl.model.unit import Unit
@@ -61,15 +60,13 @@ class Model:
         its outputs)."""
         return tuple(e for e in self.effects if not LIBRARY[e].on_outputs)
 
-    def max_dt_s(self, d: Dataset, values: Mapping[str, float]) -> float:
-        """A step small enough for the fastest dynamics the model has."""
-        return max(min(d.max_dt_s, max_step_s(self.unit_for(d, values))), 2e-5)
 
-
-def _case(model: Model, d: Dataset, values: Mapping[str, float]) -> Case:
+def _case(model: Model, d: Dataset, values: Mapping[str, float], steps_s: FloatArray | None = None, record_steps: bool = False) -> Case:
     channels = ["time_s", "disp_m", "force_n", "p_gas_pa", "p_gas2_pa", "body_disp_m", "t_gas_k", "damper_force_n", "friction_force_n"]
+    # The core's error-controlled steps at its default tolerance (the one
+    # rule for step sizes): no step size to pick per model.
     return Case(model.unit_for(d, values), d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on,
-                dt_s=model.max_dt_s(d, values), ambient_k=d.ambient_k, channels=channels)
+                ambient_k=d.ambient_k, channels=channels, steps_s=steps_s, record_steps=record_steps)
 
 
 def values_from_x(params: Sequence[Param], x: Sequence[float] | FloatArray) -> dict[str, float]:
@@ -79,9 +76,20 @@ def values_from_x(params: Sequence[Param], x: Sequence[float] | FloatArray) -> d
 LAGGED = ("force_n", "p_gas_pa", "p_gas2_pa")
 
 
-def simulate_all(model: Model, datasets: Sequence[Dataset], value_sets: Sequence[Mapping[str, float]]) -> list[list[dict[str, FloatArray] | Exception]]:
-    """Simulates every dataset for every parameter set, in parallel."""
-    cases = [_case(model, d, v) for v in value_sets for d in datasets]
+def simulate_all(
+    model: Model,
+    datasets: Sequence[Dataset],
+    value_sets: Sequence[Mapping[str, float]],
+    steps: Sequence[FloatArray | None] | None = None,
+    record_steps: bool = False,
+) -> list[list[dict[str, FloatArray] | Exception]]:
+    """Simulates every dataset for every parameter set, in parallel. With
+    ``record_steps`` each result has the adaptive steps' end times under
+    ``step_end_s``; ``steps`` (one per dataset) replays such lists."""
+    cases = [
+        _case(model, d, v, None if steps is None else steps[j], record_steps)
+        for v in value_sets for j, d in enumerate(datasets)
+    ]
     flat = run_many(cases)
     n = len(datasets)
     out: list[list[dict[str, FloatArray] | Exception]] = []
@@ -92,6 +100,8 @@ def simulate_all(model: Model, datasets: Sequence[Dataset], value_sets: Sequence
                 row.append(r)
                 continue
             ch = dict(r.channels)
+            if r.step_end_s is not None:
+                ch["step_end_s"] = r.step_end_s
             if "sensor_lag" in model.effects:
                 for c in LAGGED:
                     # At rest the force has no damper or friction part.
@@ -205,17 +215,25 @@ def fit(
     x0 = np.array([p.to_x(min(max(start.get(p.name, p.initial), p.lower), p.upper)) for p in params])
     lo = np.array([p.x_bounds()[0] for p in params])
     hi = np.array([p.x_bounds()[1] for p in params])
-    cache: dict[bytes, FloatArray] = {}
+    # Residuals and the adaptive steps that produced them, per x: the
+    # Jacobian's perturbed runs replay those steps, so that a column is the
+    # model's sensitivity and not the step-size selection changing with the
+    # parameter (which can swamp a weak sensitivity, e.g. a slow leak's).
+    cache: dict[bytes, tuple[FloatArray, list[FloatArray | None]]] = {}
 
-    def fun(x: FloatArray) -> FloatArray:
+    def evaluate(x: FloatArray) -> tuple[FloatArray, list[FloatArray | None]]:
         key = x.tobytes()
         if key not in cache:
-            sims = simulate_all(model, datasets, [values_from_x(params, x)])[0]
-            cache[key] = residual_vector(datasets, sims, fold)
+            sims = simulate_all(model, datasets, [values_from_x(params, x)], record_steps=True)[0]
+            ends = [None if isinstance(s, Exception) else s.get("step_end_s") for s in sims]
+            cache[key] = (residual_vector(datasets, sims, fold), ends)
         return cache[key]
 
+    def fun(x: FloatArray) -> FloatArray:
+        return evaluate(x)[0]
+
     def jac(x: FloatArray) -> FloatArray:
-        f0 = fun(x)
+        f0, ends = evaluate(x)
         steps = []
         xs = []
         for i in range(len(x)):
@@ -225,7 +243,7 @@ def fit(
             xi[i] = x[i] + h if x[i] + h <= hi[i] else x[i] - h
             steps.append(xi[i] - x[i])
             xs.append(xi)
-        sims = simulate_all(model, datasets, [values_from_x(params, xi) for xi in xs])
+        sims = simulate_all(model, datasets, [values_from_x(params, xi) for xi in xs], steps=ends)
         cols = [(residual_vector(datasets, s, fold) - f0) / h for s, h in zip(sims, steps)]
         return np.column_stack(cols) if cols else np.zeros((len(f0), 0))
 

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RecordTest, RigRecord
-from hpctl.model.effects import LIBRARY, build_unit, max_step_s, ordered
+from hpctl.model.effects import LIBRARY, build_unit, ordered
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim.experiments import _record
 from hpctl.sim.run import (
@@ -112,9 +112,7 @@ def record_test(unit: Unit, test: Test, noise: Noise, rng: np.random.Generator, 
     else:
         spring_hard = test.spring_hard
     rig = sdof_rig(test.motion, SEED_SPRUNG_MASS_KG) if test.sdof else characterisation_rig(test.motion)
-    dt = min(1e-3 if (test.switch_period_s is not None or not test.spring_hard) else 5e-3, test.duration_s / test.samples / 2)
-    dt = min(dt, max_step_s(unit))
-    result = run(unit, rig, times, spring_hard=spring_hard, damper_on=test.damper_on, dt_s=dt, ambient_k=ambient)
+    result = run(unit, rig, times, spring_hard=spring_hard, damper_on=test.damper_on, ambient_k=ambient)
     rt = RecordTest(
         spring="hard" if test.spring_hard else "soft",
         damper="on" if test.damper_on else "off",

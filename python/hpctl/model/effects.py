@@ -36,7 +36,7 @@ import numpy as np
 
 from hpctl import _core
 from hpctl.errors import ParameterError
-from hpctl.model.unit import Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
+from hpctl.model.unit import DEFAULT_GAS, Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
 
 #: The core's valid range of every unit parameter (hp_core::ranges).
 CORE_RANGES: Mapping[str, tuple[float, float]] = _core.PARAMETER_RANGES
@@ -227,7 +227,7 @@ def _sensor_lag_step(u: Unit) -> float | None:
 
 
 #: The equation of state the ``real_gas`` effect switches on.
-REAL_GAS = "bwr-textbook"
+REAL_GAS = DEFAULT_GAS
 #: Velocity over which the Coulomb friction is smoothed, m/s.
 FRICTION_SMOOTHING_VELOCITY_M_S = 2e-3
 #: Records shorter than these cannot show the slow effects.
@@ -242,7 +242,7 @@ LIBRARY: dict[str, Effect] = {
             (Param("tau_s", 0.05, 500.0, 2.0, 2.0, (0.7, 6.0), log=True),), _heat_transfer,
             "sine records over a range of frequencies",
         ),
-        Effect("real_gas", "real nitrogen (the core's real-gas equation of state) instead of the ideal gas", (), _real_gas,
+        Effect("real_gas", "real nitrogen (the reference equation of state, Span et al. 2000) instead of the ideal gas", (), _real_gas,
                "large compressions / high pressure"),
         Effect(
             "friction", "seal friction: Coulomb plus viscous",

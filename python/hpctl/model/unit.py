@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
@@ -22,7 +22,10 @@ from hpctl import _core
 from hpctl._coretypes import UnitDict
 from hpctl.errors import ParameterError, bad_argument, check_number
 
-GAS_MODELS = ("ideal", "bwr-cg", "bwr-textbook")
+# The gas models by name, from the Rust core: the default (the reference
+# equation of state of Span et al. 2000) first.
+GAS_MODELS: tuple[str, ...] = tuple(_core.GAS_MODELS)
+DEFAULT_GAS: str = _core.DEFAULT_GAS
 
 
 @dataclass(frozen=True)
@@ -226,9 +229,20 @@ class Unit:
         if set(data) != {"unit"}:
             raise ParameterError(f"{path}: expected exactly one table [unit], found {sorted(data)}")
         d = dict(data["unit"])
+        if "preset" in d:
+            # A partial file: its values over the preset's.
+            name = d.pop("preset")
+            if name not in PRESETS:
+                raise ParameterError(f"{path}: [unit] preset = {name!r}: expected one of {', '.join(map(repr, PRESETS))}")
+            d = _merge(PRESETS[name]().to_dict(), d, f"{path}: [unit]")
         if d.get("tau_s") == "inf":
             d["tau_s"] = math.inf
-        return cls.from_dict(d, source=f"{path}: [unit]")
+        try:
+            return cls.from_dict(d, source=f"{path}: [unit]")
+        except ParameterError as e:
+            if "missing" in str(e):
+                raise ParameterError(f"{e} (a file that gives only some values names the unit they change: preset = \"seed\")") from None
+            raise
 
     def static_force_n(self, disp_m: float, t_k: float, spring_hard: bool) -> float:
         """Force at rest at compression ``disp_m`` with the gas at ``t_k``."""
@@ -236,11 +250,41 @@ class Unit:
 
     def load_pressure_pa(self, load_n: float) -> float:
         """The gas pressure that carries ``load_n`` at rest, Pa."""
-        return _core.load_pressure_pa(self.to_dict(), load_n)
+        return _core.load_pressure_pa(self.to_dict(), check_number(load_n, "load_n"))
+
+    def mass_pressure_pa(self, mass_kg: float) -> float:
+        """The gas pressure that carries a sprung mass of ``mass_kg`` at rest
+        (its weight under standard gravity), Pa."""
+        return self.load_pressure_pa(check_number(mass_kg, "mass_kg") * STANDARD_GRAVITY_M_S2)
+
+    def for_load(self, *, mass_kg: float | None = None, load_n: float | None = None) -> Unit:
+        """This unit charged for a load: the static pressure (the gas
+        pressure at the static position) that carries ``mass_kg`` (under
+        standard gravity) or ``load_n`` at rest, so that the static
+        position is where the load sits. Give exactly one of the two."""
+        if (mass_kg is None) == (load_n is None):
+            raise ParameterError(f"Unit.for_load: give exactly one of mass_kg (got {mass_kg!r}) and load_n (got {load_n!r})")
+        p = self.mass_pressure_pa(mass_kg) if mass_kg is not None else self.load_pressure_pa(load_n)  # type: ignore[arg-type]
+        unit = self.replace(static_pressure_pa=p)
+        unit.check()
+        return unit
 
     def static_disp_for_load_m(self, load_n: float, t_k: float, spring_hard: bool) -> float:
         """Compression at which the unit carries ``load_n`` at rest, gas at ``t_k``."""
         return _core.static_disp_for_load_m(self.to_dict(), check_number(load_n, "load_n"), check_number(t_k, "t_k"), _flag(spring_hard, "spring_hard"))
+
+
+def _merge(base: Mapping[str, Any], changes: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """``base`` with ``changes`` merged in, table by table (``effects``
+    may add an effect the base does not have); unknown keys are left for
+    :meth:`Unit.from_dict` to name."""
+    out = dict(base)
+    for key, value in changes.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _merge(out[key], value, f"{where}.{key}")
+        else:
+            out[key] = value
+    return out
 
 
 def _flag(value: Any, name: str) -> bool:
@@ -256,4 +300,6 @@ def _expect_mapping(value: Any, where: str) -> dict[str, Any]:
 
 
 SEED_SPRUNG_MASS_KG: float = _core.seed_sprung_mass_kg()
+#: The units a partial unit file can start from (``[unit] preset = "seed"``).
+PRESETS: dict[str, Callable[[], Unit]] = {"seed": Unit.seed}
 STANDARD_GRAVITY_M_S2: float = _core.STANDARD_GRAVITY_M_S2

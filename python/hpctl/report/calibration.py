@@ -12,49 +12,77 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from hpctl.caveats import Caveat  # noqa: E402
-from hpctl.data.output import OutputDir  # noqa: E402
-from hpctl.identify.diagnose import Diagnosis, loop_areas  # noqa: E402
+from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
+from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
-from hpctl.report.plots import save  # noqa: E402
+from hpctl.report.plots import save, valve_states  # noqa: E402
 
 
 def record_plots(result: FitResult, out: OutputDir, prefix: str) -> list[Path]:
-    """Per record: measured vs simulated over time, and the residual over
-    time, displacement and velocity."""
+    """Per record (:func:`record_figure`), written as ``PREFIX_RECORD.png``."""
     paths = []
     for i, d in enumerate(result.datasets):
-        sim = result.sims[i]
-        if isinstance(sim, Exception):
-            continue
-        channel = "force_n" if "force_n" in d.targets else next(iter(d.targets))
-        scale, unit = (1e-3, "kN") if channel == "force_n" else (1e3, "mm") if channel.endswith("_m") else (1e-6, "MPa")
-        t = d.times_s
-        x, v = d.strut_disp_m, d.strut_vel_m_s
-        xlabel = "strut compression (base - body)" if d.record.kind == "sdof" else "strut compression"
-        r = (sim[channel] - d.targets[channel]) * scale
-        fig, ax = plt.subplots(2, 2, figsize=(11, 7))
-        ax[0, 0].plot(t, d.targets[channel] * scale, ".", ms=2, label="measured")
-        ax[0, 0].plot(t, sim[channel] * scale, "-", lw=1, label="model")
-        ax[0, 0].set_xlabel("time [s]")
-        ax[0, 0].set_ylabel(f"{channel} [{unit}]")
-        ax[0, 0].legend()
-        ax[0, 1].plot(t, r, ".", ms=2)
-        ax[0, 1].set_xlabel("time [s]")
-        ax[1, 0].plot(1e3 * x, r, ".", ms=2)
-        ax[1, 0].set_xlabel(f"{xlabel} [mm]")
-        ax[1, 1].plot(v, r, ".", ms=2)
-        ax[1, 1].set_xlabel("velocity [m/s]")
-        for a in (ax[0, 1], ax[1, 0], ax[1, 1]):
-            a.set_ylabel(f"residual (model - measured) [{unit}]")
-            a.axhline(0, color="k", lw=0.5)
-        for a in ax.ravel():
-            a.grid(True, alpha=0.3)
-        fig.suptitle(f"{d.name}: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}")
-        paths.append(save(fig, out.path(f"{prefix}_{d.name}.png"), dpi=90))
+        fig = record_figure(result, i)
+        if fig is not None:
+            paths.append(save(fig, out.path(f"{prefix}_{d.name}.png"), dpi=90))
     return paths
+
+
+def record_figure(result: FitResult, i: int) -> Figure | None:
+    """Record ``i`` of a fit: measured vs simulated over time (with the
+    valve states under it when they switch), and the residual over time,
+    displacement and velocity; None if the model failed on it."""
+    d = result.datasets[i]
+    sim = result.sims[i]
+    if isinstance(sim, Exception):
+        return None
+    channel = "force_n" if "force_n" in d.targets else next(iter(d.targets))
+    scale, unit = (1e-3, "kN") if channel == "force_n" else (1e3, "mm") if channel.endswith("_m") else (1e-6, "MPa")
+    t = d.times_s
+    x, v = d.strut_disp_m, d.strut_vel_m_s
+    xlabel = "strut compression (base - body)" if d.record.kind == "sdof" else "strut compression"
+    r = (sim[channel] - d.targets[channel]) * scale
+    hard, on = d.record.spring_hard(), d.record.damper_on()
+    switching = bool(np.any(hard != hard[0]) or np.any(on != on[0]))
+    if switching:
+        # The valve states under the time plot, on an axis of their own.
+        fig = plt.figure(figsize=(11, 8))
+        grid = fig.add_gridspec(3, 2, height_ratios=[3, 1, 3])
+        top = fig.add_subplot(grid[0, 0])
+        valves = fig.add_subplot(grid[1, 0], sharex=top)
+        ax = np.array([[top, fig.add_subplot(grid[0:2, 1])], [fig.add_subplot(grid[2, 0]), fig.add_subplot(grid[2, 1])]])
+        valve_states(valves, d.record["time_s"], hard, on)
+        valves.set_xlabel("time [s]")
+        valves.grid(True, alpha=0.3)
+        top.tick_params(labelbottom=False)
+    else:
+        fig, ax = plt.subplots(2, 2, figsize=(11, 7))
+    ax[0, 0].plot(t, d.targets[channel] * scale, ".", ms=2, label="measured")
+    ax[0, 0].plot(t, sim[channel] * scale, "-", lw=1, label="model")
+    ax[0, 0].set_xlabel("" if switching else "time [s]")
+    ax[0, 0].set_ylabel(f"{channel} [{unit}]")
+    ax[0, 0].legend()
+    ax[0, 1].plot(t, r, ".", ms=2)
+    ax[0, 1].set_xlabel("time [s]")
+    ax[1, 0].plot(1e3 * x, r, ".", ms=2)
+    ax[1, 0].set_xlabel(f"{xlabel} [mm]")
+    ax[1, 1].plot(v, r, ".", ms=2)
+    ax[1, 1].set_xlabel("velocity [m/s]")
+    for a in (ax[0, 1], ax[1, 0], ax[1, 1]):
+        a.set_ylabel(f"residual (model - measured) [{unit}]")
+        a.axhline(0, color="k", lw=0.5)
+    for a in ax.ravel():
+        a.grid(True, alpha=0.3)
+    test = d.record.test
+    where = f"{test.excitation}" + (f" {1e3 * test.amplitude_m:g} mm" if test.amplitude_m else "") + (f" at {test.frequency_hz:g} Hz" if test.frequency_hz else "")
+    states = "valves switching" if switching else f"{test.spring} spring, damper {test.damper}"
+    fig.suptitle(f"{d.name} ({where}, {states}): {', '.join(result.model.effects) or 'classical polytropic ideal gas'}")
+    return fig
 
 
 def loop_area_plot(results: Sequence[tuple[str, FitResult]], path: Path) -> Path | None:
@@ -113,12 +141,18 @@ def warnings_section(caveats: Sequence[Caveat]) -> list[str]:
     return ["## Warnings", "", *[f"- `{c.code}`: {c.message}" for c in caveats], ""]
 
 
+def _provenance(out: OutputDir) -> list[str]:
+    """The report's provenance line (when the folder knows who writes it)."""
+    return [] if out.provenance is None else [provenance_line(out.provenance), ""]
+
+
 def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
     """fit.md with parameters, errors, plots and the warnings."""
     plots = record_plots(result, out, "fit")
     lines = [
         "# hpctl fit",
         "",
+        *_provenance(out),
         f"Model: {', '.join(result.model.effects) or 'classical polytropic ideal gas'}; "
         f"{result.n} residuals; residual RMS / noise = {result.rms_ratio:.3f}; BIC = {result.bic:.1f}; {result.message}",
         "",
@@ -140,6 +174,13 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
     return out.final("fit.md")
 
 
+def _after(rnd: Round) -> str:
+    j = rnd.judgement
+    if j is None:
+        return "-"
+    return f"{j.rms_ratio:.3g} ({j.worst_rms_ratio:.3g}): {'at the noise' if j.at_noise else 'structure remains'}"
+
+
 def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
     """report.md: the story from the declared model to the verdict, and the
     warnings."""
@@ -147,6 +188,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
     lines = [
         "# hpctl diagnosis",
         "",
+        *_provenance(out),
         f"**Verdict: {diag.verdict.replace('_', ' ')}.**",
         "",
     ]
@@ -157,23 +199,36 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         lines.append("The residual of the declared model is indistinguishable from the measurement noise: nothing is left to explain.")
     else:
         lines.append("Structured residual remains that no effect in the library explains (see the residual analysis below).")
+    j = diag.judgement
+    if j is not None:
+        lines += ["", f"What is left: {j.describe(0)}."]
+        if j.places:
+            lines += ["", "## Remaining structure", "",
+                      "Where the final residual is more than noise ('nothing left' needs every record's channel and the pooled residual "
+                      "at most 1.3x its noise level), the regimes that hold most of it and what it correlates with:", "",
+                      "| record | channel | RMS / noise | lag-1 autocorrelation | most in | correlates with |", "|---|---|---|---|---|---|"]
+            for pl in j.places:
+                most = ", ".join(f"{r} ({pl.regimes[r]:.2g}x)" for r in pl.worst_regimes.values()) or "evenly spread"
+                corr = ", ".join(f"{q} ({c:+.2f})" for q, c in pl.correlates_with) or "-"
+                lines.append(f"| {pl.record} | {pl.channel} | {pl.rms_ratio:.3g} | {pl.autocorr:.2f} | {most} | {corr} |")
     lines += ["", *warnings_section(caveats)]
     lines += ["## Records", "", "| record | kind | excitation | frequency [Hz] | amplitude [m] | samples |", "|---|---|---|---|---|---|"]
     for d in final.datasets:
         t = d.record.test
         lines.append(f"| {d.name} | {d.record.kind} | {t.excitation} | {_fmt(t.frequency_hz)} | {_fmt(t.amplitude_m)} | {len(d.times_s)} |")
     lines += ["", "## Steps", "",
-              "| step | model | residual RMS / noise | BIC | added effect | BIC gain | per parameter | CV error before | CV error after |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "| step | model | residual RMS / noise | BIC | added effect | BIC gain | per parameter | CV error before | CV error after | "
+              "after: RMS / noise (worst channel) |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     for k, rnd in enumerate(diag.rounds):
         c = rnd.accepted
         model = ", ".join(rnd.before.model.effects) or "classical"
         if c is None:
-            lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | - | - | - | - | - |")
+            lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | - | - | - | - | - | - |")
         else:
             lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | `{c.effect}` | {c.delta_bic:.1f} | "
-                         f"{c.score:.1f} | {_fmt(c.cv_before, 4)} | {_fmt(c.cv_after, 4)} |")
-    lines.append(f"| final | {', '.join(final.model.effects) or 'classical'} | {final.rms_ratio:.3g} | {final.bic:.1f} | | | | | |")
+                         f"{c.score:.1f} | {_fmt(c.cv_before, 4)} | {_fmt(c.cv_after, 4)} | {_after(rnd)} |")
+    lines.append(f"| final | {', '.join(final.model.effects) or 'classical'} | {final.rms_ratio:.3g} | {final.bic:.1f} | | | | | | |")
     for k, rnd in enumerate(diag.rounds):
         if not rnd.candidates:
             continue

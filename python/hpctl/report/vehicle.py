@@ -7,8 +7,9 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
-from hpctl.report.plots import save
+from hpctl.report.plots import finish
 from hpctl.vehicle.comparison import HANDLING_SECTION, CaseResult, Evaluation, mode_share
 from hpctl.vehicle.tuning import TuneResult
 
@@ -19,7 +20,7 @@ def _pareto(points: list[tuple[float, float, str]]) -> list[tuple[float, float, 
     return sorted(front)
 
 
-def ride_handling_plot(evaluation: Evaluation, path: Path) -> Path:
+def ride_handling_plot(evaluation: Evaluation, path: Path | None = None) -> Figure:
     """Comfort on the rough track against roll in the lane change, one
     panel per vehicle: the passive settings and their compromise front,
     the semi-active point beside it (PNG)."""
@@ -43,11 +44,10 @@ def ride_handling_plot(evaluation: Evaluation, path: Path) -> Path:
         ax.set_title(f"{name}: ride versus handling")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize=8)
-    save(fig, path, dpi=110)
-    return path
+    return finish(fig, path)
 
 
-def lane_change_plot(results: list[CaseResult], path: Path) -> Path:
+def lane_change_plot(results: list[CaseResult], path: Path | None = None) -> Figure:
     """Roll angle, lateral acceleration and the semi-active mode through the
     lane change, every setting of one vehicle (PNG)."""
     fig, ax = plt.subplots(3, 1, figsize=(10, 9), sharex=True, gridspec_kw={"height_ratios": [3, 2, 1]})
@@ -74,8 +74,7 @@ def lane_change_plot(results: list[CaseResult], path: Path) -> Path:
         a.grid(True, alpha=0.3)
     name = results[0].case.vehicle.name if results else ""
     ax[0].set_title(f"{name}: double lane change (ISO 3888-2 style)")
-    save(fig, path, dpi=110)
-    return path
+    return finish(fig, path)
 
 
 def _f(v: float, scale: float = 1.0, digits: int = 3) -> str:
@@ -121,7 +120,7 @@ def markdown_table(rows: list[dict[str, str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def tuning_plot(result: TuneResult, path: Path) -> Path:
+def tuning_plot(result: TuneResult, path: Path | None = None) -> Figure:
     """The best objective per generation (PNG)."""
     fig, ax = plt.subplots(figsize=(7, 4))
     g = np.arange(1, len(result.history) + 1)
@@ -132,5 +131,4 @@ def tuning_plot(result: TuneResult, path: Path) -> Path:
     ax.set_ylabel("objective J")
     ax.legend(fontsize=8)
     ax.grid(True, alpha=0.3)
-    save(fig, path, dpi=110)
-    return path
+    return finish(fig, path)

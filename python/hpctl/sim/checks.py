@@ -124,12 +124,14 @@ def channels(unit: Unit, data: Mapping[str, FloatArray], run: str) -> list[Cavea
     return end_stop(unit, data, run) + eos_range(unit.gas, data, run) + rated_speed(unit, data, run)
 
 
-def step_size(requested_dt_s: float, times_s: FloatArray, run: str) -> list[Caveat]:
-    """The core lands a step on every output time: where the outputs are
-    closer than the step asked for, the steps taken are the output interval
-    instead. Say so rather than report the requested step."""
+def step_size(requested_dt_s: float | None, rtol: float | None, times_s: FloatArray, run: str) -> list[Caveat]:
+    """Fixed steps (``rtol`` None) land on every output time: where the
+    outputs are closer than the step asked for, the steps taken are the
+    output interval instead. Say so rather than report the requested step.
+    (Error-controlled steps may span output times: the outputs come from
+    the dense output, and the step asked for is only an upper bound.)"""
     t = np.asarray(times_s, dtype=float)
-    if t.size < 2:
+    if rtol is not None or requested_dt_s is None or t.size < 2:
         return []
     used = float(np.min(np.diff(t)))
     if requested_dt_s <= used * (1 + 1e-9):

@@ -10,23 +10,28 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from hpctl import _core
 from hpctl.caveats import Caveat, Code
-from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
+from hpctl.data.records import RecordTest, RigRecord
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, STANDARD_GRAVITY_M_S2, OilNode, Unit
 from hpctl.sim import checks, metrics
 from hpctl.sim.run import (
+    DEFAULT_RTOL,
     Motion,
     Progress,
     Result,
     Sine,
     Step,
+    motion_test,
+    record_of,
     run_characterisation,
     run_sdof,
 )
@@ -46,6 +51,9 @@ class Experiment:
     result: Result
     summary: dict[str, Any] = field(default_factory=dict)
     caveats: list[Caveat] = field(default_factory=list)
+    #: Derived time series a plot tells the story with (e.g. the heat
+    #: build-up's cycle means), SI units, each with its ``*_time_s``.
+    series: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
 def spring_name(hard: bool) -> Literal["hard", "soft"]:
@@ -67,27 +75,8 @@ def _record(
     ambient_k: float,
     sprung_mass_kg: float | None = None,
 ) -> RigRecord:
-    r = result.channels
-    columns = ["time_s", "disp_m", "force_n"]
-    if kind == "sdof":
-        columns += ["body_disp_m", "base_disp_m"]
-    columns += ["p_gas_pa", "p_gas2_pa", "t_gas_k"]
-    if unit.effects.oil_node is not None:
-        columns += ["t_oil_k"]
-    data = {c: np.asarray(r[c], float) for c in columns}
-    data["t_amb_k"] = np.full(len(r["time_s"]), ambient_k)
-    data["spring_hard"] = np.asarray(r["spring_hard"], float)
-    data["damper_on"] = np.asarray(r["damper_on"], float)
-    return RigRecord(
-        kind="sdof" if kind == "sdof" else "characterisation",
-        description=description,
-        unit=RecordUnit(unit.piston_area_m2, unit.small_acc_volume_m3, unit.large_acc_volume_m3, "N2"),
-        static=RecordStatic(unit.static_pressure_pa, unit.static_temperature_k, ambient_k),
-        test=test,
-        data=data,
-        sprung_mass_kg=sprung_mass_kg,
-        name=name,
-    )
+    return record_of(unit, result.channels, kind="sdof" if kind == "sdof" else "characterisation", test=test, name=name,
+                     description=description, ambient_k=ambient_k, sprung_mass_kg=sprung_mass_kg)
 
 
 def characterisation(
@@ -97,7 +86,8 @@ def characterisation(
     *,
     spring_hard: bool,
     damper_on: bool,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     sample_dt_s: float = 1e-2,
     ambient_k: float | None = None,
     progress: Progress | None = None,
@@ -106,16 +96,10 @@ def characterisation(
     whole cycle of a sine, force range."""
     ambient = unit.static_temperature_k if ambient_k is None else ambient_k
     result = run_characterisation(
-        unit, motion, duration_s, sample_dt_s=sample_dt_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, ambient_k=ambient, progress=progress
+        unit, motion, duration_s, sample_dt_s=sample_dt_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient, progress=progress
     )
-    excitation = {"sine": "sine", "step": "step", "steps": "steps"}.get(motion.kind, "drive")
-    test = RecordTest(
-        spring=spring_name(spring_hard),
-        damper=damper_name(damper_on),
-        excitation=excitation,
-        amplitude_m=getattr(motion, "amplitude_m", None) or getattr(motion, "height_m", None),
-        frequency_hz=getattr(motion, "frequency_hz", None),
-    )
+    test = motion_test(motion, spring_hard=spring_hard, damper_on=damper_on)
+    excitation = test.excitation
     name = f"char_{excitation}_{spring_name(spring_hard)}_{damper_name(damper_on)}"
     record = _record(unit, result, kind="characterisation", test=test, name=name, description=f"hpctl simulation: characterisation, {excitation}", ambient_k=ambient)
     t, x, f = result["time_s"], result["disp_m"], result["force_n"]
@@ -128,7 +112,7 @@ def characterisation(
         "peak_p_gas_pa": float(result["p_gas_true_pa"].max()),
         "peak_t_gas_k": float(result["t_gas_k"].max()),
     }
-    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, result.time_s, name)
+    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, rtol, result.time_s, name)
     if isinstance(motion, Sine) and motion.frequency_hz * (t[-1] - t[0]) >= 1.0 - 1e-9:
         m = metrics.last_cycle(t, motion.frequency_hz)
         summary["loop_area_j"] = metrics.loop_area_j(x[m], f[m])
@@ -161,7 +145,7 @@ def _loop_caveats(unit: Unit, result: Result, cycle: Any, gas_loop_area_j: float
 
 def spring_characterisation(
     unit: Unit, *, spring_hard: bool, amplitude_m: float = SEED_AMPLITUDE_M, speed_m_s: float = SEED_SPEED_M_S,
-    cycles: float = 2.0, dt_s: float = 1e-3, progress: Progress | None = None,
+    cycles: float = 2.0, dt_s: float | None = None, progress: Progress | None = None,
 ) -> Experiment:
     """The seed's spring characterisation: a slow sine (damper bypassed)."""
     motion = Sine.with_speed(amplitude_m, speed_m_s)
@@ -178,7 +162,8 @@ def sdof_step(
     height_m: float = SEED_STEP_M,
     duration_s: float = 6.0,
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
-    dt_s: float = 1e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     start_s: float = 0.5,
     rise_s: float = 0.05,
     progress: Progress | None = None,
@@ -187,7 +172,7 @@ def sdof_step(
     ratio, overshoot, settling time (5 % band), peak pressure."""
     base = Step(height_m, start_s, rise_s)
     result = run_sdof(
-        unit, base, duration_s, sprung_mass_kg=sprung_mass_kg, sample_dt_s=1e-3, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, progress=progress
+        unit, base, duration_s, sprung_mass_kg=sprung_mass_kg, sample_dt_s=1e-3, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, progress=progress
     )
     test = RecordTest(spring=spring_name(spring_hard), damper=damper_name(damper_on), excitation="step", amplitude_m=height_m)
     name = f"sdof_step_{spring_name(spring_hard)}_{damper_name(damper_on)}"
@@ -197,7 +182,7 @@ def sdof_step(
     )
     summary: dict[str, Any] = {"spring": spring_name(spring_hard), "damper": damper_name(damper_on)}
     summary.update(metrics.step_response(result["time_s"], result["body_disp_m"], result["disp_m"], result["p_gas_true_pa"], height_m, start_s, rise_s))
-    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, result.time_s, name)
+    caveats = checks.channels(unit, result.channels, name) + checks.step_size(dt_s, rtol, result.time_s, name)
     return Experiment(name, record, result, summary, caveats)
 
 
@@ -231,6 +216,7 @@ def seed_oil_node() -> OilNode:
 
 # The seed's section 4.5, for comparison.
 SEED_HEAT_BUILDUP = {
+    "duration_s": 75 * 60.0,
     "gas_temperature_start_c": 23.0,
     "gas_temperature_end_c": 68.0,
     "oil_temperature_end_c": 130.0,
@@ -249,7 +235,8 @@ def heat_buildup(
     spring_hard: bool = True,
     ambient_k: float = 296.15,
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG,
-    dt_s: float = 2e-3,
+    dt_s: float | None = None,
+    rtol: float | None = DEFAULT_RTOL,
     progress: Progress | None = None,
 ) -> Experiment:
     """The seed's damper heat build-up run: a long sine with the damper on,
@@ -263,7 +250,7 @@ def heat_buildup(
         unit = unit.with_effects(oil_node=seed_oil_node())
     unit = unit.replace(static_temperature_k=ambient_k)
     e = characterisation(
-        unit, Sine(amplitude_m, frequency_hz), duration_s, spring_hard=spring_hard, damper_on=True, dt_s=dt_s,
+        unit, Sine(amplitude_m, frequency_hz), duration_s, spring_hard=spring_hard, damper_on=True, dt_s=dt_s, rtol=rtol,
         sample_dt_s=0.1, ambient_k=ambient_k, progress=progress,
     )
     r = e.result
@@ -281,6 +268,20 @@ def heat_buildup(
     x0 = unit.static_disp_for_load_m(load, ambient_k, spring_hard)
     x1 = unit.static_disp_for_load_m(load, t_gas_end, spring_hard)
     first = (t >= 0) & (t < 1.0 / frequency_hz)
+    # The run as the story it tells: cycle means and envelopes (groups of
+    # cycles, at most ~300 points), and the ride height the gas
+    # temperature gives at rest under the sprung mass.
+    every = max(1, math.ceil(frequency_hz * duration_s / 300))
+    gas = metrics.cycle_stats(t, r["t_gas_k"], frequency_hz, every)
+    oil = metrics.cycle_stats(t, r["t_oil_k"], frequency_hz, every)
+    force = metrics.cycle_stats(t, r["force_n"], frequency_hz, every)
+    e.series = {
+        "cycle_time_s": gas["time_s"],
+        "t_gas_mean_k": gas["mean"], "t_gas_min_k": gas["min"], "t_gas_max_k": gas["max"],
+        "t_oil_mean_k": oil["mean"],
+        "force_min_n": force["min"], "force_max_n": force["max"],
+        "ride_height_change_m": np.array([x0 - unit.static_disp_for_load_m(load, float(tk), spring_hard) for tk in gas["mean"]]),
+    }
     e.name = f"heat_buildup_{spring_name(spring_hard)}"
     e.record.name = e.name
     e.record.description = f"hpctl simulation: damper heat build-up, {duration_s / 60:g} min at {frequency_hz:g} Hz, {amplitude_m * 1e3:g} mm"
@@ -298,6 +299,10 @@ def heat_buildup(
             "dynamic_force_range_start_n": float(np.ptp(r["force_n"][first])),
             "dynamic_force_range_end_n": float(np.ptp(r["force_n"][last])),
             "ride_height_change_m": x0 - x1,
+            "ambient_k": ambient_k,
+            "frequency_hz": frequency_hz,
+            "amplitude_m": amplitude_m,
+            "sprung_mass_kg": sprung_mass_kg,
             "ride_height_change_of_gas_volume": (x0 - x1) * unit.piston_area_m2 / (unit.small_acc_volume_m3 if spring_hard else unit.small_acc_volume_m3 + unit.large_acc_volume_m3),
         }
     )

@@ -105,6 +105,29 @@ def last_cycle(t: FloatArray, frequency_hz: float) -> NDArray[np.bool_]:
     return np.asarray(t >= start - 1e-9 * period)
 
 
+def cycle_stats(t: FloatArray, y: FloatArray, frequency_hz: float, every: int = 1) -> dict[str, FloatArray]:
+    """Per whole period of a sine run (or per ``every`` periods): the
+    middle time, the mean, the smallest and the largest value of ``y``; a
+    long run drawn as these instead of every sample shows its trend (a
+    line per cycle at 2,250 cycles is a solid block)."""
+    period = every / frequency_hz
+    k = np.floor((t - t[0]) / period + 1e-9).astype(np.int64)
+    whole = k < math.floor((t[-1] - t[0]) / period + 1e-9)
+    k, yy = k[whole], y[whole]
+    if k.size == 0:
+        empty = np.empty(0)
+        return {"time_s": empty, "mean": empty, "min": empty, "max": empty}
+    n = int(k[-1]) + 1
+    count = np.bincount(k, minlength=n).astype(float)
+    mean = np.bincount(k, weights=yy, minlength=n) / np.maximum(count, 1.0)
+    lo = np.full(n, np.inf)
+    hi = np.full(n, -np.inf)
+    np.minimum.at(lo, k, yy)
+    np.maximum.at(hi, k, yy)
+    keep = count > 0
+    return {"time_s": (t[0] + (np.arange(n) + 0.5) * period)[keep], "mean": mean[keep], "min": lo[keep], "max": hi[keep]}
+
+
 def step_response(t: FloatArray, body_disp_m: FloatArray, strut_disp_m: FloatArray, p_gas_pa: FloatArray,
                   height_m: float, start_s: float, rise_s: float) -> dict[str, float | None]:
     """What the seed's SDOF step test reports: natural frequency, damping

@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import differential_evolution
 
+from hpctl.control.config import merge
 from hpctl.errors import ParameterError
 from hpctl.vehicle.comparison import PASSIVE, Case, Setting, run_case
 from hpctl.vehicle.model import preset
@@ -110,6 +111,14 @@ class Problem:
     params: tuple[Parameter, ...] = PARAMETERS
     #: (comfort of soft/low, roll of hard/high) per (vehicle, route index).
     references: tuple[tuple[str, int, float, float], ...] = ()
+    #: The configuration to start from: None for each vehicle's default,
+    #: else values merged over it (``hpctl tune --config``).
+    config: Mapping[str, Any] | None = None
+
+    def start(self, vehicle: str) -> dict[str, Any]:
+        """The starting configuration of ``vehicle``."""
+        default = preset(vehicle).controller_config()
+        return default if self.config is None else merge(default, self.config)
 
     def reference(self, vehicle: str, k: int) -> tuple[float, float]:
         for v, i, a, b in self.references:
@@ -161,7 +170,7 @@ def score(problem: Problem, x: Sequence[float]) -> Score:
     js, comforts, rolls, hits, failures = [], [], [], 0, 0
     for v in problem.vehicles:
         vs = preset(v)
-        config = apply(vs.controller_config(), problem.params, x)
+        config = apply(problem.start(v), problem.params, x)
         for k, spec in enumerate(problem.routes):
             r = run_case(Case(vs, spec, Setting("tuned", semi_active=True, config=config)), route=_route(v, spec), trace_step=1000)
             if r.error is not None or not (math.isfinite(r.comfort_m_s2) and math.isfinite(r.roll_peak_rad)):
@@ -240,7 +249,7 @@ class TuneResult:
 
     def changes(self) -> list[tuple[str, float, float]]:
         """(parameter, default value, tuned value)."""
-        default = preset(self.problem.vehicles[0]).controller_config()
+        default = self.problem.start(self.problem.vehicles[0])
         return [(p.name, float(default[p.block][p.key]), float(self.config[p.block][p.key])) for p in self.problem.params]
 
 
@@ -258,7 +267,7 @@ def tune(
     if not problem.references:
         raise ParameterError("the problem has no passive references (tune.references)")
     params = problem.params
-    default_config = preset(problem.vehicles[0]).controller_config()
+    default_config = problem.start(problem.vehicles[0])
     x0 = values(default_config, params)
     bounds = [((math.log10(p.low), math.log10(p.high)) if p.log else (p.low, p.high)) for p in params]
     for (lo, hi), v, p in zip(bounds, x0, params):
