@@ -110,10 +110,13 @@ class Snapshot:
 class VehicleLoop:
     """The plant, the input frames and one scenario (``"drive"`` or
     ``"leak"``) for ``corners`` corners; corner ``corner`` is the one whose
-    sensor fails (drive) or that leaks (leak)."""
+    sensor fails (drive) or that leaks (leak). ``sensor_fails=False``
+    runs the drive scenario without the failure: what the other corners
+    would have done, to compare with."""
 
-    def __init__(self, corners: Literal[4, 8], scenario: str, corner: int):
+    def __init__(self, corners: Literal[4, 8], scenario: str, corner: int, *, sensor_fails: bool = True):
         self.corners, self.scenario, self.corner = corners, scenario, corner
+        self.sensor_fails = sensor_fails
         self.unit = Unit.seed()
         geo = geometry(corners)
         end_s = T_DRIVE_END_S if scenario == "drive" else T_LEAK_END_S
@@ -172,7 +175,7 @@ class VehicleLoop:
         )
         sensors: list[pil.CornerSensors | None] = list(self.plant.sensors())
         failed = sensors[self.corner]
-        if phase == "sensor" and failed is not None:
+        if phase == "sensor" and failed is not None and self.sensor_fails:
             failed.p_gas_pa = 0.0  # the transducer's failure reading
         if phase == "cut":
             return []
