@@ -108,18 +108,18 @@ build() {
 }
 
 echo "== cross-build (emulator board: hp-fw-mps2, hp-fw-pil)" >&2
-build --features mps2 --bin hp-fw-mps2 --bin hp-fw-pil
+build --features mps2 --bin hp-fw-mps2 --bin hp-fw-pil --bin hp-fw-pil8
 echo "== cross-build (figures build: hp-fw-figures)" >&2
-build --features figures --bin hp-fw-figures
+build --features figures --bin hp-fw-figures --bin hp-fw-figures8
 echo "== cross-build (STM32F405 bxCAN board: hp-fw-stm32f4)" >&2
 build --features stm32f4 --bin hp-fw-stm32f4
 
-FLASH_BUDGET=$((32 * 1024))
+FLASH_BUDGET=$((32 * 1024))  # scripts/firmware_figures.py, docs/firmware.md
 RAM_BUDGET=$((8 * 1024))
 status=0
 # The production binaries; hp-fw-figures prints over semihosting with
 # core::fmt and is only a measuring tool.
-for name in hp-fw-mps2 hp-fw-pil hp-fw-stm32f4; do
+for name in hp-fw-mps2 hp-fw-pil hp-fw-pil8 hp-fw-stm32f4; do
     elf=$OUT/$name
     echo "== checks: $name" >&2
     # Panic machinery: the panic handler (rust_begin_unwind) and core's
@@ -155,7 +155,7 @@ for name in hp-fw-mps2 hp-fw-pil hp-fw-stm32f4; do
     echo "size $name flash=$flash static_ram=$ram${note}" >&2
 done
 
-for name in hp-fw-mps2 hp-fw-pil hp-fw-figures hp-fw-stm32f4; do
+for name in hp-fw-mps2 hp-fw-pil hp-fw-pil8 hp-fw-figures hp-fw-figures8 hp-fw-stm32f4; do
     echo "elf $name $OUT/$name"
 done
 if [ "$status" -ne 0 ]; then

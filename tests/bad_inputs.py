@@ -43,7 +43,7 @@ NAMES: dict[str, str] = {
     "math": "the standard library's math",
     "unit": "`hpctl.Unit.seed()`",
     "sdof_rig": "`hpctl.sim.run.sdof_rig`",
-    "frame": '`_core.can_encode("HP_Strut", 0, {"StrutDisp": 0.01})`, an identifier and 8 bytes',
+    "frame": '`_core.can_encode("HP_CornerMotion_0", 0, {"StrutDisp": 0.01, "BodyAcc": 0.0, "GasTemp": 293.0})`, a J1939 identifier and 8 bytes',
 }
 
 ROWS: tuple[Row, ...] = (
@@ -81,15 +81,16 @@ ROWS: tuple[Row, ...] = (
     Row("hpctl convert TORN OUT/torn.parquet", "exit 2", "torn.csv: does not match the csv_sha256 in torn.toml"),
     Row("hpctl can decode FILE --out OUT", "exit 2", "python-can cannot read this log: No read support for unknown log format"),
     # The Python API and the bindings.
-    Row('_core.can_encode("HP_Driver", 0, {"DriverMode": 1.5, "RideHeightRequest": 0.0})', "raises ParameterError",
+    Row('_core.can_encode("HP_Driver", 0, {"DriverMode": 1.5, "HeightMode": 0, "RideHeightRequest": 0.0})', "raises ParameterError",
         "values.DriverMode = 1.5: expected a whole number (a flag, an enumeration or a count)"),
     Row('_core.can_encode("HP_Vehicle", 0, {"VehicleSpeed": 10.0, "BrakePressed": 0.7, "LatAcc": 0.0, "LongAcc": 0.0})', "raises ParameterError",
         "values.BrakePressed = 0.7: expected a whole number"),
-    Row('_core.can_encode("HP_Strut", -1, {"StrutDisp": 0.0})', "raises ParameterError", "counter = -1: expected the alive counter: an integer within [0, 14]"),
-    Row("_core.can_decode(-1, bytes(8))", "raises ParameterError", "id = -1: expected a standard identifier (11 bits; extended=True for 29)"),
-    Row('_core.can_decode(0x101, "abcdefgh")', "raises ParameterError", "data = 'abcdefgh': expected bytes, a bytearray or a memoryview"),
-    Row("_core.can_decode(frame[0], bytearray(frame[1]))", "ok", "('HP_Strut', 0, {'StrutDisp': 0.01})"),
-    Row("_core.can_decode(frame[0], memoryview(frame[1]))", "ok", "('HP_Strut', 0, {'StrutDisp': 0.01})"),
+    Row('_core.can_encode("HP_CornerMotion_0", -1, {"StrutDisp": 0.0, "BodyAcc": 0.0, "GasTemp": 293.0})', "raises ParameterError",
+        "counter = -1: expected the alive counter: an integer within [0, 14]"),
+    Row("_core.can_decode(-1, bytes(8))", "raises ParameterError", "id = -1: expected an extended identifier (29 bits)"),
+    Row('_core.can_decode(0x18FF0147, "abcdefgh")', "raises ParameterError", "data = 'abcdefgh': expected bytes, a bytearray or a memoryview"),
+    Row("_core.can_decode(frame[0], bytearray(frame[1]))", "ok", "('HP_CornerMotion_0', 0, {'StrutDisp': 0.01, 'BodyAcc': 0.0, 'GasTemp': 293.0})"),
+    Row("_core.can_decode(frame[0], memoryview(frame[1]))", "ok", "('HP_CornerMotion_0', 0, {'StrutDisp': 0.01, 'BodyAcc': 0.0, 'GasTemp': 293.0})"),
     Row('_core.gas_props("bwr-textbook", [-1.0], [300.0])', "raises ParameterError", "rho_kg_m3[0] = -1.0: expected a number within [0, 3000]"),
     Row("hpctl.run(unit, sdof_rig(hpctl.Step(0.04)), np.zeros((2, 2)))", "raises ParameterError",
         "expected a one-dimensional array or sequence of real numbers (got 2-D float64)"),

@@ -96,7 +96,7 @@ def _run_cli(row: Row, tmp: Path) -> None:
 
 def _run_python(row: Row) -> None:
     names = {"hpctl": hpctl, "_core": _core, "np": np, "math": math, "unit": hpctl.Unit.seed(), "sdof_rig": sdof_rig,
-             "frame": _core.can_encode("HP_Strut", 0, {"StrutDisp": 0.01})}
+             "frame": _core.can_encode("HP_CornerMotion_0", 0, {"StrutDisp": 0.01, "BodyAcc": 0.0, "GasTemp": 293.0})}
     kind, _, cls_name = row.outcome.partition(" ")
     if kind == "ok":
         assert row.message in repr(eval(row.input, names))

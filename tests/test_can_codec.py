@@ -1,4 +1,6 @@
-"""The Rust CAN codec against the DBC as cantools reads it.
+"""The Rust CAN codec against the DBC (SAE J1939) as cantools reads it: the
+ECU's own, E2E-protected messages (the standard J1939 groups are
+test_can_j1939.py's).
 
 The Rust side runs as `crates/hp-ctrl/examples/can_codec.rs` (a line
 filter over stdin/stdout), the same code the ECU runs. cantools is the
@@ -23,32 +25,42 @@ ROOT = Path(__file__).resolve().parent.parent
 DBC = cantools.database.load_file(str(DBC_PATH))
 HEADER = ("E2E_CRC", "E2E_Counter")
 
-# Which Inputs field each input signal feeds (the controller's contract).
+# Which input field each input signal feeds (the vehicle step's contract);
+# corner signals are prefixed with their corner in the `period` answer.
 INPUT_FIELD = {
     "PressureSmall": "p_gas_pa",
     "PressureLarge": "p_gas2_pa",
     "StrutDisp": "strut_disp_m",
     "BodyAcc": "body_acc_m_s2",
+    "GasTemp": "t_gas_k",
     "VehicleSpeed": "speed_m_s",
     "BrakePressed": "brake_pressed",
     "LatAcc": "lat_acc_m_s2",
     "LongAcc": "long_acc_m_s2",
     "SteerAngle": "steer_angle_rad",
     "SteerRate": "steer_rate_rad_s",
-    "GasTemp": "t_gas_k",
     "DriverMode": "driver_mode",
+    "HeightMode": "height_mode",
     "RideHeightRequest": "ride_height_request_m",
+    "BodyPitch": "pitch_rad",
+    "BodyRoll": "roll_rad",
 }
-# input_group bits of hp_ctrl, per input message.
+# Input-group bits (hp_ctrl::input_group, vehicle_group) per input message.
+PRESSURES, STRUT, BODY, TEMPERATURE = 1 << 0, 1 << 1, 1 << 2, 1 << 5
 GROUP = {
-    "HP_Pressures": 1 << 0,
-    "HP_Strut": 1 << 1,
-    "HP_Body": 1 << 2,
     "HP_Vehicle": 1 << 3,
     "HP_Steering": 1 << 4,
-    "HP_Temperature": 1 << 5,
     "HP_Driver": 1 << 6,
+    "HP_Inclination": 1 << 7,
+    **{f"HP_CornerPressures_{k}": PRESSURES for k in range(8)},
+    **{f"HP_CornerMotion_{k}": STRUT | BODY | TEMPERATURE for k in range(8)},
 }
+# The codec example's receiver has four corners.
+RX_CORNERS = 4
+
+
+def corner_of(name: str) -> int | None:
+    return int(name.rsplit("_", 1)[1]) if name.startswith("HP_Corner") else None
 
 
 def build_codec() -> Path:
@@ -157,7 +169,11 @@ def parse_values(words):
     return {k: float(v) for k, v in (w.split("=") for w in words)}
 
 
-MESSAGES = DBC.messages
+# The ECU's own messages: the E2E-protected Proprietary B groups.
+MESSAGES = [m for m in DBC.messages if any(s.name == "E2E_CRC" for s in m.signals)]
+# The corners' messages share their layout (the table test checks all of
+# them): the property tests take the first and the last corner's.
+SAMPLED = [m for m in MESSAGES if corner_of(m.name) in (None, 0, 7)]
 
 
 def test_rust_table_matches_the_dbc(codec):
@@ -171,9 +187,13 @@ def test_rust_table_matches_the_dbc(codec):
             rust_sigs[(f[0], f[1])] = f[2:]
     assert set(rust_msgs) == {m.name for m in MESSAGES}
     for m in MESSAGES:
-        frame_id, did, cycle, delay, timeout, group = rust_msgs[m.name]
+        frame_id, did, cycle, delay, timeout, group, pgn, priority, source = rust_msgs[m.name]
         attrs = m.dbc.attributes
-        assert int(frame_id, 16) == m.frame_id and not m.is_extended_frame
+        assert int(frame_id, 16) == m.frame_id and m.is_extended_frame and m.protocol == "j1939"
+        parts = cantools.j1939.frame_id_unpack(m.frame_id)
+        assert int(pgn, 16) == cantools.j1939.pgn_pack(parts.reserved, parts.data_page, parts.pdu_format, parts.pdu_specific)
+        assert 0xFF00 <= int(pgn, 16) <= 0xFFFF, "Proprietary B"
+        assert (int(priority), int(source, 16)) == (parts.priority, parts.source_address)
         assert m.length == 8
         assert int(did, 16) == attrs["E2E_DataID"].value
         assert int(cycle) == attrs["GenMsgCycleTime"].value
@@ -195,7 +215,7 @@ def test_rust_table_matches_the_dbc(codec):
             assert (unit if unit != "-" else None) == (s.unit or None)
 
 
-@pytest.mark.parametrize("msg", MESSAGES, ids=lambda m: m.name)
+@pytest.mark.parametrize("msg", SAMPLED, ids=lambda m: m.name)
 @settings(max_examples=40, deadline=None)
 @given(data=st.data())
 def test_rust_encodes_what_cantools_decodes(codec, msg, data):
@@ -216,7 +236,7 @@ def test_rust_encodes_what_cantools_decodes(codec, msg, data):
     assert cantools_frame(msg, counter, grid) == raw
 
 
-@pytest.mark.parametrize("msg", MESSAGES, ids=lambda m: m.name)
+@pytest.mark.parametrize("msg", SAMPLED, ids=lambda m: m.name)
 @settings(max_examples=40, deadline=None)
 @given(data=st.data())
 def test_rust_decodes_what_cantools_encodes(codec, msg, data):
@@ -264,16 +284,21 @@ def test_wrong_crc_is_rejected(codec, data):
 
 
 def test_counter_15_and_bad_lengths_are_rejected(codec):
-    msg = DBC.get_message_by_name("HP_Strut")
+    msg = DBC.get_message_by_name("HP_CornerMotion_0")
     raw = bytearray(8)
     raw[1] = 0x0F
     assert codec.ask(f"decode {msg.frame_id:X} {protect(msg, raw).hex()}") == "reject range"
-    good = cantools_frame(msg, 0, {"StrutDisp": 0.0})
+    good = cantools_frame(msg, 0, {"StrutDisp": 0.0, "BodyAcc": 0.0, "GasTemp": 300.0})
     assert codec.ask(f"decode {msg.frame_id:X} {good[:7].hex()}") == "reject length"
     assert codec.ask(f"decode 7FF {good.hex()}") == "reject unknown_id"
 
 
-INPUT_MESSAGES = [m for m in MESSAGES if m.name in GROUP]
+INPUT_MESSAGES = [m for m in MESSAGES if m.name in GROUP and (corner_of(m.name) or 0) < RX_CORNERS]
+
+
+def accepted(name: str) -> str:
+    k = corner_of(name)
+    return f"vehicle {GROUP[name]}" if k is None else f"corner {k} {GROUP[name]}"
 
 
 @settings(max_examples=40, deadline=None)
@@ -288,22 +313,27 @@ def test_receiver_fills_inputs_from_cantools_frames(codec_exe, data):
             for m in INPUT_MESSAGES:
                 raw = cantools_frame(m, (start + k) % 15, values[m.name])
                 answer = codec.ask(f"rx {m.frame_id:X} {raw.hex()}")
-                assert answer == (expect or f"input {GROUP[m.name]}"), (m.name, answer)
+                assert answer == (expect or accepted(m.name)), (m.name, answer)
             line = codec.ask("period").split()
         inputs = parse_values(line[1:])
-        assert inputs["fresh"] == 0x7F and inputs["link_fault"] == 0
+        assert inputs["fresh"] == GROUP["HP_Vehicle"] | GROUP["HP_Steering"] | GROUP["HP_Driver"] | GROUP["HP_Inclination"]
+        assert inputs["link_fault"] == 0 and inputs["inclination_stale"] == 0
+        for k in range(RX_CORNERS):
+            assert inputs[f"c{k}.fresh"] == PRESSURES | STRUT | BODY | TEMPERATURE and inputs[f"c{k}.link_fault"] == 0
         for m in INPUT_MESSAGES:
+            k = corner_of(m.name)
             for name, v in values[m.name].items():
-                assert math.isclose(inputs[INPUT_FIELD[name]], v, rel_tol=1e-12, abs_tol=1e-12), name
+                field = INPUT_FIELD[name] if k is None else f"c{k}.{INPUT_FIELD[name]}"
+                assert math.isclose(inputs[field], v, rel_tol=1e-12, abs_tol=1e-12), name
     finally:
         codec.close()
 
 
 def test_receiver_counts_rejects_per_reason(fresh_codec):
-    m = DBC.get_message_by_name("HP_Body")
-    frame = lambda c: cantools_frame(m, c, {"BodyAcc": 1.0}).hex()  # noqa: E731
+    m = DBC.get_message_by_name("HP_CornerMotion_2")
+    frame = lambda c: cantools_frame(m, c, {"StrutDisp": 0.01, "BodyAcc": 1.0, "GasTemp": 300.0}).hex()  # noqa: E731
     answers = [fresh_codec.ask(f"rx {m.frame_id:X} {frame(c)}") for c in (3, 4, 4, 6, 7)]
-    assert answers == ["synced", "input 4", "reject repeated", "reject skipped", "input 4"]
+    assert answers == ["synced", "corner 2 38", "reject repeated", "reject skipped", "corner 2 38"]
     bad = bytearray(bytes.fromhex(frame(8)))
     bad[0] ^= 1
     assert fresh_codec.ask(f"rx {m.frame_id:X} {bad.hex()}") == "reject crc"

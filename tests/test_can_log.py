@@ -1,9 +1,14 @@
 """CAN logs decoded with the DBC (hpctl.interop.can_log, hpctl can decode):
 candump, ASC and BLF logs written by python-can's own writers, frames made
-by the codec; a frame with a bad CRC, a repeated or a skipped alive counter
-is reported and not decoded; the values are the encoded ones (cantools);
-a message the codec does not protect is decoded and marked; a mapping
-makes a rig record. Message choice follows whatever the DBC holds."""
+by the codec or by cantools with the E2E CRC computed here (an independent
+implementation of the DBC's comment); J1939 frames matched by PGN from any
+source address and priority, the source reported, one counter sequence per
+sender; a frame with a bad CRC, a repeated or a skipped alive counter is
+reported and not decoded; the values are the encoded ones (cantools); a
+message the codec does not protect is decoded and marked; the ECU's own
+traffic (address claim, DM1, its Proprietary B messages) decodes without a
+rejection; a mapping makes a rig record. Message choice follows whatever
+the DBC holds."""
 
 from __future__ import annotations
 
@@ -23,9 +28,36 @@ from hpctl.data import DBC_PATH
 can = pytest.importorskip("can", reason="python-can is not installed: pip install -e '.[interop]'")
 cantools = pytest.importorskip("cantools", reason="cantools is not installed: pip install -e '.[interop]'")
 
+from cantools import j1939  # noqa: E402
+
 from hpctl.interop.can_log import decode_log  # noqa: E402
 
 DB = cantools.database.load_file(str(DBC_PATH))
+
+
+def _crc8_e2e(data_id: int, payload: bytes) -> int:
+    """CRC-8 as the DBC's comment defines it (polynomial 0x1D, init 0, no
+    final XOR) over the data ID's low and high byte and bytes 1..7."""
+    crc = 0
+    for byte in bytes([data_id & 0xFF, data_id >> 8]) + payload[1:8]:
+        crc ^= byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1D) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def _cantools_frame(msg: Any, counter: int, values: dict[str, float]) -> bytes:
+    """``msg`` encoded by cantools, then protected by :func:`_crc8_e2e`."""
+    raw = bytearray(msg.encode({**values, "E2E_CRC": 0, "E2E_Counter": counter}))
+    raw[0] = _crc8_e2e(int(msg.dbc.attributes["E2E_DataID"].value), bytes(raw))
+    return bytes(raw)
+
+
+def _with(frame_id: int, priority: int | None = None, source: int | None = None) -> int:
+    """``frame_id`` with another priority and/or source address."""
+    f = j1939.frame_id_unpack(frame_id)
+    return j1939.frame_id_pack(f.priority if priority is None else priority, f.reserved, f.data_page, f.pdu_format, f.pdu_specific,
+                               f.source_address if source is None else source)
 
 
 def _payload(msg: Any) -> list[Any]:
@@ -240,3 +272,93 @@ def test_a_file_that_is_not_a_log_is_a_record_error(suffix: str, tmp_path: Path)
     p.write_bytes(b"(1.0) can0 not a frame at all ##\x00\xff" * 30)
     with pytest.raises(RecordError, match="garbage"):
         decode_log(p)
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc", ".blf"])
+def test_j1939_frames_match_by_pgn_from_any_sender(suffix: str, tmp_path: Path) -> None:
+    """Two sensor clusters send corner 2's motion (one at the DBC's source
+    address 0x90 and priority, one at 0x92 with priority 6), each with its
+    own alive-counter sequence: every frame is matched by its PGN, accepted
+    and decoded with its sender; a corrupted frame of the second sender is
+    reported with that sender and not decoded; a PGN the DBC does not have
+    is an unknown identifier."""
+    msg = DB.get_message_by_name("HP_CornerMotion_2")
+    assert j1939.frame_id_unpack(msg.frame_id).source_address == 0x90
+    other = _with(msg.frame_id, priority=6, source=0x92)
+    frames, truth = [], {}
+    for k in range(30):
+        for n, (fid, src) in enumerate(((msg.frame_id, 0x90), (other, 0x92))):
+            values = {s.name: _mid(s, k + 7 * n) for s in _payload(msg)}
+            raw = _cantools_frame(msg, (k + 5 * n) % 15, values)
+            if src == 0x92 and k == 12:
+                raw = raw[:3] + bytes([raw[3] ^ 0x01]) + raw[4:]  # one payload bit flipped
+            frames.append((0.01 * k + 0.001 * n, fid, True, raw))
+            truth[(k, src)] = values["StrutDisp"]
+    unknown = j1939.frame_id_pack(3, 0, 0, 0xFF, 0x7E, 0x90)  # Proprietary B PGN 0xFF7E: not in the DBC
+    frames.append((0.5, unknown, True, bytes(8)))
+    path = tmp_path / f"j1939{suffix}"
+    _write_log(path, frames)
+    d = decode_log(path)
+    assert d.sources == {"HP_CornerMotion_2": {0x90: 30, 0x92: 30}}
+    # The flipped bit: a CRC error from 0x92, then 0x92's next frame skips
+    # the lost counter; 0x90's sequence is not disturbed.
+    assert [(round(i.time_s, 3), i.source, i.reason) for i in d.issues] == [(0.121, 0x92, "crc"), (0.131, 0x92, "skipped")]
+    assert d.outcomes["HP_CornerMotion_2"] == {"synced": 2, "next": 56, "crc": 1, "skipped": 1}
+    table = d.tables["HP_CornerMotion_2"]
+    got = {(round(t / 0.01 - 0.1 * (a == 0x92)), int(a)): x for t, a, x in zip(table["time_s"], table["source_address"], table["StrutDisp"])}
+    assert set(got) == set(truth) - {(12, 0x92), (13, 0x92)}
+    sig = DB.get_message_by_name("HP_CornerMotion_2").get_signal_by_name("StrutDisp")
+    np.testing.assert_allclose([got[key] for key in sorted(got)], [truth[key] for key in sorted(got)], rtol=0, atol=sig.scale * 1e-6)
+    assert d.unknown_ids == {unknown: 1}
+
+
+def test_pdu1_requests_match_by_destination(tmp_path: Path) -> None:
+    """The request PGN (0xEA00, PDU1) to the ECU and to everyone are two
+    messages of the DBC: matched by their destination, from any sender;
+    a request to another node is still the request PGN (the global
+    message), unprotected and decoded."""
+    to_ecu, glob = DB.get_message_by_name("J1939_RequestToEcu"), DB.get_message_by_name("J1939_RequestGlobal")
+    to_other = j1939.frame_id_pack(6, 0, 0, 0xEA, 0x33, 0x17)
+    frames = [(0.0, _with(to_ecu.frame_id, source=0x17), True, to_ecu.encode({"RequestedPgn": 0xFECA})),
+              (0.1, glob.frame_id, True, glob.encode({"RequestedPgn": 0xEE00})),
+              (0.2, to_other, True, glob.encode({"RequestedPgn": 0xFECA}))]  # fmt: skip
+    path = tmp_path / "requests.log"
+    _write_log(path, frames)
+    d = decode_log(path)
+    assert d.issues == [] and d.unknown_ids == {}
+    assert d.outcomes == {"J1939_RequestToEcu": {"unprotected": 1}, "J1939_RequestGlobal": {"unprotected": 2}}
+    assert d.sources == {"J1939_RequestToEcu": {0x17: 1}, "J1939_RequestGlobal": {0xF9: 1, 0x17: 1}}
+    assert list(d.tables["J1939_RequestGlobal"]["RequestedPgn"]) == [0xEE00, 0xFECA]
+
+
+@pytest.mark.parametrize("suffix", [".log", ".blf"])
+def test_the_ecus_own_traffic_decodes_without_a_rejection(suffix: str, tmp_path: Path) -> None:
+    """What the ECU application sends (``_core.Ecu``, the firmware's code):
+    its address claim, DM1 and its Proprietary B messages, 1000 periods
+    with its sensors silent (every corner in the safe state with a trouble
+    code, so DM1 goes out as a broadcast transfer, TP.CM + TP.DT): every
+    frame matched, none rejected; the address claim and the transport
+    frames are unprotected network management from 0x2F, the protected
+    messages' counters run in sequence."""
+    ecu = _core.Ecu(corners=4)
+    frames = []
+    for k in range(1000):
+        frames += [(0.001 * k, fid, True, bytes(raw)) for fid, raw in ecu.period()]
+    path = tmp_path / f"ecu{suffix}"
+    _write_log(path, frames)
+    d = decode_log(path)
+    assert d.frames == len(frames) and d.issues == [] and d.unknown_ids == {}
+    assert d.outcomes["J1939_AddressClaimed"] == {"unprotected": 1} and d.sources["J1939_AddressClaimed"] == {0x2F: 1}
+    # DM1 (PGN 0xFECA) with several codes: a BAM announcing it, then its packets.
+    assert set(d.outcomes["J1939_TP_CM"]) == {"unprotected"} and d.sources["J1939_TP_CM"] == {0x2F: d.outcomes["J1939_TP_CM"]["unprotected"]}
+    bam = d.tables["J1939_TP_CM"]
+    assert set(bam["Control"]) == {32} and set(bam["TransferredPgn"]) == {0xFECA}
+    packets = int(bam["Packets"][0])
+    assert list(d.tables["J1939_TP_DT"]["Sequence"][:packets]) == list(range(1, packets + 1))
+    protected = [m for m, o in d.outcomes.items() if m.startswith("HP_")]
+    assert "HP_Valves" in protected and "HP_CornerStatus_3" in protected
+    for m in protected:
+        o = d.outcomes[m]
+        assert o["synced"] == 1 and set(o) <= {"synced", "next"}, (m, o)
+        assert d.sources[m] == {0x2F: sum(o.values())}
+    np.testing.assert_array_equal(d.tables["HP_Valves"]["source_address"], 0x2F)

@@ -176,6 +176,42 @@ class ClosedLoopDict(TypedDict):
     outputs: dict[str, NDArray[Any]]
 
 
+# --- the gas-charge detector's drives (hp-py leak.rs) ---------------------------
+
+
+class GasChargeConfigDict(TypedDict):
+    """hp_ctrl::gas_charge::GasChargeConfig."""
+
+    tau_s: float
+    settle_s: float
+    loss_threshold: float
+    loss_hysteresis: float
+    confirm_s: float
+    loss_significant: float
+    healthy_sigma: float
+
+
+class GasChargeDriveDict(TypedDict):
+    """One gas-charge drive: per record (``record_dt_s``) the detector's
+    verdict at its end, the plant's temperatures and what the controller did."""
+
+    time_s: NDArray[np.float64]
+    charge_ratio: NDArray[np.float64]
+    confidence: NDArray[np.float64]
+    t_gas_k: NDArray[np.float64]
+    t_gas2_k: NDArray[np.float64]
+    t_gas_read_k: NDArray[np.float64]
+    t_oil_k: NDArray[np.float64]
+    disp_m: NDArray[np.float64]
+    p_gas_pa: NDArray[np.float64]
+    speed_m_s: NDArray[np.float64]
+    sampled: NDArray[np.float64]
+    valve6_open: NDArray[np.float64]
+    safe: NDArray[np.float64]
+    settled: NDArray[np.bool_]
+    fault: NDArray[np.bool_]
+
+
 # --- the vehicles (hp-vehicle) -------------------------------------------------
 
 

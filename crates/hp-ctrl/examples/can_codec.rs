@@ -3,20 +3,22 @@
 //!
 //! One command per line on stdin, one answer line per command on stdout:
 //!
-//! - `table`: the message and signal definitions, one `msg ...` or
-//!   `sig ...` line each, then `end`.
+//! - `table`: the message and signal definitions, one `msg NAME ID
+//!   DATA_ID CYCLE DELAY TIMEOUT GROUP PGN PRIORITY SOURCE` or `sig ...` line
+//!   each, then `end`.
 //! - `encode NAME COUNTER SIGNAL=VALUE...`: every signal of message NAME
 //!   (DBC names) -> `frame ID HEX` (the frame as the codec writes it), or
 //!   `error REASON`.
 //! - `decode ID HEX`: stateless decode -> `message NAME COUNTER
 //!   SIGNAL=VALUE...`, or `reject REASON`.
-//! - `rx ID HEX`: the ECU receiver -> `input GROUPS`, `synced`,
-//!   `tick INDEX` or `reject REASON`.
-//! - `period`: close the receiver's period -> `inputs FIELD=VALUE...`.
+//! - `rx ID HEX`: the ECU receiver (4 corners) -> `vehicle GROUPS`,
+//!   `corner K GROUPS`, `synced`, `tick INDEX` or `reject REASON`.
+//! - `period`: close the receiver's period -> `inputs FIELD=VALUE...`
+//!   (vehicle fields, then `cK.FIELD=VALUE` per corner).
 //! - `diag`: the receiver's reject counters and link state.
 //! - `config`: the seed unit's static operating point (what the ECU's
 //!   parameters assume) -> `config static_pressure_pa=.. static_temperature_k=..`.
-//! - `ecu ID HEX`: the ECU application (`hp_ctrl::can::ecu::Ecu`, the code
+//! - `ecu ID HEX`: the ECU application (`hp_ctrl::can::ecu::Ecu<4>`, the code
 //!   the firmware runs) receives a frame -> `tick INDEX` or `ok`.
 //! - `ecu_period`: the ECU closes one control period -> `frames ID#HEX...`,
 //!   the frames it sends (the host reference for processor-in-the-loop).
@@ -25,7 +27,7 @@
 
 use std::io::{self, BufRead, Write};
 
-use embedded_can::{Frame, StandardId};
+use embedded_can::{ExtendedId, Frame, Id, StandardId};
 use hp_ctrl::can::ecu::{Ecu, Link};
 use hp_ctrl::can::{self, Accepted, CanFrame, InputDecoder, Kind, LinkParams, Reject};
 
@@ -40,9 +42,14 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02X}")).collect()
 }
 
+/// An identifier above 0x7FF is extended (J1939), else standard.
 fn parse_frame(id: &str, data: &str) -> Result<CanFrame, String> {
-    let id = u16::from_str_radix(id, 16).map_err(|e| format!("bad id: {e}"))?;
-    let id = StandardId::new(id).ok_or("id out of range")?;
+    let raw = u32::from_str_radix(id, 16).map_err(|e| format!("bad id: {e}"))?;
+    let id: Id = if raw > 0x7FF {
+        ExtendedId::new(raw).ok_or("id out of range")?.into()
+    } else {
+        StandardId::new(raw as u16).ok_or("id out of range")?.into()
+    };
     let data = parse_hex(data).ok_or("bad hex")?;
     CanFrame::new(id, &data).ok_or_else(|| "more than 8 bytes".into())
 }
@@ -63,12 +70,24 @@ fn table() -> String {
     for kind in Kind::ALL {
         let d = kind.def();
         let t = d.timing;
-        out += &format!("msg {} {:#x} {:#x} {} {} {} {}\n", d.name, d.id, d.data_id, t.cycle_ms, t.start_delay_ms, d.timeout_ms, d.group);
+        out += &format!(
+            "msg {} {:#x} {:#x} {} {} {} {} {:#x} {} {:#x}\n",
+            d.kind.name(),
+            d.id(),
+            d.data_id,
+            t.cycle_ms,
+            t.start_delay_ms,
+            d.timeout_ms,
+            d.group,
+            d.pgn,
+            d.priority,
+            d.source
+        );
         for s in kind.signals() {
             let g = &s.signal;
             out += &format!(
                 "sig {} {} {} {} {} {:?} {:?} {} {} {}\n",
-                d.name,
+                d.kind.name(),
                 s.name,
                 g.start_bit,
                 g.bit_len,
@@ -85,7 +104,8 @@ fn table() -> String {
 }
 
 /// Parses NAME=VALUE for every signal of the message into a payload, reads
-/// it as the typed message, and encodes that with the codec.
+/// it as the typed message, and encodes that with the codec (from the
+/// sender's DBC source address).
 fn encode(args: &[&str]) -> Result<String, String> {
     let [name, counter, assignments @ ..] = args else {
         return Err("usage: encode NAME COUNTER SIGNAL=VALUE...".into());
@@ -106,8 +126,8 @@ fn encode(args: &[&str]) -> Result<String, String> {
         return Err("every signal needs a value".into());
     }
     let msg = can::read_payload(kind, &payload).map_err(|r| reason(r).to_string())?;
-    let frame = can::encode(&msg, counter).map_err(|_| "out_of_range")?;
-    Ok(format!("frame {:X} {}", def.id, hex(frame.data())))
+    let frame = can::encode(&msg, counter, def.source).map_err(|_| "out_of_range")?;
+    Ok(format!("frame {:X} {}", frame_id(&frame), hex(frame.data())))
 }
 
 fn decode(frame: &CanFrame) -> String {
@@ -115,7 +135,7 @@ fn decode(frame: &CanFrame) -> String {
         Err(r) => format!("reject {}", reason(r)),
         Ok((msg, counter)) => {
             // Re-encode the typed message and read each signal by name.
-            let Ok(again) = can::encode(&msg, counter) else {
+            let Ok(again) = can::encode(&msg, counter, 0) else {
                 return "error re-encode".into();
             };
             let def = msg.kind().def();
@@ -125,32 +145,44 @@ fn decode(frame: &CanFrame) -> String {
                 .iter()
                 .map(|s| format!("{}={:?}", s.name, s.signal.get(again.payload()).unwrap_or(f64::NAN)))
                 .collect();
-            format!("message {} {} {}", def.name, counter, values.join(" "))
+            format!("message {} {} {}", def.kind.name(), counter, values.join(" "))
         }
     }
 }
 
-fn inputs_line(i: &hp_ctrl::Inputs) -> String {
-    format!(
-        "inputs p_gas_pa={:?} p_gas2_pa={:?} strut_disp_m={:?} body_acc_m_s2={:?} speed_m_s={:?} \
-         lat_acc_m_s2={:?} long_acc_m_s2={:?} steer_angle_rad={:?} steer_rate_rad_s={:?} brake_pressed={} \
-         t_gas_k={:?} driver_mode={} ride_height_request_m={:?} fresh={} link_fault={}",
-        i.p_gas_pa,
-        i.p_gas2_pa,
-        i.strut_disp_m,
-        i.body_acc_m_s2,
-        i.speed_m_s,
-        i.lat_acc_m_s2,
-        i.long_acc_m_s2,
-        i.steer_angle_rad,
-        i.steer_rate_rad_s,
-        u8::from(i.brake_pressed),
-        i.t_gas_k,
-        i.driver_mode as u8,
-        i.ride_height_request_m,
+fn inputs_line<const N: usize>(i: &hp_ctrl::vehicle::VehicleInputs<N>) -> String {
+    let v = &i.vehicle;
+    let mut s = format!(
+        "inputs speed_m_s={:?} lat_acc_m_s2={:?} long_acc_m_s2={:?} steer_angle_rad={:?} steer_rate_rad_s={:?} brake_pressed={} \
+         driver_mode={} height_mode={} ride_height_request_m={:?} pitch_rad={:?} roll_rad={:?} fresh={} link_fault={} inclination_stale={}",
+        v.speed_m_s,
+        v.lat_acc_m_s2,
+        v.long_acc_m_s2,
+        v.steer_angle_rad,
+        v.steer_rate_rad_s,
+        u8::from(v.brake_pressed),
+        v.driver_mode as u8,
+        v.height_mode as u8,
+        v.ride_height_request_m,
+        v.pitch_rad,
+        v.roll_rad,
         i.fresh,
-        u8::from(i.link_fault)
-    )
+        u8::from(i.link_fault),
+        u8::from(i.inclination_stale)
+    );
+    for (k, c) in i.corners.iter().enumerate() {
+        s += &format!(
+            " c{k}.p_gas_pa={:?} c{k}.p_gas2_pa={:?} c{k}.strut_disp_m={:?} c{k}.body_acc_m_s2={:?} c{k}.t_gas_k={:?} c{k}.fresh={} c{k}.link_fault={}",
+            c.p_gas_pa,
+            c.p_gas2_pa,
+            c.strut_disp_m,
+            c.body_acc_m_s2,
+            c.t_gas_k,
+            c.fresh,
+            u8::from(c.link_fault)
+        );
+    }
+    s
 }
 
 /// Collects what the ECU sends.
@@ -169,14 +201,14 @@ impl Link for Collect {
 
 fn frame_id(f: &CanFrame) -> u32 {
     match f.id() {
-        embedded_can::Id::Standard(id) => u32::from(id.as_raw()),
-        embedded_can::Id::Extended(id) => id.as_raw(),
+        Id::Standard(id) => u32::from(id.as_raw()),
+        Id::Extended(id) => id.as_raw(),
     }
 }
 
 fn main() -> io::Result<()> {
-    let mut rx = InputDecoder::new(LinkParams::default());
-    let mut ecu = Ecu::new();
+    let mut rx = InputDecoder::<4>::new(LinkParams::default());
+    let mut ecu = Ecu::new(&hp_ctrl::calibration::SEED_4, 1);
     let stdout = io::stdout();
     let mut out = stdout.lock();
     for line in io::stdin().lock().lines() {
@@ -191,7 +223,8 @@ fn main() -> io::Result<()> {
             ["rx", id, data @ ..] => match parse_frame(id, data.first().copied().unwrap_or("")) {
                 Err(e) => format!("error {e}"),
                 Ok(f) => match rx.receive(&f) {
-                    Ok(Accepted::Input(groups)) => format!("input {groups}"),
+                    Ok(Accepted::Vehicle(groups)) => format!("vehicle {groups}"),
+                    Ok(Accepted::Corner(k, groups)) => format!("corner {k} {groups}"),
                     Ok(Accepted::Tick(index)) => format!("tick {index}"),
                     Ok(Accepted::Synced) => "synced".into(),
                     Err(r) => format!("reject {}", reason(r)),
@@ -216,7 +249,7 @@ fn main() -> io::Result<()> {
                 let e = rx.diag_e2e();
                 let l = rx.diag_link();
                 format!(
-                    "diag crc={} length={} unknown_id={} repeated={} skipped={} range={} timeouts={} stale={} link_fault={} window={}",
+                    "diag crc={} length={} unknown_id={} repeated={} skipped={} range={} timeouts={} stale_vehicle={} stale_corners={} link_fault={} window={}",
                     e.crc,
                     e.length,
                     e.unknown_id,
@@ -224,7 +257,8 @@ fn main() -> io::Result<()> {
                     e.skipped,
                     e.range,
                     l.timeout_count,
-                    l.stale_groups,
+                    l.stale_vehicle,
+                    l.stale_corners,
                     u8::from(l.link_fault),
                     l.window_rejects
                 )

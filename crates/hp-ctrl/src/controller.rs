@@ -19,16 +19,16 @@ use crate::{clock, diag, DamperMode, DriveMode, Inputs, Outputs};
 /// never solves the equation of state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Params {
-    config: Config,
-    table: LargeTable,
-    monitor: MonitorParams,
-    estimator: EstimatorParams,
-    mode: ModeParams,
-    damper: DamperParams,
-    ride_height: RideHeightParams,
-    load: LoadParams,
+    pub(crate) config: Config,
+    pub(crate) table: LargeTable,
+    pub(crate) monitor: MonitorParams,
+    pub(crate) estimator: EstimatorParams,
+    pub(crate) mode: ModeParams,
+    pub(crate) damper: DamperParams,
+    pub(crate) ride_height: RideHeightParams,
+    pub(crate) load: LoadParams,
     /// The stroke as ride-height offsets (extension end, compression end), m.
-    stroke_m: (f32, f32),
+    pub(crate) stroke_m: (f32, f32),
 }
 
 impl Params {
@@ -102,6 +102,19 @@ impl State {
             ride_height_m: 0.0,
             p_gas2_target_pa: 0.0,
         }
+    }
+}
+
+impl State {
+    /// The last valid ride-height estimate (`Outputs::ride_height_m`), m.
+    pub fn ride_height_m(&self) -> f32 {
+        self.ride_height_m
+    }
+
+    /// The ride-height change in progress (`Lowering`, `Raising`) or
+    /// `Holding`.
+    pub fn sequencer_phase(&self) -> crate::SequencerState {
+        self.ride_height.phase()
     }
 }
 

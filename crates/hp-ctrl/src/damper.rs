@@ -47,8 +47,8 @@ impl DamperConfig {
 /// [`DamperConfig`] compiled for the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DamperParams {
-    deadband_m2_s2: f32,
-    min_interval_us: u32,
+    pub(crate) deadband_m2_s2: f32,
+    pub(crate) min_interval_us: u32,
 }
 
 impl DamperParams {

@@ -44,9 +44,9 @@ impl EstimatorConfig {
 /// [`EstimatorConfig`] compiled for the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EstimatorParams {
-    inv_strut_tau_per_s: f32,
-    inv_body_tau_per_s: f32,
-    inv_bias_tau_per_s: f32,
+    pub(crate) inv_strut_tau_per_s: f32,
+    pub(crate) inv_body_tau_per_s: f32,
+    pub(crate) inv_bias_tau_per_s: f32,
 }
 
 impl EstimatorParams {

@@ -43,6 +43,8 @@ use crate::config::{check, check_below, ParamError};
 pub struct UnitConfig {
     /// Strut piston area, m^2.
     pub piston_area_m2: f64,
+    /// Gas volume of S at the nominal static position, m^3.
+    pub small_acc_volume_m3: f64,
     /// Gas volume of L at the nominal static position, m^3.
     pub large_acc_volume_m3: f64,
     /// Gas pressure at the nominal static position, Pa.
@@ -63,6 +65,7 @@ impl UnitConfig {
     pub fn from_unit(unit: &hp_core::unit::UnitParams) -> Self {
         UnitConfig {
             piston_area_m2: unit.piston_area_m2,
+            small_acc_volume_m3: unit.small_acc_volume_m3,
             large_acc_volume_m3: unit.large_acc_volume_m3,
             static_pressure_pa: unit.static_pressure_pa,
             static_temperature_k: unit.static_temperature_k,
@@ -79,6 +82,7 @@ impl UnitConfig {
 
     pub(crate) fn validate(&self) -> Result<(), ParamError> {
         check("unit.piston_area_m2", self.piston_area_m2, 1.0e-5, 0.1)?;
+        check("unit.small_acc_volume_m3", self.small_acc_volume_m3, 1.0e-6, 0.1)?;
         check("unit.large_acc_volume_m3", self.large_acc_volume_m3, 1.0e-6, 0.1)?;
         check("unit.static_pressure_pa", self.static_pressure_pa, 1.0e5, 1.2e8)?;
         check("unit.static_temperature_k", self.static_temperature_k, 200.0, 600.0)?;
@@ -110,18 +114,18 @@ pub const TABLE_DENSITIES: usize = 21;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LargeTable {
     /// `p_pa[i][j]` at temperature node `i`, density node `j`.
-    p_pa: [[f32; TABLE_DENSITIES]; TABLE_TEMPERATURES],
-    t0_k: f32,
-    t_step_k: f32,
-    rho0_kg_m3: f32,
-    rho_step_kg_m3: f32,
+    pub(crate) p_pa: [[f32; TABLE_DENSITIES]; TABLE_TEMPERATURES],
+    pub(crate) t0_k: f32,
+    pub(crate) t_step_k: f32,
+    pub(crate) rho0_kg_m3: f32,
+    pub(crate) rho_step_kg_m3: f32,
     /// Gas mass, volume at the static charge and piston area, for the
     /// conversion between volume offsets and densities.
-    mass_kg: f32,
-    v0_m3: f32,
-    area_m2: f32,
+    pub(crate) mass_kg: f32,
+    pub(crate) v0_m3: f32,
+    pub(crate) area_m2: f32,
     /// The tabulated volume offsets, m.
-    u_range_m: (f32, f32),
+    pub(crate) u_range_m: (f32, f32),
 }
 
 /// Position of a value on a regular grid: the lower node and the weight of

@@ -16,6 +16,10 @@
 //!   spring mode.
 //! - [`load`]: the static load pressure, the ride height's zero reference.
 //! - [`gas_table`]: the gas in accumulator L, tabulated once.
+//! - [`gas_charge`]: gas-charge loss detection from the same table.
+//!
+//! - [`vehicle`]: one ECU for 4 to 8 corners: per-corner controllers,
+//!   vehicle-level ride height, gas-charge diagnostics.
 //!
 //! The closed loop with the plant model (host simulation) lives in the
 //! host-side crate `hp-vehicle`, so this crate holds only what flies.
@@ -31,6 +35,7 @@
 //! every diagnostic flag.
 #![no_std]
 
+pub mod calibration;
 pub mod can;
 pub mod clock;
 pub mod config;
@@ -38,12 +43,14 @@ mod controller;
 pub mod damper;
 pub mod diag;
 pub mod estimator;
+pub mod gas_charge;
 pub mod gas_table;
 mod io;
 pub mod load;
 pub mod mode;
 pub mod monitor;
 pub mod ride_height;
+pub mod vehicle;
 
 pub use config::{Config, ParamError};
 pub use controller::{step, Params, State};

@@ -54,10 +54,10 @@ const GRAVITY_M_S2: f32 = 9.806_65;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoadParams {
     /// The configured static pressure: start value and offset of the state.
-    static_pressure_pa: f32,
-    tau_us: u32,
+    pub(crate) static_pressure_pa: f32,
+    pub(crate) tau_us: u32,
     /// The stroke (extension end, compression end) as strut compression, m.
-    stroke_m: (f32, f32),
+    pub(crate) stroke_m: (f32, f32),
 }
 
 impl LoadParams {

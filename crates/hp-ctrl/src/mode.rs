@@ -111,15 +111,15 @@ impl ModeConfig {
 /// [`ModeConfig`] compiled for the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModeParams {
-    lat_acc_m_s2: (f32, f32),
+    pub(crate) lat_acc_m_s2: (f32, f32),
     /// `1 / (i_s L)`, 1/m: lateral acceleration per `v^2 delta_wheel`.
-    lat_acc_per_v2_rad: f32,
-    steer_rate_rad_s: (f32, f32),
-    steer_min_speed_m_s: f32,
-    long_acc_m_s2: (f32, f32),
-    brake_min_speed_m_s: f32,
-    speed_m_s: (f32, f32),
-    hold_us: u32,
+    pub(crate) lat_acc_per_v2_rad: f32,
+    pub(crate) steer_rate_rad_s: (f32, f32),
+    pub(crate) steer_min_speed_m_s: f32,
+    pub(crate) long_acc_m_s2: (f32, f32),
+    pub(crate) brake_min_speed_m_s: f32,
+    pub(crate) speed_m_s: (f32, f32),
+    pub(crate) hold_us: u32,
 }
 
 impl ModeParams {

@@ -160,19 +160,19 @@ impl MonitorConfig {
 /// [`MonitorConfig`] compiled for the step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MonitorParams {
-    pressure_pa: (f64, f64),
-    temperature_k: (f64, f64),
-    disp_m: (f64, f64),
-    body_acc_max_m_s2: f64,
-    vehicle_acc_max_m_s2: f64,
-    speed_m_s: (f64, f64),
-    steer_angle_max_rad: f64,
-    steer_rate_max_rad_s: f64,
-    pressure_rate_pa_per_us: f32,
-    disp_rate_m_per_us: f32,
-    temperature_rate_k_per_us: f32,
-    timeouts_us: [u32; GROUPS],
-    recovery_us: u32,
+    pub(crate) pressure_pa: (f64, f64),
+    pub(crate) temperature_k: (f64, f64),
+    pub(crate) disp_m: (f64, f64),
+    pub(crate) body_acc_max_m_s2: f64,
+    pub(crate) vehicle_acc_max_m_s2: f64,
+    pub(crate) speed_m_s: (f64, f64),
+    pub(crate) steer_angle_max_rad: f64,
+    pub(crate) steer_rate_max_rad_s: f64,
+    pub(crate) pressure_rate_pa_per_us: f32,
+    pub(crate) disp_rate_m_per_us: f32,
+    pub(crate) temperature_rate_k_per_us: f32,
+    pub(crate) timeouts_us: [u32; GROUPS],
+    pub(crate) recovery_us: u32,
     pub(crate) dt_max_s: f64,
 }
 

@@ -136,12 +136,12 @@ impl RideHeightConfig {
 pub struct RideHeightParams {
     pub(crate) request_max_m: f64,
     pub(crate) request_deadband_m: f64,
-    tolerance_m: f32,
-    valve6_margin_pa: f64,
-    min_off_us: u32,
-    block_lat_acc_m_s2: f32,
-    block_long_acc_m_s2: f32,
-    resume_us: u32,
+    pub(crate) tolerance_m: f32,
+    pub(crate) valve6_margin_pa: f64,
+    pub(crate) min_off_us: u32,
+    pub(crate) block_lat_acc_m_s2: f32,
+    pub(crate) block_long_acc_m_s2: f32,
+    pub(crate) resume_us: u32,
     pub(crate) load_settle_us: u32,
 }
 
@@ -240,6 +240,13 @@ impl RideHeightState {
             calm_us: 0,
             engaged: true,
         }
+    }
+}
+
+impl RideHeightState {
+    /// The change in progress: `Lowering`, `Raising` or `Holding`.
+    pub fn phase(&self) -> SequencerState {
+        self.phase
     }
 }
 

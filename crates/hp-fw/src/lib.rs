@@ -21,6 +21,8 @@
 pub mod run;
 pub mod stack;
 
+#[cfg(feature = "figures")]
+pub mod figures;
 #[cfg(feature = "mps2")]
 pub mod mps2;
 #[cfg(feature = "stm32f4")]

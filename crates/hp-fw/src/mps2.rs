@@ -76,8 +76,8 @@ fn uart_try_write(byte: u8) -> bool {
     true
 }
 
-/// Bytes waiting to go out: a few periods of traffic (two 22-byte frames
-/// per period plus answers).
+/// Bytes waiting to go out: a few periods of traffic (27-byte extended
+/// frames: up to five a period with eight corners, plus answers).
 const TX_QUEUE: usize = 512;
 
 /// The SLCAN link over UART0.
@@ -171,9 +171,11 @@ fn SysTick() {
     TICKS.fetch_add(1, core::sync::atomic::Ordering::Relaxed);
 }
 
-/// Boots the board and runs the ECU with `timing`.
-pub fn main(timing: crate::run::Timing) -> ! {
-    let mut ecu = hp_ctrl::can::ecu::Ecu::new();
+/// Boots the board and runs the ECU for `N` corners with the parameters
+/// `params` and `timing`.
+pub fn main<const N: usize>(params: &'static hp_ctrl::vehicle::VehicleParams<N>, timing: crate::run::Timing) -> ! {
+    // Identity number 1: the emulator is one ECU.
+    let mut ecu = hp_ctrl::can::ecu::Ecu::<N>::new(params, 1);
     let mut link = SlcanLink::new();
     uart_init();
     if let Some(mut core) = cortex_m::Peripherals::take() {

@@ -11,7 +11,7 @@
 
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 use hp_ctrl::can::ecu::{Ecu, Link};
-use hp_ctrl::can::{CanFrame, Kind};
+use hp_ctrl::can::CanFrame;
 use stm32f4::stm32f405 as pac;
 
 use crate::run::{run, Timing};
@@ -73,29 +73,21 @@ impl BxCanLink {
     }
 }
 
-/// List-mode 16-bit filter entry for a standard data frame: STID in bits
-/// 15..5, RTR = IDE = 0.
-fn list_entry(kind: Kind) -> u32 {
-    u32::from(kind.def().id) << 5
-}
-
-/// Two filter banks in 16-bit list mode hold the eight identifiers the ECU
-/// receives, into FIFO 0; foreign traffic on a vehicle bus never reaches
-/// the receiver's reject counters.
+/// One filter bank in 32-bit mask mode that passes every extended
+/// (29-bit, J1939) data frame into FIFO 0 and no standard one: a J1939 ECU
+/// must hear address claims and requests from any node, so the network
+/// layer and the receiver filter by PGN (`hp_ctrl::can`).
 fn configure_filters(can: &pac::CAN1) {
-    let [a, b, c, d, e, f, g, h] = Kind::ECU_RX.map(list_entry);
     // SAFETY: filter registers written in filter-init mode, bit layouts of
-    // RM0090 32.7.4; banks 0 and 1 belong to CAN1 (CAN2SB stays 14).
+    // RM0090 32.7.4; bank 0 belongs to CAN1 (CAN2SB stays 14).
     can.fmr.modify(|r, w| unsafe { w.bits(r.bits() | FMR_FINIT) });
-    can.fa1r.modify(|r, w| unsafe { w.bits(r.bits() & !0b11) });
-    can.fm1r.modify(|r, w| unsafe { w.bits(r.bits() | 0b11) }); // list mode
-    can.fs1r.modify(|r, w| unsafe { w.bits(r.bits() & !0b11) }); // 16-bit scale
-    can.ffa1r.modify(|r, w| unsafe { w.bits(r.bits() & !0b11) }); // FIFO 0
-    can.fb[0].fr1.write(|w| unsafe { w.bits(a | b << 16) });
-    can.fb[0].fr2.write(|w| unsafe { w.bits(c | d << 16) });
-    can.fb[1].fr1.write(|w| unsafe { w.bits(e | f << 16) });
-    can.fb[1].fr2.write(|w| unsafe { w.bits(g | h << 16) });
-    can.fa1r.modify(|r, w| unsafe { w.bits(r.bits() | 0b11) });
+    can.fa1r.modify(|r, w| unsafe { w.bits(r.bits() & !0b1) });
+    can.fm1r.modify(|r, w| unsafe { w.bits(r.bits() & !0b1) }); // mask mode
+    can.fs1r.modify(|r, w| unsafe { w.bits(r.bits() | 0b1) }); // 32-bit scale
+    can.ffa1r.modify(|r, w| unsafe { w.bits(r.bits() & !0b1) }); // FIFO 0
+    can.fb[0].fr1.write(|w| unsafe { w.bits(IR_IDE) }); // identifier: IDE set, RTR clear
+    can.fb[0].fr2.write(|w| unsafe { w.bits(IR_IDE | IR_RTR) }); // mask: compare IDE and RTR only
+    can.fa1r.modify(|r, w| unsafe { w.bits(r.bits() | 0b1) });
     can.fmr.modify(|r, w| unsafe { w.bits(r.bits() & !FMR_FINIT) });
 }
 
@@ -168,11 +160,18 @@ fn SysTick() {
     TICKS.fetch_add(1, core::sync::atomic::Ordering::Relaxed);
 }
 
+/// Corners of the vehicle this build controls.
+pub const CORNERS: usize = 8;
+
+/// The identity number in the ECU's J1939 NAME (a production ECU's serial
+/// number; one per unit built).
+const IDENTITY_NUMBER: u32 = 1;
+
 /// Boots the board and runs the ECU on the 1 kHz SysTick. If the
 /// peripherals or the CAN controller cannot be had, it parks with the valve
 /// outputs untouched, i.e. de-energised.
 pub fn main() -> ! {
-    let mut ecu = Ecu::new();
+    let mut ecu = Ecu::<CORNERS>::new(&hp_ctrl::calibration::SEED_8, IDENTITY_NUMBER);
     let (Some(dp), Some(mut cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         park()
     };

@@ -83,7 +83,7 @@ fn is_whole(sd: &codec::messages::SignalDef) -> bool {
 fn can_encode<'py>(py: Python<'py>, name: &str, counter: &Bound<'py, PyAny>, values: &Bound<'py, PyAny>) -> PyResult<(u32, Bound<'py, PyBytes>)> {
     guard(|| {
         let kind = Kind::from_name(name).ok_or_else(|| {
-            let names: Vec<&str> = Kind::ALL.iter().map(|k| k.def().name).collect();
+            let names: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
             parameter(format!("unknown message {name:?} (one of: {})", names.join(", ")))
         })?;
         let counter = int_arg(counter, "counter", 0, i64::from(e2e::COUNTER_MAX), "the alive counter")?;
@@ -103,7 +103,7 @@ fn can_encode<'py>(py: Python<'py>, name: &str, counter: &Bound<'py, PyAny>, val
         }
         r.finish()?;
         let msg = codec::read_payload(kind, &payload).map_err(rejected)?;
-        let frame = codec::encode(&msg, counter).map_err(|_| parameter(format!("{name}: a value is outside its range")))?;
+        let frame = codec::encode(&msg, counter, kind.def().source).map_err(|_| parameter(format!("{name}: a value is outside its range")))?;
         Ok(frame_to_py(py, &frame))
     })
 }
@@ -112,18 +112,18 @@ fn can_encode<'py>(py: Python<'py>, name: &str, counter: &Bound<'py, PyAny>, val
 /// reserved bits and signal ranges are checked; the counter sequence is
 /// the receiver's job). Returns `(message name, counter, {signal: value})`.
 #[pyfunction]
-#[pyo3(signature = (id, data, extended=false))]
+#[pyo3(signature = (id, data, extended=true))]
 fn can_decode<'py>(py: Python<'py>, id: &Bound<'py, PyAny>, data: &Bound<'py, PyAny>, extended: bool) -> PyResult<(&'static str, u8, Bound<'py, PyDict>)> {
     guard(|| {
         let frame = frame_arg(id, data, extended)?;
         let (msg, counter) = codec::decode(&frame).map_err(rejected)?;
         let kind = msg.kind();
-        let payload = codec::encode(&msg, counter).map_err(|_| parameter("decoded message does not re-encode"))?;
+        let payload = codec::encode(&msg, counter, kind.def().source).map_err(|_| parameter("decoded message does not re-encode"))?;
         let values = PyDict::new(py);
         for sd in kind.signals() {
             values.set_item(sd.name, sd.signal.get(payload.payload()).unwrap_or(f64::NAN))?;
         }
-        Ok((kind.def().name, counter, values))
+        Ok((kind.name(), counter, values))
     })
 }
 
@@ -141,49 +141,101 @@ impl Link for Sent {
     }
 }
 
-/// The ECU application, `hp_ctrl::can::ecu::Ecu`: the code the firmware
-/// runs, on the host (the reference of processor-in-the-loop tests).
-/// Power-on: the seed unit's parameters, the controller in its safe state,
-/// every input message stale.
-#[pyclass(module = "hpctl._core")]
+/// The ECU application for 4 or 8 corners, with a built-in calibration.
+enum AnyEcu {
+    Four(Box<ecu::Ecu<'static, 4>>),
+    Eight(Box<ecu::Ecu<'static, 8>>),
+}
+
+/// The ECU application, `hp_ctrl::can::ecu::Ecu<N>` for `corners` = 4 or
+/// 8: the code the firmware runs, on the host (the reference of
+/// processor-in-the-loop tests), with the calibration the firmware has
+/// (`hp_ctrl::calibration`): `"seed"` (production: `hp-fw-mps2`,
+/// `hp-fw-stm32f4`) or `"pil"` (the gas-charge detector in seconds:
+/// `hp-fw-pil`, `hp-fw-pil8`). Power-on: every corner in its safe state,
+/// every input message stale, the address claim due.
+#[pyclass(module = "hpctl._core", unsendable)]
 pub struct Ecu {
-    ecu: Box<ecu::Ecu>,
+    ecu: AnyEcu,
+}
+
+macro_rules! with_ecu {
+    ($self:expr, $e:ident => $body:expr) => {
+        match &mut $self.ecu {
+            AnyEcu::Four($e) => $body,
+            AnyEcu::Eight($e) => $body,
+        }
+    };
 }
 
 #[pymethods]
 impl Ecu {
     #[new]
-    fn new() -> PyResult<Self> {
-        guard(|| Ok(Ecu { ecu: Box::new(ecu::Ecu::new()) }))
+    #[pyo3(signature = (corners=4, calibration="seed", identity_number=1))]
+    fn new(corners: i64, calibration: &str, identity_number: u32) -> PyResult<Self> {
+        use hp_ctrl::calibration::{PIL_4, PIL_8, SEED_4, SEED_8};
+        guard(|| {
+            if identity_number >= 1 << 21 {
+                return Err(parameter(format!("identity_number = {identity_number} must be within [0, 2097151] (21 bits)")));
+            }
+            let pil = match calibration {
+                "seed" => false,
+                "pil" => true,
+                _ => return Err(parameter(format!("calibration = {calibration:?} must be \"seed\" or \"pil\""))),
+            };
+            let ecu = match corners {
+                4 => AnyEcu::Four(Box::new(ecu::Ecu::new(if pil { &PIL_4 } else { &SEED_4 }, identity_number))),
+                8 => AnyEcu::Eight(Box::new(ecu::Ecu::new(if pil { &PIL_8 } else { &SEED_8 }, identity_number))),
+                _ => return Err(parameter(format!("corners = {corners} must be 4 or 8"))),
+            };
+            Ok(Ecu { ecu })
+        })
     }
 
-    /// True if the parameters validated (otherwise the outputs stay safe).
+    /// Number of corners.
     #[getter]
-    fn has_params(&self) -> bool {
-        self.ecu.has_params()
+    fn corners(&self) -> usize {
+        match &self.ecu {
+            AnyEcu::Four(_) => 4,
+            AnyEcu::Eight(_) => 8,
+        }
     }
 
     /// Frames that could not be queued for sending.
     #[getter]
-    fn tx_dropped(&self) -> u32 {
-        self.ecu.tx_dropped
+    fn tx_dropped(&mut self) -> u32 {
+        with_ecu!(self, e => e.tx_dropped)
     }
 
-    /// Feeds one received frame to the ECU's receiver (a rejected frame is
-    /// counted in its diagnostics, not raised). Returns the tick index if
-    /// it was an accepted `HP_PilTick`, else None.
-    #[pyo3(signature = (id, data, extended=false))]
+    /// The source address the ECU holds (0xFE once it could not claim one).
+    #[getter]
+    fn address(&mut self) -> u8 {
+        with_ecu!(self, e => e.network().address())
+    }
+
+    /// The active trouble codes as `(spn, fmi, occurrence_count)`.
+    fn dtcs(&mut self) -> Vec<(u32, u8, u8)> {
+        with_ecu!(self, e => e.dtcs().active().map(|d| (d.spn, d.fmi, d.occurrence_count)).collect())
+    }
+
+    /// Feeds one received frame to the ECU (a rejected frame is counted in
+    /// its diagnostics, not raised). Returns the tick index if it was an
+    /// accepted `HP_PilTick`, else None.
+    #[pyo3(signature = (id, data, extended=true))]
     fn receive(&mut self, id: &Bound<'_, PyAny>, data: &Bound<'_, PyAny>, extended: bool) -> PyResult<Option<u16>> {
-        guard(|| Ok(self.ecu.receive(&frame_arg(id, data, extended)?)))
+        guard(|| {
+            let frame = frame_arg(id, data, extended)?;
+            Ok(with_ecu!(self, e => e.receive(&frame)))
+        })
     }
 
-    /// Closes one control period: the controller step on what was
-    /// received, and the frames the ECU sends in it, as `(identifier,
-    /// bytes)` in sending order.
+    /// Closes one control period: the vehicle step on what was received,
+    /// and the frames the ECU sends in it, as `(identifier, bytes)` in
+    /// sending order.
     fn period<'py>(&mut self, py: Python<'py>) -> PyResult<Vec<(u32, Bound<'py, PyBytes>)>> {
         guard(|| {
             let mut sent = Sent::default();
-            self.ecu.period(&mut sent);
+            with_ecu!(self, e => { e.period(&mut sent); });
             Ok(sent.0.iter().map(|f| frame_to_py(py, f)).collect())
         })
     }

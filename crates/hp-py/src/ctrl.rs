@@ -38,7 +38,7 @@ macro_rules! block {
 }
 
 block!(read_unit, write_unit, hp_ctrl::gas_table::UnitConfig, [
-    piston_area_m2, large_acc_volume_m3, static_pressure_pa, static_temperature_k, stroke_compression_m, stroke_extension_m,
+    piston_area_m2, small_acc_volume_m3, large_acc_volume_m3, static_pressure_pa, static_temperature_k, stroke_compression_m, stroke_extension_m,
 ]);
 block!(read_monitor, write_monitor, hp_ctrl::monitor::MonitorConfig, [
     pressure_min_pa, pressure_max_pa, temperature_min_k, temperature_max_k, disp_margin_m, body_acc_max_m_s2,
@@ -474,7 +474,7 @@ impl LoopCase {
             max_dt_s,
             record_every,
             channels,
-            sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s },
+            sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s, ..Sensors::default() },
         })
     }
 

@@ -10,6 +10,7 @@ mod ctrl;
 mod e2e_counter;
 mod errors;
 mod exec;
+mod leak;
 mod params;
 mod plant;
 mod sim;
@@ -21,6 +22,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     sim::register(m)?;
     ctrl::register(m)?;
     can::register(m)?;
+    leak::register(m)?;
     vehicle::register(m)?;
     m.add_class::<plant::Plant>()?;
     m.add_class::<e2e_counter::CanCounter>()?;

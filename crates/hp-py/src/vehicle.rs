@@ -343,7 +343,7 @@ impl VehicleCase {
             ambient_k,
             max_dt_s,
             record_every,
-            sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s },
+            sensors: Sensors { t_gas_tau_s: t_gas_sensor_tau_s, ..Sensors::default() },
             reference_plant: false,
         })
     }

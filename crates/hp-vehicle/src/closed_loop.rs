@@ -48,12 +48,14 @@ pub struct VehicleSignals {
 pub struct Sensors {
     /// Time constant of the gas-temperature sensor, s.
     pub t_gas_tau_s: f64,
+    /// Offset of the gas-temperature sensor (its calibration error), K.
+    pub t_gas_offset_k: f64,
 }
 
 impl Default for Sensors {
     /// A sheathed thermocouple or a wall sensor: about a second.
     fn default() -> Self {
-        Sensors { t_gas_tau_s: 1.0 }
+        Sensors { t_gas_tau_s: 1.0, t_gas_offset_k: 0.0 }
     }
 }
 
@@ -148,6 +150,7 @@ pub fn run(
 ) -> Result<(), hp_core::Error> {
     hp_core::error::check_range("dt_s", dt_s, 1e-6, 10.0)?;
     hp_core::error::check_range("t_gas_tau_s", sensors.t_gas_tau_s, 0.0, 1e3)?;
+    hp_core::error::check_range("t_gas_offset_k", sensors.t_gas_offset_k, -50.0, 50.0)?;
     // The lag's weight per period (exact for a signal held over the period).
     let t_gas_weight = if sensors.t_gas_tau_s > 0.0 { 1.0 - libm::exp(-dt_s / sensors.t_gas_tau_s) } else { 1.0 };
     let mut rig = *rig;
@@ -160,7 +163,7 @@ pub fn run(
         let t_true_k = sample.unit.t_gas2_k;
         let t_read_k = t_gas_k.map_or(t_true_k, |t: f64| t + t_gas_weight * (t_true_k - t));
         t_gas_k = Some(t_read_k);
-        let inputs = sensed(&sample, t_read_k, &vehicle_at(index, t_s));
+        let inputs = sensed(&sample, t_read_k + sensors.t_gas_offset_k, &vehicle_at(index, t_s));
         let outputs = step(params, state, &inputs, dt_s);
         if !on_period(&Period { index, sample: &sample, inputs: &inputs, outputs: &outputs }) {
             break;

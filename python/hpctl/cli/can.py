@@ -35,8 +35,12 @@ def _summary(d: CanDecode) -> dict[str, Any]:
     return {
         "log": d.source,
         "frames": d.frames,
-        "messages": {m: {"outcomes": o, "decoded": int(d.tables.get(m, {}).get("time_s", []).__len__())} for m, o in sorted(d.outcomes.items())},
-        "rejected": [{"time_s": i.time_s, "id": i.id, "message": i.message, "reason": i.reason} for i in d.issues],
+        "messages": {
+            m: {"outcomes": o, "decoded": len(d.tables.get(m, {}).get("time_s", []))}
+            | ({"source_addresses": {f"{a:#04x}": n for a, n in sorted(d.sources[m].items())}} if m in d.sources else {})
+            for m, o in sorted(d.outcomes.items())
+        },
+        "rejected": [{"time_s": i.time_s, "id": i.id, "source_address": i.source, "message": i.message, "reason": i.reason} for i in d.issues],
         "unknown_ids": {f"{k:#x}": v for k, v in sorted(d.unknown_ids.items())},
     }
 
@@ -57,10 +61,11 @@ def _summary(d: CanDecode) -> dict[str, Any]:
 def decode_cmd(log: Path, dbc: Path | None, out_dir: Path, mapping: Path | None, record_name: str, force: bool, strict: bool, quiet: bool,
                as_json: bool) -> None:
     """Decode a CAN log (candump .log, Vector .asc/.blf, ...) with the DBC.
-    Every protected frame is checked as the ECU checks it (CRC, counter
-    value and sequence, length, ranges); a frame that fails is listed in
-    rejected.csv and the summary (a warning), never decoded into the
-    tables. The outputs replace the folder's previous ones together when
+    J1939 frames (29-bit) are matched by PGN from any source address (the
+    source is reported). Every protected frame is checked as the ECU checks
+    it (CRC, counter value and sequence, length, ranges); a frame that
+    fails is listed in rejected.csv and the summary (a warning), never
+    decoded into the tables. The outputs replace the folder's previous ones together when
     the run has finished."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
@@ -71,8 +76,8 @@ def decode_cmd(log: Path, dbc: Path | None, out_dir: Path, mapping: Path | None,
             for m, columns in sorted(d.tables.items()):
                 cols = list(columns)
                 _write_csv(out.path(f"{m}.csv"), cols, zip(*(columns[c].tolist() for c in cols)))
-            _write_csv(out.path("rejected.csv"), ["time_s", "id", "message", "reason"],
-                       ((i.time_s, f"{i.id:#x}", i.message or "", i.reason) for i in d.issues))
+            _write_csv(out.path("rejected.csv"), ["time_s", "id", "source_address", "message", "reason"],
+                       ((i.time_s, f"{i.id:#x}", "" if i.source is None else f"{i.source:#04x}", i.message or "", i.reason) for i in d.issues))
             summary = _summary(d)
             if mapping is not None:
                 record = to_record(d.to_raw(), load_mapping(mapping), name=Path(record_name).stem)

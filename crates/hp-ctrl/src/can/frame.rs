@@ -4,7 +4,7 @@
 //! that have no driver frame type of their own: the host, tests, the
 //! emulator's SLCAN link.
 
-use embedded_can::{Frame, Id, StandardId};
+use embedded_can::{ExtendedId, Frame, Id, StandardId};
 
 /// Maximum data length of a classic CAN frame, bytes.
 pub const MAX_DLC: usize = 8;
@@ -33,6 +33,12 @@ impl CanFrame {
     /// A data frame with a standard identifier and a full 8-byte payload.
     pub fn standard(id: StandardId, data: [u8; MAX_DLC]) -> Self {
         CanFrame { id: Id::Standard(id), remote: false, dlc: MAX_DLC as u8, data }
+    }
+
+    /// A data frame with an extended (29-bit, J1939) identifier and a full
+    /// 8-byte payload.
+    pub fn extended(id: ExtendedId, data: [u8; MAX_DLC]) -> Self {
+        CanFrame { id: Id::Extended(id), remote: false, dlc: MAX_DLC as u8, data }
     }
 
     /// The payload as a fixed array; bytes past the DLC are zero.

@@ -1,12 +1,17 @@
-//! The frames of `python/hpctl/data/hpctl.dbc`: identifiers, data IDs, timing, signals,
-//! and one typed struct per message.
+//! The ECU's own frames of `python/hpctl/data/hpctl.dbc` (the E2E-protected
+//! Proprietary B parameter groups): PGNs, priorities, data IDs, timing,
+//! signals, and one typed struct per message. The standard J1939 parameter
+//! groups (address claim, request, DM1, transport protocol, acknowledgement)
+//! are [`super::j1939`]'s.
 //!
 //! The DBC is the source of truth; this module mirrors it by hand and
 //! `tests/test_can_codec.py` checks every number here against the DBC as
-//! `cantools` reads it.
+//! `cantools` reads it. Per-corner messages exist for corners 0..=7; an
+//! ECU for `N` corners uses the first `N`.
 
 use super::signal::{EncodeError, Signal};
 use crate::input_group;
+use crate::vehicle::{vehicle_group, HeightMode, MAX_CORNERS};
 use crate::{DamperMode, DriveMode, DriverMode, SequencerState, SpringMode};
 
 /// A signal with its DBC name and unit.
@@ -17,24 +22,62 @@ pub struct SignalDef {
     pub signal: Signal,
 }
 
+/// Source addresses of the DBC's nodes (their identifiers in the DBC).
+pub mod address {
+    /// The ECU's preferred source address (it may have to claim another).
+    pub const HPECU: u8 = 0x2F;
+    /// The corner sensor clusters.
+    pub const SENSORS: u8 = 0x90;
+    /// The vehicle network gateway.
+    pub const VEHICLE: u8 = 0x91;
+    /// Test bench, service tool, processor-in-the-loop host.
+    pub const TESTER: u8 = 0xF9;
+    /// J1939's null address (Cannot Claim Address).
+    pub const NULL: u8 = 0xFE;
+    /// J1939's global (broadcast) destination.
+    pub const GLOBAL: u8 = 0xFF;
+}
+
+/// A 29-bit J1939 identifier: priority (3 bits), PGN (18 bits; for a PDU1
+/// group its low byte is the destination), source address.
+///
+/// ```
+/// use hp_ctrl::can::messages::j1939_id;
+/// assert_eq!(j1939_id(6, 0xFECA, 0x2F), 0x18FE_CA2F); // DM1 from 0x2F
+/// ```
+pub const fn j1939_id(priority: u8, pgn: u32, source: u8) -> u32 {
+    ((priority as u32 & 0x7) << 26) | ((pgn & 0x3_FFFF) << 8) | source as u32
+}
+
 /// A message as the DBC defines it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MessageDef {
     pub kind: Kind,
-    pub name: &'static str,
-    /// 11-bit CAN identifier.
-    pub id: u16,
+    /// Parameter group number (Proprietary B: 0xFF00-0xFFFF).
+    pub pgn: u32,
+    /// J1939 priority, 0 (highest) to 7.
+    pub priority: u8,
+    /// The sender's source address in the DBC's identifier.
+    pub source: u8,
     /// E2E data ID (DBC attribute `E2E_DataID`).
     pub data_id: u16,
     /// When it is sent (DBC `GenMsgCycleTime`, `GenMsgStartDelayTime`).
     pub timing: Timing,
     /// Receive timeout, ms (DBC `E2E_TimeoutMs`; 0 = not supervised).
     pub timeout_ms: u16,
-    /// Input group ([`input_group`]) the message feeds, 0 if none.
+    /// Input groups the message feeds (corner groups for corner
+    /// messages, [`vehicle_group`] for vehicle messages), 0 if none.
     pub group: u16,
     /// The payload bits (little-endian `u64`) of the E2E header and the
     /// signals; every other bit must be zero.
     pub defined_bits: u64,
+}
+
+impl MessageDef {
+    /// The identifier the DBC gives it (the sender at its DBC address).
+    pub const fn id(&self) -> u32 {
+        j1939_id(self.priority, self.pgn, self.source)
+    }
 }
 
 /// When a message is sent.
@@ -55,8 +98,8 @@ impl Timing {
     /// True if a cyclic message is due in the 1 ms period `index` (from 0).
     ///
     /// ```
-    /// use hp_ctrl::can::messages::DIAG_E2E;
-    /// let due: Vec<u32> = (0..300).filter(|&k| DIAG_E2E.timing.due(k)).collect();
+    /// use hp_ctrl::can::messages::Kind;
+    /// let due: Vec<u32> = (0..300).filter(|&k| Kind::DiagE2e.def().timing.due(k)).collect();
     /// assert_eq!(due, [99, 199, 299]);
     /// ```
     pub fn due(&self, index: u32) -> bool {
@@ -70,88 +113,162 @@ impl Timing {
 /// Bits 0..=11 (CRC byte and counter nibble) of the E2E header.
 const HEADER_BITS: u64 = 0x0FFF;
 
-impl MessageDef {
-    #[allow(clippy::too_many_arguments)] // One argument per field of the DBC's BO_ line and attributes.
-    const fn new(kind: Kind, name: &'static str, id: u16, data_id: u16, timing: Timing, timeout_ms: u16, group: u16, signals: &[SignalDef]) -> Self {
-        let mut defined_bits = HEADER_BITS;
-        let mut rest = signals;
-        while let [first, tail @ ..] = rest {
-            let mask = first.signal.field_mask();
-            assert!(defined_bits & mask == 0, "signals overlap");
-            defined_bits |= mask;
-            rest = tail;
-        }
-        MessageDef { kind, name, id, data_id, timing, timeout_ms, group, defined_bits }
+const fn defined_bits(signals: &[SignalDef]) -> u64 {
+    let mut bits = HEADER_BITS;
+    let mut rest = signals;
+    while let [first, tail @ ..] = rest {
+        let mask = first.signal.field_mask();
+        assert!(bits & mask == 0, "signals overlap");
+        bits |= mask;
+        rest = tail;
     }
+    bits
 }
 
-/// Every message of the database.
+/// Every message of the database; corner messages carry the corner, 0..=7.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     PilTick,
-    Pressures,
-    Strut,
-    Body,
     Vehicle,
     Steering,
-    Temperature,
     Driver,
-    ValveCmd,
-    Status,
-    HeightCtrl,
-    Motion,
+    Inclination,
+    CornerPressures(u8),
+    CornerMotion(u8),
+    Valves,
+    CornerStatus(u8),
+    CornerCtrl(u8),
+    CornerDiag(u8),
     DiagE2e,
     DiagLink,
 }
 
+/// Number of messages of the database.
+pub const KINDS: usize = 5 + 2 * MAX_CORNERS + 1 + 3 * MAX_CORNERS + 2;
+
+#[allow(clippy::indexing_slicing)] // Compile-time evaluation: an index out of range fails the build.
+const fn all_kinds() -> [Kind; KINDS] {
+    let mut all = [Kind::PilTick; KINDS];
+    let fixed = [Kind::PilTick, Kind::Vehicle, Kind::Steering, Kind::Driver, Kind::Inclination];
+    let mut n = 0;
+    while n < fixed.len() {
+        all[n] = fixed[n];
+        n += 1;
+    }
+    let mut c = 0;
+    while c < MAX_CORNERS {
+        all[5 + c] = Kind::CornerPressures(c as u8);
+        all[5 + MAX_CORNERS + c] = Kind::CornerMotion(c as u8);
+        all[6 + 2 * MAX_CORNERS + c] = Kind::CornerStatus(c as u8);
+        all[6 + 3 * MAX_CORNERS + c] = Kind::CornerCtrl(c as u8);
+        all[6 + 4 * MAX_CORNERS + c] = Kind::CornerDiag(c as u8);
+        c += 1;
+    }
+    all[5 + 2 * MAX_CORNERS] = Kind::Valves;
+    all[KINDS - 2] = Kind::DiagE2e;
+    all[KINDS - 1] = Kind::DiagLink;
+    all
+}
+
 impl Kind {
-    /// All kinds in identifier order.
-    pub const ALL: [Kind; 14] = [
-        Kind::PilTick,
-        Kind::Pressures,
-        Kind::Strut,
-        Kind::Body,
-        Kind::Vehicle,
-        Kind::Steering,
-        Kind::Temperature,
-        Kind::Driver,
-        Kind::ValveCmd,
-        Kind::Status,
-        Kind::HeightCtrl,
-        Kind::Motion,
-        Kind::DiagE2e,
-        Kind::DiagLink,
-    ];
+    /// All kinds in PGN order.
+    pub const ALL: [Kind; KINDS] = all_kinds();
 
-    /// The messages the ECU receives, in the order of [`Kind::rx_index`].
-    pub const ECU_RX: [Kind; 8] = [
-        Kind::PilTick,
-        Kind::Pressures,
-        Kind::Strut,
-        Kind::Body,
-        Kind::Vehicle,
-        Kind::Steering,
-        Kind::Temperature,
-        Kind::Driver,
-    ];
-
-    /// The messages the ECU sends, in the order of [`Kind::tx_index`] and
-    /// of sending within a period.
-    pub const ECU_TX: [Kind; 6] = [Kind::ValveCmd, Kind::Status, Kind::HeightCtrl, Kind::Motion, Kind::DiagE2e, Kind::DiagLink];
-
-    /// Position in [`Kind::ECU_RX`], if the ECU receives this message.
-    pub fn rx_index(self) -> Option<usize> {
-        Kind::ECU_RX.iter().position(|&k| k == self)
+    /// Position in [`Kind::ALL`].
+    pub fn index(self) -> usize {
+        let c = |k: u8| usize::from(k) % MAX_CORNERS;
+        match self {
+            Kind::PilTick => 0,
+            Kind::Vehicle => 1,
+            Kind::Steering => 2,
+            Kind::Driver => 3,
+            Kind::Inclination => 4,
+            Kind::CornerPressures(k) => 5 + c(k),
+            Kind::CornerMotion(k) => 5 + MAX_CORNERS + c(k),
+            Kind::Valves => 5 + 2 * MAX_CORNERS,
+            Kind::CornerStatus(k) => 6 + 2 * MAX_CORNERS + c(k),
+            Kind::CornerCtrl(k) => 6 + 3 * MAX_CORNERS + c(k),
+            Kind::CornerDiag(k) => 6 + 4 * MAX_CORNERS + c(k),
+            Kind::DiagE2e => KINDS - 2,
+            Kind::DiagLink => KINDS - 1,
+        }
     }
 
-    /// Position in [`Kind::ECU_TX`], if the ECU sends this message.
-    pub fn tx_index(self) -> Option<usize> {
-        Kind::ECU_TX.iter().position(|&k| k == self)
+    /// The corner of a corner message.
+    pub fn corner(self) -> Option<usize> {
+        match self {
+            Kind::CornerPressures(k) | Kind::CornerMotion(k) | Kind::CornerStatus(k) | Kind::CornerCtrl(k) | Kind::CornerDiag(k) => {
+                Some(usize::from(k))
+            }
+            _ => None,
+        }
     }
 
-    /// The message with CAN identifier `id`.
-    pub fn from_id(id: u16) -> Option<Kind> {
-        Kind::ALL.iter().copied().find(|k| k.def().id == id)
+    /// True for the messages the ECU sends.
+    pub fn ecu_sends(self) -> bool {
+        matches!(
+            self,
+            Kind::Valves | Kind::CornerStatus(_) | Kind::CornerCtrl(_) | Kind::CornerDiag(_) | Kind::DiagE2e | Kind::DiagLink
+        )
+    }
+
+    /// The message with parameter group number `pgn`.
+    pub fn from_pgn(pgn: u32) -> Option<Kind> {
+        let c = |base: u32| (pgn.wrapping_sub(base) < MAX_CORNERS as u32).then(|| (pgn - base) as u8);
+        Some(match pgn {
+            0xFF00 => Kind::PilTick,
+            0xFF01 => Kind::Vehicle,
+            0xFF02 => Kind::Steering,
+            0xFF03 => Kind::Driver,
+            0xFF04 => Kind::Inclination,
+            0xFF80 => Kind::Valves,
+            0xFFE0 => Kind::DiagE2e,
+            0xFFE1 => Kind::DiagLink,
+            _ => {
+                if let Some(k) = c(0xFF10) {
+                    Kind::CornerPressures(k)
+                } else if let Some(k) = c(0xFF20) {
+                    Kind::CornerMotion(k)
+                } else if let Some(k) = c(0xFF90) {
+                    Kind::CornerStatus(k)
+                } else if let Some(k) = c(0xFFA0) {
+                    Kind::CornerCtrl(k)
+                } else if let Some(k) = c(0xFFB0) {
+                    Kind::CornerDiag(k)
+                } else {
+                    return None;
+                }
+            }
+        })
+    }
+
+    /// The DBC name. For tools, tests and the figures build: kept out of
+    /// [`MessageDef`] so that the firmware, which never names a message,
+    /// does not link the strings.
+    pub fn name(self) -> &'static str {
+        let corner = |table: usize, k: u8| {
+            CORNER_NAMES.get(table).and_then(|names| names.get(usize::from(k))).copied().unwrap_or("")
+        };
+        match self {
+            Kind::PilTick => "HP_PilTick",
+            Kind::Vehicle => "HP_Vehicle",
+            Kind::Steering => "HP_Steering",
+            Kind::Driver => "HP_Driver",
+            Kind::Inclination => "HP_Inclination",
+            Kind::CornerPressures(k) => corner(0, k),
+            Kind::CornerMotion(k) => corner(1, k),
+            Kind::Valves => "HP_Valves",
+            Kind::CornerStatus(k) => corner(2, k),
+            Kind::CornerCtrl(k) => corner(3, k),
+            Kind::CornerDiag(k) => corner(4, k),
+            Kind::DiagE2e => "HP_DiagE2E",
+            Kind::DiagLink => "HP_DiagLink",
+        }
+    }
+
+    /// The message named `name` (DBC spelling).
+    pub fn from_name(name: &str) -> Option<Kind> {
+        Kind::ALL.iter().copied().find(|k| k.name() == name)
     }
 
     /// The signals after the E2E header, in DBC order, with their names
@@ -160,17 +277,16 @@ impl Kind {
     pub fn signals(self) -> &'static [SignalDef] {
         match self {
             Kind::PilTick => PIL_TICK_SIGNALS,
-            Kind::Pressures => PRESSURES_SIGNALS,
-            Kind::Strut => STRUT_SIGNALS,
-            Kind::Body => BODY_SIGNALS,
             Kind::Vehicle => VEHICLE_SIGNALS,
             Kind::Steering => STEERING_SIGNALS,
-            Kind::Temperature => TEMPERATURE_SIGNALS,
             Kind::Driver => DRIVER_SIGNALS,
-            Kind::ValveCmd => VALVE_CMD_SIGNALS,
-            Kind::Status => STATUS_SIGNALS,
-            Kind::HeightCtrl => HEIGHT_CTRL_SIGNALS,
-            Kind::Motion => MOTION_SIGNALS,
+            Kind::Inclination => INCLINATION_SIGNALS,
+            Kind::CornerPressures(_) => PRESSURES_SIGNALS,
+            Kind::CornerMotion(_) => MOTION_SIGNALS,
+            Kind::Valves => VALVES_SIGNALS,
+            Kind::CornerStatus(_) => STATUS_SIGNALS,
+            Kind::CornerCtrl(_) => CTRL_SIGNALS,
+            Kind::CornerDiag(_) => DIAG_SIGNALS,
             Kind::DiagE2e => DIAG_E2E_SIGNALS,
             Kind::DiagLink => DIAG_LINK_SIGNALS,
         }
@@ -181,29 +297,9 @@ impl Kind {
         self.signals().iter().find(|s| s.name == name).map(|s| &s.signal)
     }
 
-    /// The message named `name` (DBC spelling).
-    pub fn from_name(name: &str) -> Option<Kind> {
-        Kind::ALL.iter().copied().find(|k| k.def().name == name)
-    }
-
     /// The DBC definition.
     pub fn def(self) -> &'static MessageDef {
-        match self {
-            Kind::PilTick => &PIL_TICK,
-            Kind::Pressures => &PRESSURES,
-            Kind::Strut => &STRUT,
-            Kind::Body => &BODY,
-            Kind::Vehicle => &VEHICLE,
-            Kind::Steering => &STEERING,
-            Kind::Temperature => &TEMPERATURE,
-            Kind::Driver => &DRIVER,
-            Kind::ValveCmd => &VALVE_CMD,
-            Kind::Status => &STATUS,
-            Kind::HeightCtrl => &HEIGHT_CTRL,
-            Kind::Motion => &MOTION,
-            Kind::DiagE2e => &DIAG_E2E,
-            Kind::DiagLink => &DIAG_LINK,
-        }
+        DEFS.get(self.index()).unwrap_or(&PIL_TICK)
     }
 }
 
@@ -213,33 +309,49 @@ const fn sig(name: &'static str, unit: &'static str, signal: Signal) -> SignalDe
 
 // Signals, named after the DBC. Ranges in raw units = DBC [min|max] / factor.
 const TICK_INDEX: Signal = Signal::uint(16, 16, 65535);
-const PRESSURE_SMALL: Signal = Signal::new(16, 24, false, 10.0, 0.0, 0, 12_000_000);
-const PRESSURE_LARGE: Signal = Signal::new(40, 24, false, 10.0, 0.0, 0, 12_000_000);
-const STRUT_DISP: Signal = Signal::new(16, 16, true, 1e-5, 0.0, -25_000, 25_000);
-const BODY_ACC: Signal = Signal::new(16, 16, true, 0.002, 0.0, -30_000, 30_000);
 const VEHICLE_SPEED: Signal = Signal::new(16, 15, false, 0.01, 0.0, 0, 10_000);
 const BRAKE_PRESSED: Signal = Signal::flag(31);
 const LAT_ACC: Signal = Signal::new(32, 16, true, 0.001, 0.0, -30_000, 30_000);
 const LONG_ACC: Signal = Signal::new(48, 16, true, 0.001, 0.0, -30_000, 30_000);
 const STEER_ANGLE: Signal = Signal::new(16, 16, true, 0.001, 0.0, -20_000, 20_000);
 const STEER_RATE: Signal = Signal::new(32, 16, true, 0.001, 0.0, -30_000, 30_000);
-const GAS_TEMP: Signal = Signal::new(16, 16, false, 0.01, 233.15, 0, 24_000);
 const DRIVER_MODE: Signal = Signal::uint(16, 2, 2);
+const HEIGHT_MODE_REQUEST: Signal = Signal::uint(18, 3, 5);
 const RIDE_HEIGHT_REQUEST: Signal = Signal::new(32, 16, true, 1e-5, 0.0, -12_500, 12_500);
-const VALVE5_OPEN: Signal = Signal::flag(16);
-const VALVE6_OPEN: Signal = Signal::flag(17);
-const DRIVE_MODE: Signal = Signal::flag(18);
-const SPRING_MODE: Signal = Signal::flag(19);
-const DAMPER_MODE: Signal = Signal::flag(20);
-const SEQUENCER: Signal = Signal::uint(21, 3, 4);
-const LINK_FAULT_CMD: Signal = Signal::flag(24);
+const BODY_PITCH: Signal = Signal::new(16, 16, true, 1e-4, 0.0, -15_000, 15_000);
+const BODY_ROLL: Signal = Signal::new(32, 16, true, 1e-4, 0.0, -15_000, 15_000);
+const PRESSURE_SMALL: Signal = Signal::new(16, 24, false, 10.0, 0.0, 0, 12_000_000);
+const PRESSURE_LARGE: Signal = Signal::new(40, 24, false, 10.0, 0.0, 0, 12_000_000);
+const STRUT_DISP: Signal = Signal::new(16, 16, true, 1e-5, 0.0, -25_000, 25_000);
+const BODY_ACC: Signal = Signal::new(32, 16, true, 0.002, 0.0, -30_000, 30_000);
+const GAS_TEMP: Signal = Signal::new(48, 16, false, 0.01, 233.15, 0, 24_000);
+/// Valve 5 of corner `k` is bit `16 + 2k`, valve 6 bit `17 + 2k`.
+const fn valve5(k: u8) -> Signal {
+    Signal::flag(16 + 2 * k)
+}
+const fn valve6(k: u8) -> Signal {
+    Signal::flag(17 + 2 * k)
+}
+/// Corner `k`'s safe state is bit `56 + k`.
+const fn corner_safe(k: u8) -> Signal {
+    Signal::flag(56 + k)
+}
 const STEP_INDEX: Signal = Signal::uint(32, 16, 65535);
+const DRIVE_MODE: Signal = Signal::flag(48);
+const HEIGHT_MODE: Signal = Signal::uint(49, 3, 6);
+const LINK_FAULT_CMD: Signal = Signal::flag(52);
 const RIDE_HEIGHT: Signal = Signal::new(16, 16, true, 1e-5, 0.0, -30_000, 30_000);
-const DIAG: Signal = Signal::uint(32, 32, 4_294_967_295);
+const SEQUENCER: Signal = Signal::uint(32, 3, 4);
+const SPRING_MODE: Signal = Signal::flag(35);
+const DAMPER_MODE: Signal = Signal::flag(36);
+const CORNER_SAFE: Signal = Signal::flag(37);
+const GAS_SETTLED: Signal = Signal::flag(38);
+const GAS_FAULT: Signal = Signal::flag(39);
+const GAS_CHARGE: Signal = Signal::new(40, 16, false, 1e-4, 0.0, 0, 20_000);
+const GAS_CONFIDENCE: Signal = Signal::new(56, 7, false, 0.01, 0.0, 0, 100);
 const PRESSURE_LOAD: Signal = Signal::new(16, 24, false, 10.0, 0.0, 0, 12_000_000);
 const PRESSURE_LARGE_TARGET: Signal = Signal::new(40, 24, false, 10.0, 0.0, 0, 12_000_000);
-const STRUT_VEL: Signal = Signal::new(16, 16, true, 0.0005, 0.0, -20_000, 20_000);
-const BODY_VEL: Signal = Signal::new(32, 16, true, 0.0005, 0.0, -20_000, 20_000);
+const DIAG: Signal = Signal::uint(16, 32, 4_294_967_295);
 const REJECT_CRC: Signal = Signal::uint(16, 8, 255);
 const REJECT_LENGTH: Signal = Signal::uint(24, 8, 255);
 const REJECT_UNKNOWN_ID: Signal = Signal::uint(32, 8, 255);
@@ -247,15 +359,14 @@ const REJECT_REPEATED: Signal = Signal::uint(40, 8, 255);
 const REJECT_SKIPPED: Signal = Signal::uint(48, 8, 255);
 const REJECT_RANGE: Signal = Signal::uint(56, 8, 255);
 const TIMEOUT_COUNT: Signal = Signal::uint(16, 8, 255);
-const STALE_GROUPS: Signal = Signal::uint(24, 7, 127);
-const LINK_FAULT_DIAG: Signal = Signal::flag(31);
-const WINDOW_REJECTS: Signal = Signal::uint(32, 8, 255);
+const WINDOW_REJECTS: Signal = Signal::uint(24, 8, 255);
+const STALE_VEHICLE: Signal = Signal::uint(32, 4, 15);
+const LINK_FAULT_DIAG: Signal = Signal::flag(36);
+const VEHICLE_DIAG: Signal = Signal::uint(37, 3, 7);
+const STALE_CORNERS: Signal = Signal::uint(40, 16, 65535);
 
 // The signals of each message, in DBC order.
 const PIL_TICK_SIGNALS: &[SignalDef] = &[sig("TickIndex", "", TICK_INDEX)];
-const PRESSURES_SIGNALS: &[SignalDef] = &[sig("PressureSmall", "Pa", PRESSURE_SMALL), sig("PressureLarge", "Pa", PRESSURE_LARGE)];
-const STRUT_SIGNALS: &[SignalDef] = &[sig("StrutDisp", "m", STRUT_DISP)];
-const BODY_SIGNALS: &[SignalDef] = &[sig("BodyAcc", "m/s^2", BODY_ACC)];
 const VEHICLE_SIGNALS: &[SignalDef] = &[
     sig("VehicleSpeed", "m/s", VEHICLE_SPEED),
     sig("BrakePressed", "", BRAKE_PRESSED),
@@ -263,21 +374,57 @@ const VEHICLE_SIGNALS: &[SignalDef] = &[
     sig("LongAcc", "m/s^2", LONG_ACC),
 ];
 const STEERING_SIGNALS: &[SignalDef] = &[sig("SteerAngle", "rad", STEER_ANGLE), sig("SteerRate", "rad/s", STEER_RATE)];
-const TEMPERATURE_SIGNALS: &[SignalDef] = &[sig("GasTemp", "K", GAS_TEMP)];
-const DRIVER_SIGNALS: &[SignalDef] = &[sig("DriverMode", "", DRIVER_MODE), sig("RideHeightRequest", "m", RIDE_HEIGHT_REQUEST)];
-const VALVE_CMD_SIGNALS: &[SignalDef] = &[
-    sig("Valve5Open", "", VALVE5_OPEN),
-    sig("Valve6Open", "", VALVE6_OPEN),
+const DRIVER_SIGNALS: &[SignalDef] = &[
+    sig("DriverMode", "", DRIVER_MODE),
+    sig("HeightMode", "", HEIGHT_MODE_REQUEST),
+    sig("RideHeightRequest", "m", RIDE_HEIGHT_REQUEST),
+];
+const INCLINATION_SIGNALS: &[SignalDef] = &[sig("BodyPitch", "rad", BODY_PITCH), sig("BodyRoll", "rad", BODY_ROLL)];
+const PRESSURES_SIGNALS: &[SignalDef] = &[sig("PressureSmall", "Pa", PRESSURE_SMALL), sig("PressureLarge", "Pa", PRESSURE_LARGE)];
+const MOTION_SIGNALS: &[SignalDef] = &[sig("StrutDisp", "m", STRUT_DISP), sig("BodyAcc", "m/s^2", BODY_ACC), sig("GasTemp", "K", GAS_TEMP)];
+const VALVES_SIGNALS: &[SignalDef] = &[
+    sig("Valve5Open_0", "", valve5(0)),
+    sig("Valve6Open_0", "", valve6(0)),
+    sig("Valve5Open_1", "", valve5(1)),
+    sig("Valve6Open_1", "", valve6(1)),
+    sig("Valve5Open_2", "", valve5(2)),
+    sig("Valve6Open_2", "", valve6(2)),
+    sig("Valve5Open_3", "", valve5(3)),
+    sig("Valve6Open_3", "", valve6(3)),
+    sig("Valve5Open_4", "", valve5(4)),
+    sig("Valve6Open_4", "", valve6(4)),
+    sig("Valve5Open_5", "", valve5(5)),
+    sig("Valve6Open_5", "", valve6(5)),
+    sig("Valve5Open_6", "", valve5(6)),
+    sig("Valve6Open_6", "", valve6(6)),
+    sig("Valve5Open_7", "", valve5(7)),
+    sig("Valve6Open_7", "", valve6(7)),
+    sig("StepIndex", "", STEP_INDEX),
     sig("DriveMode", "", DRIVE_MODE),
+    sig("HeightMode", "", HEIGHT_MODE),
+    sig("LinkFault", "", LINK_FAULT_CMD),
+    sig("CornerSafe_0", "", corner_safe(0)),
+    sig("CornerSafe_1", "", corner_safe(1)),
+    sig("CornerSafe_2", "", corner_safe(2)),
+    sig("CornerSafe_3", "", corner_safe(3)),
+    sig("CornerSafe_4", "", corner_safe(4)),
+    sig("CornerSafe_5", "", corner_safe(5)),
+    sig("CornerSafe_6", "", corner_safe(6)),
+    sig("CornerSafe_7", "", corner_safe(7)),
+];
+const STATUS_SIGNALS: &[SignalDef] = &[
+    sig("RideHeight", "m", RIDE_HEIGHT),
+    sig("Sequencer", "", SEQUENCER),
     sig("SpringMode", "", SPRING_MODE),
     sig("DamperMode", "", DAMPER_MODE),
-    sig("Sequencer", "", SEQUENCER),
-    sig("LinkFault", "", LINK_FAULT_CMD),
-    sig("StepIndex", "", STEP_INDEX),
+    sig("CornerSafe", "", CORNER_SAFE),
+    sig("GasChargeSettled", "", GAS_SETTLED),
+    sig("GasChargeFault", "", GAS_FAULT),
+    sig("GasCharge", "", GAS_CHARGE),
+    sig("GasLossConfidence", "", GAS_CONFIDENCE),
 ];
-const STATUS_SIGNALS: &[SignalDef] = &[sig("RideHeight", "m", RIDE_HEIGHT), sig("Diag", "", DIAG)];
-const HEIGHT_CTRL_SIGNALS: &[SignalDef] = &[sig("PressureLoad", "Pa", PRESSURE_LOAD), sig("PressureLargeTarget", "Pa", PRESSURE_LARGE_TARGET)];
-const MOTION_SIGNALS: &[SignalDef] = &[sig("StrutVel", "m/s", STRUT_VEL), sig("BodyVel", "m/s", BODY_VEL)];
+const CTRL_SIGNALS: &[SignalDef] = &[sig("PressureLoad", "Pa", PRESSURE_LOAD), sig("PressureLargeTarget", "Pa", PRESSURE_LARGE_TARGET)];
+const DIAG_SIGNALS: &[SignalDef] = &[sig("Diag", "", DIAG)];
 const DIAG_E2E_SIGNALS: &[SignalDef] = &[
     sig("RejectCrc", "", REJECT_CRC),
     sig("RejectLength", "", REJECT_LENGTH),
@@ -288,175 +435,181 @@ const DIAG_E2E_SIGNALS: &[SignalDef] = &[
 ];
 const DIAG_LINK_SIGNALS: &[SignalDef] = &[
     sig("TimeoutCount", "", TIMEOUT_COUNT),
-    sig("StaleGroups", "", STALE_GROUPS),
-    sig("LinkFault", "", LINK_FAULT_DIAG),
     sig("WindowRejects", "", WINDOW_REJECTS),
+    sig("StaleVehicle", "", STALE_VEHICLE),
+    sig("LinkFault", "", LINK_FAULT_DIAG),
+    sig("VehicleDiag", "", VEHICLE_DIAG),
+    sig("StaleCorners", "", STALE_CORNERS),
 ];
 
-pub const PIL_TICK: MessageDef = MessageDef::new(
-    Kind::PilTick,
-    "HP_PilTick",
-    0x050,
-    0x0A0F,
-    Timing::every(0, 0),
-    0,
-    0,
-    PIL_TICK_SIGNALS,
-);
-pub const PRESSURES: MessageDef = MessageDef::new(
-    Kind::Pressures,
-    "HP_Pressures",
-    0x100,
-    0x0A01,
-    Timing::every(1, 0),
-    10,
-    input_group::PRESSURES,
-    PRESSURES_SIGNALS,
-);
-pub const STRUT: MessageDef = MessageDef::new(
-    Kind::Strut,
-    "HP_Strut",
-    0x101,
-    0x0A02,
-    Timing::every(1, 0),
-    10,
-    input_group::STRUT,
-    STRUT_SIGNALS,
-);
-pub const BODY: MessageDef = MessageDef::new(
-    Kind::Body,
-    "HP_Body",
-    0x102,
-    0x0A03,
-    Timing::every(1, 0),
-    10,
-    input_group::BODY,
-    BODY_SIGNALS,
-);
-pub const VEHICLE: MessageDef = MessageDef::new(
-    Kind::Vehicle,
-    "HP_Vehicle",
-    0x110,
-    0x0A04,
-    Timing::every(10, 0),
-    50,
-    input_group::VEHICLE,
-    VEHICLE_SIGNALS,
-);
-pub const STEERING: MessageDef = MessageDef::new(
-    Kind::Steering,
-    "HP_Steering",
-    0x111,
-    0x0A05,
-    Timing::every(10, 0),
-    50,
-    input_group::STEERING,
-    STEERING_SIGNALS,
-);
-pub const TEMPERATURE: MessageDef = MessageDef::new(
-    Kind::Temperature,
-    "HP_Temperature",
-    0x120,
-    0x0A06,
-    Timing::every(100, 0),
-    500,
-    input_group::TEMPERATURE,
-    TEMPERATURE_SIGNALS,
-);
-pub const DRIVER: MessageDef = MessageDef::new(
-    Kind::Driver,
-    "HP_Driver",
-    0x130,
-    0x0A07,
-    Timing::every(100, 0),
-    500,
-    input_group::DRIVER,
-    DRIVER_SIGNALS,
-);
-pub const VALVE_CMD: MessageDef = MessageDef::new(
-    Kind::ValveCmd,
-    "HP_ValveCmd",
-    0x200,
-    0x0B01,
-    Timing::every(1, 0),
-    10,
-    0,
-    VALVE_CMD_SIGNALS,
-);
-pub const STATUS: MessageDef = MessageDef::new(
-    Kind::Status,
-    "HP_Status",
-    0x210,
-    0x0B02,
-    Timing::every(1, 0),
-    10,
-    0,
-    STATUS_SIGNALS,
-);
-pub const HEIGHT_CTRL: MessageDef = MessageDef::new(
-    Kind::HeightCtrl,
-    "HP_HeightCtrl",
-    0x211,
-    0x0B05,
-    Timing::every(10, 3),
-    50,
-    0,
-    HEIGHT_CTRL_SIGNALS,
-);
-pub const MOTION: MessageDef = MessageDef::new(
-    Kind::Motion,
-    "HP_Motion",
-    0x212,
-    0x0B06,
-    Timing::every(10, 6),
-    50,
-    0,
-    MOTION_SIGNALS,
-);
-pub const DIAG_E2E: MessageDef = MessageDef::new(
-    Kind::DiagE2e,
-    "HP_DiagE2E",
-    0x220,
-    0x0B03,
-    Timing::every(100, 99),
-    500,
-    0,
-    DIAG_E2E_SIGNALS,
-);
-pub const DIAG_LINK: MessageDef = MessageDef::new(
-    Kind::DiagLink,
-    "HP_DiagLink",
-    0x221,
-    0x0B04,
-    Timing::every(100, 99),
-    500,
-    0,
-    DIAG_LINK_SIGNALS,
-);
+const CORNER_GROUPS_PRESSURES: u16 = input_group::PRESSURES;
+const CORNER_GROUPS_MOTION: u16 = input_group::STRUT | input_group::BODY | input_group::TEMPERATURE;
+
+#[allow(clippy::too_many_arguments)] // One argument per field of the DBC's BO_ line and attributes.
+const fn def(
+    kind: Kind,
+    priority: u8,
+    pgn: u32,
+    source: u8,
+    data_id: u16,
+    timing: Timing,
+    timeout_ms: u16,
+    group: u16,
+    signals: &[SignalDef],
+) -> MessageDef {
+    MessageDef { kind, pgn, priority, source, data_id, timing, timeout_ms, group, defined_bits: defined_bits(signals) }
+}
+
+use address::{HPECU, SENSORS, TESTER, VEHICLE as GATEWAY};
+
+pub const PIL_TICK: MessageDef =
+    def(Kind::PilTick, 3, 0xFF00, TESTER, 0x0A0F, Timing::every(0, 0), 0, 0, PIL_TICK_SIGNALS);
+
+const CORNER_NAMES: [[&str; MAX_CORNERS]; 5] = [
+    [
+        "HP_CornerPressures_0",
+        "HP_CornerPressures_1",
+        "HP_CornerPressures_2",
+        "HP_CornerPressures_3",
+        "HP_CornerPressures_4",
+        "HP_CornerPressures_5",
+        "HP_CornerPressures_6",
+        "HP_CornerPressures_7",
+    ],
+    [
+        "HP_CornerMotion_0",
+        "HP_CornerMotion_1",
+        "HP_CornerMotion_2",
+        "HP_CornerMotion_3",
+        "HP_CornerMotion_4",
+        "HP_CornerMotion_5",
+        "HP_CornerMotion_6",
+        "HP_CornerMotion_7",
+    ],
+    [
+        "HP_CornerStatus_0",
+        "HP_CornerStatus_1",
+        "HP_CornerStatus_2",
+        "HP_CornerStatus_3",
+        "HP_CornerStatus_4",
+        "HP_CornerStatus_5",
+        "HP_CornerStatus_6",
+        "HP_CornerStatus_7",
+    ],
+    [
+        "HP_CornerCtrl_0",
+        "HP_CornerCtrl_1",
+        "HP_CornerCtrl_2",
+        "HP_CornerCtrl_3",
+        "HP_CornerCtrl_4",
+        "HP_CornerCtrl_5",
+        "HP_CornerCtrl_6",
+        "HP_CornerCtrl_7",
+    ],
+    [
+        "HP_CornerDiag_0",
+        "HP_CornerDiag_1",
+        "HP_CornerDiag_2",
+        "HP_CornerDiag_3",
+        "HP_CornerDiag_4",
+        "HP_CornerDiag_5",
+        "HP_CornerDiag_6",
+        "HP_CornerDiag_7",
+    ],
+];
+
+#[allow(clippy::indexing_slicing)] // Compile-time evaluation: an index out of range fails the build.
+const fn all_defs() -> [MessageDef; KINDS] {
+    let mut d = [PIL_TICK; KINDS];
+    d[1] = def(Kind::Vehicle, 3, 0xFF01, GATEWAY, 0x0A04, Timing::every(10, 0), 50, vehicle_group::VEHICLE, VEHICLE_SIGNALS);
+    d[2] = def(Kind::Steering, 3, 0xFF02, GATEWAY, 0x0A05, Timing::every(10, 0), 50, vehicle_group::STEERING, STEERING_SIGNALS);
+    d[3] = def(Kind::Driver, 6, 0xFF03, GATEWAY, 0x0A07, Timing::every(100, 0), 500, vehicle_group::DRIVER, DRIVER_SIGNALS);
+    d[4] = def(
+        Kind::Inclination,
+        6,
+        0xFF04,
+        GATEWAY,
+        0x0A08,
+        Timing::every(10, 0),
+        50,
+        vehicle_group::INCLINATION,
+        INCLINATION_SIGNALS,
+    );
+    let mut c = 0;
+    while c < MAX_CORNERS {
+        let k = c as u8;
+        let c32 = c as u32;
+        let c16 = c as u16;
+        d[5 + c] = def(
+            Kind::CornerPressures(k),
+            3,
+            0xFF10 + c32,
+            SENSORS,
+            0x0A10 + c16,
+            Timing::every(1, 0),
+            10,
+            CORNER_GROUPS_PRESSURES,
+            PRESSURES_SIGNALS,
+        );
+        d[5 + MAX_CORNERS + c] = def(
+            Kind::CornerMotion(k),
+            3,
+            0xFF20 + c32,
+            SENSORS,
+            0x0A20 + c16,
+            Timing::every(1, 0),
+            10,
+            CORNER_GROUPS_MOTION,
+            MOTION_SIGNALS,
+        );
+        d[6 + 2 * MAX_CORNERS + c] = def(
+            Kind::CornerStatus(k),
+            6,
+            0xFF90 + c32,
+            HPECU,
+            0x0B10 + c16,
+            Timing::every(10, 1 + c16),
+            50,
+            0,
+            STATUS_SIGNALS,
+        );
+        d[6 + 3 * MAX_CORNERS + c] = def(
+            Kind::CornerCtrl(k),
+            6,
+            0xFFA0 + c32,
+            HPECU,
+            0x0B20 + c16,
+            Timing::every(100, 20 + c16),
+            500,
+            0,
+            CTRL_SIGNALS,
+        );
+        d[6 + 4 * MAX_CORNERS + c] = def(
+            Kind::CornerDiag(k),
+            6,
+            0xFFB0 + c32,
+            HPECU,
+            0x0B30 + c16,
+            Timing::every(100, 40 + c16),
+            500,
+            0,
+            DIAG_SIGNALS,
+        );
+        c += 1;
+    }
+    d[5 + 2 * MAX_CORNERS] = def(Kind::Valves, 3, 0xFF80, HPECU, 0x0B01, Timing::every(1, 0), 10, 0, VALVES_SIGNALS);
+    d[KINDS - 2] = def(Kind::DiagE2e, 6, 0xFFE0, HPECU, 0x0B03, Timing::every(100, 99), 500, 0, DIAG_E2E_SIGNALS);
+    d[KINDS - 1] = def(Kind::DiagLink, 6, 0xFFE1, HPECU, 0x0B04, Timing::every(100, 99), 500, 0, DIAG_LINK_SIGNALS);
+    d
+}
+
+/// Every definition, in the order of [`Kind::ALL`].
+static DEFS: [MessageDef; KINDS] = all_defs();
 
 /// `HP_PilTick`: one lock-step control period (emulator only).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PilTick {
     pub index: u16,
-}
-
-/// `HP_Pressures`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Pressures {
-    pub p_gas_pa: f64,
-    pub p_gas2_pa: f64,
-}
-
-/// `HP_Strut`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Strut {
-    pub disp_m: f64,
-}
-
-/// `HP_Body`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Body {
-    pub acc_m_s2: f64,
 }
 
 /// `HP_Vehicle`.
@@ -475,57 +628,79 @@ pub struct Steering {
     pub rate_rad_s: f64,
 }
 
-/// `HP_Temperature`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Temperature {
-    pub t_gas_k: f64,
-}
-
 /// `HP_Driver`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Driver {
     pub mode: DriverMode,
+    pub height_mode: HeightMode,
     pub ride_height_request_m: f64,
 }
 
-/// `HP_ValveCmd`.
+/// `HP_Inclination`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ValveCmd {
-    pub valve5_open: bool,
-    pub valve6_open: bool,
-    pub drive_mode: DriveMode,
-    pub spring_mode: SpringMode,
-    pub damper_mode: DamperMode,
-    pub sequencer: SequencerState,
-    pub link_fault: bool,
-    /// Control period index modulo 65536.
-    pub step_index: u16,
+pub struct Inclination {
+    pub pitch_rad: f64,
+    pub roll_rad: f64,
 }
 
-/// `HP_Status`.
+/// `HP_CornerPressures_k`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pressures {
+    pub p_gas_pa: f64,
+    pub p_gas2_pa: f64,
+}
+
+/// `HP_CornerMotion_k`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Motion {
+    pub strut_disp_m: f64,
+    pub body_acc_m_s2: f64,
+    pub t_gas_k: f64,
+}
+
+/// `HP_Valves`: every corner's valves in one period (corners beyond the
+/// ECU's are sent closed).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Valves {
+    pub valve5_open: [bool; MAX_CORNERS],
+    pub valve6_open: [bool; MAX_CORNERS],
+    /// Control period index modulo 65536.
+    pub step_index: u16,
+    pub drive_mode: DriveMode,
+    pub height_mode: HeightMode,
+    pub link_fault: bool,
+    pub corner_safe: [bool; MAX_CORNERS],
+}
+
+/// `HP_CornerStatus_k`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Status {
     pub ride_height_m: f64,
-    pub diag: u32,
+    pub sequencer: SequencerState,
+    pub spring_mode: SpringMode,
+    pub damper_mode: DamperMode,
+    pub safe: bool,
+    pub gas_settled: bool,
+    pub gas_fault: bool,
+    /// Charge relative to the nominal.
+    pub gas_charge: f64,
+    /// Confidence that at least 2 % of the charge is lost, 0..1.
+    pub gas_loss_confidence: f64,
 }
 
-/// `HP_HeightCtrl`: the ride-height control's reference pressures.
+/// `HP_CornerCtrl_k`: the ride-height control's reference pressures.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct HeightCtrl {
+pub struct Ctrl {
     /// Estimated static load pressure (`Outputs::p_load_pa`).
     pub p_load_pa: f64,
-    /// Pressure in L that holds the requested height
-    /// (`Outputs::p_gas2_target_pa`).
+    /// Pressure in L that holds the corner's request (`Outputs::p_gas2_target_pa`).
     pub p_gas2_target_pa: f64,
 }
 
-/// `HP_Motion`: the velocity estimates of the skyhook law.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Motion {
-    /// Strut compression rate, positive = compressing.
-    pub strut_vel_m_s: f64,
-    /// Body vertical velocity, positive = up.
-    pub body_vel_m_s: f64,
+/// `HP_CornerDiag_k`: the corner controller's flags.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Diag {
+    pub diag: u32,
 }
 
 /// `HP_DiagE2E`: rejected frames per reason since start, saturating.
@@ -544,28 +719,33 @@ pub struct DiagE2e {
 pub struct DiagLink {
     /// Timeouts since start, saturating.
     pub timeout_count: u8,
-    /// Input groups currently timed out (or never received).
-    pub stale_groups: u8,
-    pub link_fault: bool,
     /// Rejects in the current supervision window, saturating.
     pub window_rejects: u8,
+    /// Stale vehicle messages: bit 0 HP_Vehicle, 1 HP_Steering, 2
+    /// HP_Driver, 3 HP_Inclination.
+    pub stale_vehicle: u8,
+    pub link_fault: bool,
+    /// Vehicle-level flags (`vehicle_diag` bits 0-2).
+    pub vehicle_diag: u8,
+    /// Stale corner messages: bit `2k` pressures, `2k + 1` motion.
+    pub stale_corners: u16,
 }
 
-/// Any message of the database, decoded to physical values.
+/// Any message of the database, decoded to physical values; corner
+/// messages carry their corner.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Message {
     PilTick(PilTick),
-    Pressures(Pressures),
-    Strut(Strut),
-    Body(Body),
     Vehicle(Vehicle),
     Steering(Steering),
-    Temperature(Temperature),
     Driver(Driver),
-    ValveCmd(ValveCmd),
-    Status(Status),
-    HeightCtrl(HeightCtrl),
-    Motion(Motion),
+    Inclination(Inclination),
+    CornerPressures(u8, Pressures),
+    CornerMotion(u8, Motion),
+    Valves(Valves),
+    CornerStatus(u8, Status),
+    CornerCtrl(u8, Ctrl),
+    CornerDiag(u8, Diag),
     DiagE2e(DiagE2e),
     DiagLink(DiagLink),
 }
@@ -582,44 +762,53 @@ fn small(s: &Signal, w: u64) -> Option<u8> {
     s.checked_raw_in(w).and_then(|raw| u8::try_from(raw).ok())
 }
 
+fn sequencer(raw: u32) -> Option<SequencerState> {
+    Some(match raw {
+        0 => SequencerState::Idle,
+        1 => SequencerState::Lowering,
+        2 => SequencerState::Raising,
+        3 => SequencerState::Holding,
+        4 => SequencerState::Blocked,
+        _ => return None,
+    })
+}
+
 impl Message {
     /// Which message this is.
     pub fn kind(&self) -> Kind {
-        match self {
+        match *self {
             Message::PilTick(_) => Kind::PilTick,
-            Message::Pressures(_) => Kind::Pressures,
-            Message::Strut(_) => Kind::Strut,
-            Message::Body(_) => Kind::Body,
             Message::Vehicle(_) => Kind::Vehicle,
             Message::Steering(_) => Kind::Steering,
-            Message::Temperature(_) => Kind::Temperature,
             Message::Driver(_) => Kind::Driver,
-            Message::ValveCmd(_) => Kind::ValveCmd,
-            Message::Status(_) => Kind::Status,
-            Message::HeightCtrl(_) => Kind::HeightCtrl,
-            Message::Motion(_) => Kind::Motion,
+            Message::Inclination(_) => Kind::Inclination,
+            Message::CornerPressures(k, _) => Kind::CornerPressures(k),
+            Message::CornerMotion(k, _) => Kind::CornerMotion(k),
+            Message::Valves(_) => Kind::Valves,
+            Message::CornerStatus(k, _) => Kind::CornerStatus(k),
+            Message::CornerCtrl(k, _) => Kind::CornerCtrl(k),
+            Message::CornerDiag(k, _) => Kind::CornerDiag(k),
             Message::DiagE2e(_) => Kind::DiagE2e,
             Message::DiagLink(_) => Kind::DiagLink,
         }
     }
 
-    /// Writes the signals into bytes 2..=7 of `p` (the E2E header, bytes
-    /// 0 and 1, is not touched). Fails on a NaN, infinite or out-of-range
-    /// value.
-    pub fn write(&self, p: &mut [u8; 8]) -> Result<(), EncodeError> {
-        let header = u64::from_le_bytes(*p) & 0xFFFF;
-        *p = (header | self.signal_bits()?).to_le_bytes();
-        Ok(())
+    /// The signals as the payload's bits (a little-endian `u64`, header
+    /// bits zero). Fails on a NaN, infinite or out-of-range value.
+    pub fn signal_bits(&self) -> Result<u64, EncodeError> {
+        if self.kind().ecu_sends() {
+            self.output_bits()
+        } else {
+            self.input_bits()
+        }
     }
 
-    /// The signals as the payload's bits (a little-endian `u64`, header
-    /// bits zero).
-    pub fn signal_bits(&self) -> Result<u64, EncodeError> {
+    /// [`Message::signal_bits`] of a message to the ECU; `OutOfRange` for
+    /// one the ECU sends. (The halves are separate so that the firmware,
+    /// which encodes only its own messages, links only that half.)
+    pub fn input_bits(&self) -> Result<u64, EncodeError> {
         Ok(match self {
             Message::PilTick(m) => TICK_INDEX.uint_bits(u32::from(m.index))?,
-            Message::Pressures(m) => PRESSURE_SMALL.bits_of(m.p_gas_pa)? | PRESSURE_LARGE.bits_of(m.p_gas2_pa)?,
-            Message::Strut(m) => STRUT_DISP.bits_of(m.disp_m)?,
-            Message::Body(m) => BODY_ACC.bits_of(m.acc_m_s2)?,
             Message::Vehicle(m) => {
                 VEHICLE_SPEED.bits_of(m.speed_m_s)?
                     | BRAKE_PRESSED.flag_bits(m.brake_pressed)
@@ -627,21 +816,46 @@ impl Message {
                     | LONG_ACC.bits_of(m.long_acc_m_s2)?
             }
             Message::Steering(m) => STEER_ANGLE.bits_of(m.angle_rad)? | STEER_RATE.bits_of(m.rate_rad_s)?,
-            Message::Temperature(m) => GAS_TEMP.bits_of(m.t_gas_k)?,
-            Message::Driver(m) => DRIVER_MODE.uint_bits(m.mode as u32)? | RIDE_HEIGHT_REQUEST.bits_of(m.ride_height_request_m)?,
-            Message::ValveCmd(m) => {
-                VALVE5_OPEN.flag_bits(m.valve5_open)
-                    | VALVE6_OPEN.flag_bits(m.valve6_open)
+            Message::Driver(m) => {
+                DRIVER_MODE.uint_bits(m.mode as u32)?
+                    | HEIGHT_MODE_REQUEST.uint_bits(m.height_mode as u32)?
+                    | RIDE_HEIGHT_REQUEST.bits_of(m.ride_height_request_m)?
+            }
+            Message::Inclination(m) => BODY_PITCH.bits_of(m.pitch_rad)? | BODY_ROLL.bits_of(m.roll_rad)?,
+            Message::CornerPressures(_, m) => PRESSURE_SMALL.bits_of(m.p_gas_pa)? | PRESSURE_LARGE.bits_of(m.p_gas2_pa)?,
+            Message::CornerMotion(_, m) => STRUT_DISP.bits_of(m.strut_disp_m)? | BODY_ACC.bits_of(m.body_acc_m_s2)? | GAS_TEMP.bits_of(m.t_gas_k)?,
+            _ => return Err(EncodeError::OutOfRange),
+        })
+    }
+
+    /// [`Message::signal_bits`] of a message the ECU sends; `OutOfRange`
+    /// for one to the ECU.
+    pub fn output_bits(&self) -> Result<u64, EncodeError> {
+        Ok(match self {
+            Message::Valves(m) => {
+                let mut bits = STEP_INDEX.uint_bits(u32::from(m.step_index))?
                     | DRIVE_MODE.uint_bits(m.drive_mode as u32)?
+                    | HEIGHT_MODE.uint_bits(m.height_mode as u32)?
+                    | LINK_FAULT_CMD.flag_bits(m.link_fault);
+                for (k, ((&v5, &v6), &safe)) in m.valve5_open.iter().zip(&m.valve6_open).zip(&m.corner_safe).enumerate() {
+                    let k = k as u8;
+                    bits |= valve5(k).flag_bits(v5) | valve6(k).flag_bits(v6) | corner_safe(k).flag_bits(safe);
+                }
+                bits
+            }
+            Message::CornerStatus(_, m) => {
+                RIDE_HEIGHT.bits_of(m.ride_height_m)?
+                    | SEQUENCER.uint_bits(m.sequencer as u32)?
                     | SPRING_MODE.uint_bits(m.spring_mode as u32)?
                     | DAMPER_MODE.uint_bits(m.damper_mode as u32)?
-                    | SEQUENCER.uint_bits(m.sequencer as u32)?
-                    | LINK_FAULT_CMD.flag_bits(m.link_fault)
-                    | STEP_INDEX.uint_bits(u32::from(m.step_index))?
+                    | CORNER_SAFE.flag_bits(m.safe)
+                    | GAS_SETTLED.flag_bits(m.gas_settled)
+                    | GAS_FAULT.flag_bits(m.gas_fault)
+                    | GAS_CHARGE.bits_of(m.gas_charge)?
+                    | GAS_CONFIDENCE.bits_of(m.gas_loss_confidence)?
             }
-            Message::Status(m) => RIDE_HEIGHT.bits_of(m.ride_height_m)? | DIAG.uint_bits(m.diag)?,
-            Message::HeightCtrl(m) => PRESSURE_LOAD.bits_of(m.p_load_pa)? | PRESSURE_LARGE_TARGET.bits_of(m.p_gas2_target_pa)?,
-            Message::Motion(m) => STRUT_VEL.bits_of(m.strut_vel_m_s)? | BODY_VEL.bits_of(m.body_vel_m_s)?,
+            Message::CornerCtrl(_, m) => PRESSURE_LOAD.bits_of(m.p_load_pa)? | PRESSURE_LARGE_TARGET.bits_of(m.p_gas2_target_pa)?,
+            Message::CornerDiag(_, m) => DIAG.uint_bits(m.diag)?,
             Message::DiagE2e(m) => {
                 REJECT_CRC.uint_bits(u32::from(m.crc))?
                     | REJECT_LENGTH.uint_bits(u32::from(m.length))?
@@ -652,36 +866,39 @@ impl Message {
             }
             Message::DiagLink(m) => {
                 TIMEOUT_COUNT.uint_bits(u32::from(m.timeout_count))?
-                    | STALE_GROUPS.uint_bits(u32::from(m.stale_groups))?
-                    | LINK_FAULT_DIAG.flag_bits(m.link_fault)
                     | WINDOW_REJECTS.uint_bits(u32::from(m.window_rejects))?
+                    | STALE_VEHICLE.uint_bits(u32::from(m.stale_vehicle))?
+                    | LINK_FAULT_DIAG.flag_bits(m.link_fault)
+                    | VEHICLE_DIAG.uint_bits(u32::from(m.vehicle_diag))?
+                    | STALE_CORNERS.uint_bits(u32::from(m.stale_corners))?
             }
+            _ => return Err(EncodeError::OutOfRange),
         })
     }
 
     /// Reads the signals of a `kind` message from `p`; `None` if any signal
     /// is outside its DBC range (the E2E header is not looked at).
     pub fn read(kind: Kind, p: &[u8; 8]) -> Option<Message> {
+        if kind.ecu_sends() {
+            Message::read_output(kind, p)
+        } else {
+            Message::read_input(kind, p)
+        }
+    }
+
+    /// [`Message::read`] of a message to the ECU; `None` for one the ECU
+    /// sends (the receiver links only this half).
+    pub fn read_input(kind: Kind, p: &[u8; 8]) -> Option<Message> {
         let w = u64::from_le_bytes(*p);
         Some(match kind {
             Kind::PilTick => Message::PilTick(PilTick { index: u16::try_from(uint(&TICK_INDEX, w)?).ok()? }),
-            Kind::Pressures => Message::Pressures(Pressures {
-                p_gas_pa: PRESSURE_SMALL.value_in(w)?,
-                p_gas2_pa: PRESSURE_LARGE.value_in(w)?,
-            }),
-            Kind::Strut => Message::Strut(Strut { disp_m: STRUT_DISP.value_in(w)? }),
-            Kind::Body => Message::Body(Body { acc_m_s2: BODY_ACC.value_in(w)? }),
             Kind::Vehicle => Message::Vehicle(Vehicle {
                 speed_m_s: VEHICLE_SPEED.value_in(w)?,
                 brake_pressed: flag(&BRAKE_PRESSED, w)?,
                 lat_acc_m_s2: LAT_ACC.value_in(w)?,
                 long_acc_m_s2: LONG_ACC.value_in(w)?,
             }),
-            Kind::Steering => Message::Steering(Steering {
-                angle_rad: STEER_ANGLE.value_in(w)?,
-                rate_rad_s: STEER_RATE.value_in(w)?,
-            }),
-            Kind::Temperature => Message::Temperature(Temperature { t_gas_k: GAS_TEMP.value_in(w)? }),
+            Kind::Steering => Message::Steering(Steering { angle_rad: STEER_ANGLE.value_in(w)?, rate_rad_s: STEER_RATE.value_in(w)? }),
             Kind::Driver => Message::Driver(Driver {
                 mode: match uint(&DRIVER_MODE, w)? {
                     0 => DriverMode::Auto,
@@ -689,31 +906,60 @@ impl Message {
                     2 => DriverMode::Sport,
                     _ => return None,
                 },
+                height_mode: HeightMode::from_u8(small(&HEIGHT_MODE_REQUEST, w)?)?,
                 ride_height_request_m: RIDE_HEIGHT_REQUEST.value_in(w)?,
             }),
-            Kind::ValveCmd => Message::ValveCmd(ValveCmd {
-                valve5_open: flag(&VALVE5_OPEN, w)?,
-                valve6_open: flag(&VALVE6_OPEN, w)?,
-                drive_mode: if flag(&DRIVE_MODE, w)? { DriveMode::Handling } else { DriveMode::Ride },
-                spring_mode: if flag(&SPRING_MODE, w)? { SpringMode::Soft } else { SpringMode::Hard },
-                damper_mode: if flag(&DAMPER_MODE, w)? { DamperMode::Low } else { DamperMode::High },
-                sequencer: match uint(&SEQUENCER, w)? {
-                    0 => SequencerState::Idle,
-                    1 => SequencerState::Lowering,
-                    2 => SequencerState::Raising,
-                    3 => SequencerState::Holding,
-                    4 => SequencerState::Blocked,
-                    _ => return None,
+            Kind::Inclination => Message::Inclination(Inclination { pitch_rad: BODY_PITCH.value_in(w)?, roll_rad: BODY_ROLL.value_in(w)? }),
+            Kind::CornerPressures(k) => {
+                Message::CornerPressures(k, Pressures { p_gas_pa: PRESSURE_SMALL.value_in(w)?, p_gas2_pa: PRESSURE_LARGE.value_in(w)? })
+            }
+            Kind::CornerMotion(k) => Message::CornerMotion(
+                k,
+                Motion { strut_disp_m: STRUT_DISP.value_in(w)?, body_acc_m_s2: BODY_ACC.value_in(w)?, t_gas_k: GAS_TEMP.value_in(w)? },
+            ),
+            _ => return None,
+        })
+    }
+
+    /// [`Message::read`] of a message the ECU sends; `None` for one to the
+    /// ECU.
+    pub fn read_output(kind: Kind, p: &[u8; 8]) -> Option<Message> {
+        let w = u64::from_le_bytes(*p);
+        Some(match kind {
+            Kind::Valves => {
+                let mut m = Valves {
+                    step_index: u16::try_from(uint(&STEP_INDEX, w)?).ok()?,
+                    drive_mode: if flag(&DRIVE_MODE, w)? { DriveMode::Handling } else { DriveMode::Ride },
+                    height_mode: HeightMode::from_u8(small(&HEIGHT_MODE, w)?)?,
+                    link_fault: flag(&LINK_FAULT_CMD, w)?,
+                    ..Valves::default()
+                };
+                for (k, ((v5, v6), safe)) in m.valve5_open.iter_mut().zip(m.valve6_open.iter_mut()).zip(m.corner_safe.iter_mut()).enumerate() {
+                    let k = k as u8;
+                    *v5 = flag(&valve5(k), w)?;
+                    *v6 = flag(&valve6(k), w)?;
+                    *safe = flag(&corner_safe(k), w)?;
+                }
+                Message::Valves(m)
+            }
+            Kind::CornerStatus(k) => Message::CornerStatus(
+                k,
+                Status {
+                    ride_height_m: RIDE_HEIGHT.value_in(w)?,
+                    sequencer: sequencer(uint(&SEQUENCER, w)?)?,
+                    spring_mode: if flag(&SPRING_MODE, w)? { SpringMode::Soft } else { SpringMode::Hard },
+                    damper_mode: if flag(&DAMPER_MODE, w)? { DamperMode::Low } else { DamperMode::High },
+                    safe: flag(&CORNER_SAFE, w)?,
+                    gas_settled: flag(&GAS_SETTLED, w)?,
+                    gas_fault: flag(&GAS_FAULT, w)?,
+                    gas_charge: GAS_CHARGE.value_in(w)?,
+                    gas_loss_confidence: GAS_CONFIDENCE.value_in(w)?,
                 },
-                link_fault: flag(&LINK_FAULT_CMD, w)?,
-                step_index: u16::try_from(uint(&STEP_INDEX, w)?).ok()?,
-            }),
-            Kind::Status => Message::Status(Status { ride_height_m: RIDE_HEIGHT.value_in(w)?, diag: uint(&DIAG, w)? }),
-            Kind::HeightCtrl => Message::HeightCtrl(HeightCtrl {
-                p_load_pa: PRESSURE_LOAD.value_in(w)?,
-                p_gas2_target_pa: PRESSURE_LARGE_TARGET.value_in(w)?,
-            }),
-            Kind::Motion => Message::Motion(Motion { strut_vel_m_s: STRUT_VEL.value_in(w)?, body_vel_m_s: BODY_VEL.value_in(w)? }),
+            ),
+            Kind::CornerCtrl(k) => {
+                Message::CornerCtrl(k, Ctrl { p_load_pa: PRESSURE_LOAD.value_in(w)?, p_gas2_target_pa: PRESSURE_LARGE_TARGET.value_in(w)? })
+            }
+            Kind::CornerDiag(k) => Message::CornerDiag(k, Diag { diag: uint(&DIAG, w)? }),
             Kind::DiagE2e => Message::DiagE2e(DiagE2e {
                 crc: small(&REJECT_CRC, w)?,
                 length: small(&REJECT_LENGTH, w)?,
@@ -724,10 +970,13 @@ impl Message {
             }),
             Kind::DiagLink => Message::DiagLink(DiagLink {
                 timeout_count: small(&TIMEOUT_COUNT, w)?,
-                stale_groups: small(&STALE_GROUPS, w)?,
-                link_fault: flag(&LINK_FAULT_DIAG, w)?,
                 window_rejects: small(&WINDOW_REJECTS, w)?,
+                stale_vehicle: small(&STALE_VEHICLE, w)?,
+                link_fault: flag(&LINK_FAULT_DIAG, w)?,
+                vehicle_diag: small(&VEHICLE_DIAG, w)?,
+                stale_corners: u16::try_from(uint(&STALE_CORNERS, w)?).ok()?,
             }),
+            _ => return None,
         })
     }
 }

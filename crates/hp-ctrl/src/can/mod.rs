@@ -1,29 +1,34 @@
-//! CAN codec: the frames of `python/hpctl/data/hpctl.dbc`, end-to-end protected.
+//! CAN codec: the frames of `python/hpctl/data/hpctl.dbc` (SAE J1939), the
+//! ECU's own ones end-to-end protected.
 //!
-//! - [`messages`]: identifiers, data IDs, timing and signals of every frame
-//!   (mirroring the DBC), one typed struct per message and [`Message`].
+//! - [`messages`]: PGNs, data IDs, timing and signals of the ECU's
+//!   proprietary messages (mirroring the DBC), one typed struct per
+//!   message and [`Message`].
+//! - [`j1939`]: NAME and address claim, requests, DM1 with the
+//!   controller's faults as SPN/FMI, the transport protocol (BAM).
 //! - [`e2e`]: the AUTOSAR-profile-11-style CRC-8 and alive counter.
 //! - [`signal`]: fixed-point bit fields.
-//! - [`rx`]: the ECU's receive side, which fills [`crate::Inputs`], marks
-//!   fresh input groups and supervises the link (timeouts, reject window).
+//! - [`rx`]: the ECU's receive side, which fills the vehicle step's inputs,
+//!   marks fresh input groups and supervises the link (timeouts, reject
+//!   window).
 //! - [`tx`]: per-message alive counters for sending, and the ECU's output
-//!   frames built from [`crate::Outputs`].
+//!   messages built from the vehicle step's outputs.
 //! - [`ecu`]: the ECU application (receive, one control period, send),
 //!   shared by the firmware and the host reference.
 //! - [`slcan`]: SLCAN (Lawicel) text framing for the emulator link.
 //! - [`frame`]: a plain [`embedded_can::Frame`] for host and emulator use.
 //!
 //! Every function is `no_std`, allocation-free and panic-free. Decoding
-//! never trusts the frame: an unknown identifier, a wrong length, a wrong
-//! CRC, an invalid counter, a set reserved or unused bit, or a signal
-//! outside its DBC range is a [`Reject`]. `docs/can.md` describes the
-//! frames and the E2E parameters with test vectors.
+//! never trusts the frame: a standard identifier or an unknown PGN, a
+//! wrong length, a wrong CRC, an invalid counter, a set reserved or unused
+//! bit, or a signal outside its DBC range is a [`Reject`]. `docs/can.md`
+//! describes the frames and the E2E parameters with test vectors.
 //!
 //! ```
-//! use hp_ctrl::can::{decode, encode, Message, messages::Pressures};
+//! use hp_ctrl::can::{decode, encode, Message, messages::{address, Pressures}};
 //!
-//! let msg = Message::Pressures(Pressures { p_gas_pa: 8.0e6, p_gas2_pa: 7.5e6 });
-//! let frame = encode(&msg, 3).unwrap();
+//! let msg = Message::CornerPressures(1, Pressures { p_gas_pa: 8.0e6, p_gas2_pa: 7.5e6 });
+//! let frame = encode(&msg, 3, address::SENSORS).unwrap();
 //! let (back, counter) = decode(&frame).unwrap();
 //! assert_eq!((back, counter), (msg, 3));
 //! ```
@@ -31,6 +36,7 @@
 pub mod e2e;
 pub mod ecu;
 pub mod frame;
+pub mod j1939;
 pub mod messages;
 pub mod rx;
 pub mod signal;
@@ -46,13 +52,14 @@ pub use rx::{Accepted, InputDecoder, LinkParams};
 pub use signal::EncodeError;
 pub use tx::Transmitter;
 
-use embedded_can::{Frame, Id, StandardId};
+use embedded_can::{ExtendedId, Frame, Id};
 
 /// Why a received frame was not used. Each reason has its own counter in
 /// `HP_DiagE2E`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reject {
-    /// Not a standard identifier of a message this receiver expects.
+    /// Not an extended identifier with the PGN of a message this receiver
+    /// expects.
     UnknownId,
     /// Not a data frame of exactly 8 bytes.
     Length,
@@ -68,23 +75,35 @@ pub enum Reject {
 }
 
 /// Encodes `msg` with alive counter `counter` (taken modulo 15) into a
-/// protected frame.
-pub fn encode(msg: &Message, counter: u8) -> Result<CanFrame, EncodeError> {
-    let def = msg.kind().def();
-    let mut payload = msg.signal_bits()?.to_le_bytes();
-    e2e::protect(&mut payload, def.data_id, counter);
-    let id = StandardId::new(def.id).ok_or(EncodeError::OutOfRange)?;
-    Ok(CanFrame::standard(id, payload))
+/// protected frame from source address `source`.
+pub fn encode(msg: &Message, counter: u8, source: u8) -> Result<CanFrame, EncodeError> {
+    protect(msg.kind(), msg.signal_bits()?, counter, source)
 }
 
-/// The stateless checks of a received frame, in order: identifier, length,
-/// CRC, counter value. Returns the message kind, the payload and the
-/// counter; the signals are not read yet.
+/// [`encode`] for the ECU's sending side: only the messages the ECU sends
+/// (`OutOfRange` for others), so the firmware does not link the encoding
+/// of its inputs.
+pub fn encode_output(msg: &Message, counter: u8, source: u8) -> Result<CanFrame, EncodeError> {
+    protect(msg.kind(), msg.output_bits()?, counter, source)
+}
+
+fn protect(kind: Kind, signal_bits: u64, counter: u8, source: u8) -> Result<CanFrame, EncodeError> {
+    let def = kind.def();
+    let mut payload = signal_bits.to_le_bytes();
+    e2e::protect(&mut payload, def.data_id, counter);
+    let id = ExtendedId::new(messages::j1939_id(def.priority, def.pgn, source)).ok_or(EncodeError::OutOfRange)?;
+    Ok(CanFrame::extended(id, payload))
+}
+
+/// The stateless checks of a received frame, in order: identifier (an
+/// extended one with a PGN of the database, from any source address),
+/// length, CRC, counter value. Returns the message kind, the payload and
+/// the counter; the signals are not read yet.
 pub fn check_frame<F: Frame>(frame: &F) -> Result<(Kind, [u8; 8], u8), Reject> {
-    let Id::Standard(id) = frame.id() else {
+    let Id::Extended(id) = frame.id() else {
         return Err(Reject::UnknownId);
     };
-    let kind = Kind::from_id(id.as_raw()).ok_or(Reject::UnknownId)?;
+    let kind = Kind::from_pgn(j1939::J1939Id::of_raw(id.as_raw()).pgn).ok_or(Reject::UnknownId)?;
     if frame.is_remote_frame() || frame.dlc() != 8 {
         return Err(Reject::Length);
     }
@@ -102,10 +121,23 @@ pub fn check_frame<F: Frame>(frame: &F) -> Result<(Kind, [u8; 8], u8), Reject> {
 /// Reads the signals of a checked payload: rejects set reserved or unused
 /// bits and out-of-range values.
 pub fn read_payload(kind: Kind, payload: &[u8; 8]) -> Result<Message, Reject> {
+    no_stray_bits(kind, payload)?;
+    Message::read(kind, payload).ok_or(Reject::Range)
+}
+
+/// [`read_payload`] for the ECU's receiver: only the messages sent to the
+/// ECU (a message the ECU sends is [`Reject::Range`]), so the firmware
+/// does not link the decoding of its own messages.
+pub fn read_input_payload(kind: Kind, payload: &[u8; 8]) -> Result<Message, Reject> {
+    no_stray_bits(kind, payload)?;
+    Message::read_input(kind, payload).ok_or(Reject::Range)
+}
+
+fn no_stray_bits(kind: Kind, payload: &[u8; 8]) -> Result<(), Reject> {
     if u64::from_le_bytes(*payload) & !kind.def().defined_bits != 0 {
         return Err(Reject::Range);
     }
-    Message::read(kind, payload).ok_or(Reject::Range)
+    Ok(())
 }
 
 /// Stateless decode of any message of the database: [`check_frame`], then

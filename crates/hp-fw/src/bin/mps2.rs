@@ -5,5 +5,5 @@
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    hp_fw::mps2::main(hp_fw::run::Timing::Timer)
+    hp_fw::mps2::main::<4>(&hp_ctrl::calibration::SEED_4, hp_fw::run::Timing::Timer)
 }
