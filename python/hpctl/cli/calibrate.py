@@ -258,6 +258,8 @@ def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...],
 
 
 def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
+    from hpctl.identify.diagnose import NOISE_CEILING
+
     out = []
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
@@ -267,7 +269,7 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
         out.append(Caveat(
             Code.RESIDUAL_STRUCTURED,
             f"structure remains {found}(RMS / noise {j.rms_ratio:.3g}, worst channel {j.worst_rms_ratio:.3g}; "
-            f"'nothing left' needs at most {diagnose.NOISE_CEILING:g}): " + "; ".join(pl.describe() for pl in j.places[:3]),
+            f"'nothing left' needs at most {NOISE_CEILING:g}): " + "; ".join(pl.describe() for pl in j.places[:3]),
             {"rms_ratio": j.rms_ratio, "worst_rms_ratio": j.worst_rms_ratio, "verdict": diag.verdict, "found": list(diag.found),
              "structured": [f"{pl.record}/{pl.channel}" for pl in j.places],
              "regimes": [",".join(pl.worst_regimes.values()) for pl in j.places]},
