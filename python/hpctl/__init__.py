@@ -42,27 +42,33 @@ _LAZY: dict[str, str] = {
 
 __all__ = ["__version__", *sorted(_LAZY)]
 
-if TYPE_CHECKING:  # what a type checker and an IDE see; same names as _LAZY
+if TYPE_CHECKING:  # what a type checker and an IDE see (explicit re-exports: mypy --strict); same names as _LAZY
     from hpctl.errors import (
-        ConvergenceError,
-        HpctlError,
-        InternalError,
-        ParameterError,
-        RecordError,
-        SimulationError,
+        ConvergenceError as ConvergenceError,
+        HpctlError as HpctlError,
+        InternalError as InternalError,
+        ParameterError as ParameterError,
+        RecordError as RecordError,
+        SimulationError as SimulationError,
     )
-    from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Damper, DamperCurve, Effects, Unit
+    from hpctl.model.unit import (
+        SEED_SPRUNG_MASS_KG as SEED_SPRUNG_MASS_KG,
+        Damper as Damper,
+        DamperCurve as DamperCurve,
+        Effects as Effects,
+        Unit as Unit,
+    )
     from hpctl.sim.run import (
-        Hold,
-        Result,
-        Sampled,
-        Sine,
-        Step,
-        Steps,
-        run,
-        run_characterisation,
-        run_many,
-        run_sdof,
+        Hold as Hold,
+        Result as Result,
+        Sampled as Sampled,
+        Sine as Sine,
+        Step as Step,
+        Steps as Steps,
+        run as run,
+        run_characterisation as run_characterisation,
+        run_many as run_many,
+        run_sdof as run_sdof,
     )
 
 
