@@ -51,3 +51,23 @@ def test_bad_value_names_parameter_value_and_range(seed_unit: hpctl.Unit) -> Non
 def test_unknown_gas_model_is_rejected(seed_unit: hpctl.Unit) -> None:
     with pytest.raises(hpctl.ParameterError, match='gas = .helium. is not a known model .one of: span, ideal, bwr-cg, bwr-textbook'):
         seed_unit.replace(gas="helium").check()
+
+
+@pytest.mark.parametrize(
+    ("where", "value", "name"),
+    [("knee", 3.0, "blowoff_knee"), ("knee", math.nan, "blowoff_knee"), ("stribeck_ratio", 0.5, "stribeck_ratio"),
+     ("stribeck_velocity", 0.0, "stribeck_velocity_m_s")],
+)
+def test_flexible_damper_and_stribeck_values_out_of_range_are_named(seed_unit: hpctl.Unit, where: str, value: float, name: str) -> None:
+    # The flexible model's new parameters go through the core's ranges like every other: a ParameterError naming them.
+    from dataclasses import replace
+
+    if where == "knee":
+        d = seed_unit.damper
+        bad = seed_unit.replace(damper=replace(d, on_compression=replace(d.on_compression, blowoff_knee=value)))
+    elif where == "stribeck_ratio":
+        bad = seed_unit.with_effects(friction=Friction(200.0, stribeck_ratio=value))
+    else:
+        bad = seed_unit.with_effects(friction=Friction(200.0, stribeck_velocity_m_s=value))
+    with pytest.raises(hpctl.ParameterError, match=name):
+        bad.check()
