@@ -220,6 +220,12 @@ def test_ctrl_c_while_writing_leaves_the_previous_outputs(tmp_path: Path) -> Non
     before = snapshot(out_dir)
     # A rerun that stops (waits) while it writes its third record: Ctrl-C then.
     script = textwrap.dedent("""
+        # A terminal delivers Ctrl-C to a process whose SIGINT is at its default;
+        # a parent that ignores SIGINT (a background job of a non-interactive
+        # shell, as CI may be) passes SIG_IGN on, and Python then never raises
+        # KeyboardInterrupt. Start from what the user's terminal gives.
+        import signal
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         import sys, time
         import hpctl.data.records as records
         from hpctl.cli import main

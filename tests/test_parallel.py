@@ -65,6 +65,12 @@ def test_an_error_inside_a_case_gets_the_case_path() -> None:
 
 def test_ctrl_c_stops_a_batch_between_cases() -> None:
     script = textwrap.dedent("""
+        # A terminal delivers Ctrl-C to a process whose SIGINT is at its default;
+        # a parent that ignores SIGINT (a background job of a non-interactive
+        # shell, as CI may be) passes SIG_IGN on, and Python then never raises
+        # KeyboardInterrupt. Start from what the user's terminal gives.
+        import signal
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         import time
         import hpctl
         from hpctl.sim.run import Case, run_many, sdof_rig, uniform_times
