@@ -491,12 +491,29 @@ impl Dynamics<'_> {
         &self,
         t_s: f64,
         y: &[f64; VEHICLE_STATES],
+        sample: Option<&mut VehicleSample>,
+        couplings: Option<&mut Couplings>,
+    ) -> [f64; VEHICLE_STATES] {
+        let mut rate = [0.0; VEHICLE_STATES];
+        self.evaluate_into(t_s, y, &mut rate, sample, couplings);
+        rate
+    }
+
+    /// [`Dynamics::evaluate`] writing the rate into `rate` (every element:
+    /// the unused corners' are zero), so that the stepper reuses its
+    /// arrays instead of copying a returned one.
+    #[inline]
+    fn evaluate_into(
+        &self,
+        t_s: f64,
+        y: &[f64; VEHICLE_STATES],
+        rate: &mut [f64; VEHICLE_STATES],
         mut sample: Option<&mut VehicleSample>,
         mut couplings: Option<&mut Couplings>,
-    ) -> [f64; VEHICLE_STATES] {
+    ) {
         let v = self.vehicle;
         let b = &v.params.body;
-        let mut rate = [0.0; VEHICLE_STATES];
+        rate.fill(0.0);
         let [heave, heave_vel, pitch, pitch_rate, roll, roll_rate, lat_vel, yaw_rate, heading, lateral_pos, distance, ..] = *y;
         let u = self.drive.speed_m_s;
         let steer = self.drive.steer_angle_rad / v.params.steering_ratio;
@@ -625,7 +642,6 @@ impl Dynamics<'_> {
                 cs.body_acc_m_s2 = heave_acc - c.x_m * pitch_acc + c.y_m * roll_acc;
             }
         }
-        rate
     }
 
     fn check(&self, t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<()> {
@@ -725,22 +741,24 @@ impl Dynamics<'_> {
     ) -> Result<[f64; VEHICLE_STATES]> {
         let (n, h) = stepping::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;
+        // Four arrays reused over the steps, nothing returned by value
+        // inside the loop.
         let mut y = *y0;
-        let mut f = rate.state.y;
+        let mut k1 = rate.state.y;
         let mut couplings = rate.couplings;
+        let mut y1 = [0.0; VEHICLE_STATES];
+        let mut k2 = [0.0; VEHICLE_STATES];
         for k in 0..n {
             let t = t_s + h * k as f64;
             if k > 0 {
-                f = self.evaluate(t, &y, None, Some(&mut couplings));
+                self.evaluate_into(t, &y, &mut k1, None, Some(&mut couplings));
             }
             let w = w_inverse(&couplings, gh);
-            let mut k1 = f;
             solve_w(&w, &mut k1);
-            let mut y1 = y;
-            for (a, b) in y1.iter_mut().zip(&k1) {
-                *a += h * b;
+            for ((a, b), c) in y1.iter_mut().zip(&y).zip(&k1) {
+                *a = b + h * c;
             }
-            let mut k2 = self.evaluate(t + h, &y1, None, None);
+            self.evaluate_into(t + h, &y1, &mut k2, None, None);
             for (a, b) in k2.iter_mut().zip(&k1) {
                 *a -= 2.0 * b;
             }
