@@ -37,7 +37,7 @@
 
 use hp_core::error::{check_range, Error, Result};
 use hp_core::gas::table::TabulatedGas;
-use hp_core::gas::{Gas, Span};
+use hp_core::gas::{EquationOfState, Gas, Span};
 use hp_core::ode::OdeSystem;
 use hp_core::unit::{Unit, UnitParams, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
@@ -476,6 +476,32 @@ fn corner_chunks(y: &[f64; VEHICLE_STATES]) -> core::slice::ChunksExact<'_, f64>
     y.get(BODY_STATES..).unwrap_or(&[]).chunks_exact(CORNER_STATES)
 }
 
+/// One corner's [`corner::evaluate`] with its unit's rate written into
+/// `out` and the valve-6 linearisation into `slot` (when wanted), so
+/// that no large tuple is returned through the gas's two code paths.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn corner_into(
+    gas: &impl EquationOfState,
+    unit: &Unit,
+    c: &CornerGeometry,
+    outputs: bool,
+    slot: Option<&mut Option<Valve6Coupling>>,
+    unit_state: &UnitState,
+    motion: &CornerMotion,
+    valves: Valves,
+    ambient_k: f64,
+    out: &mut [f64; UNIT_STATES],
+) -> CornerForces {
+    let (rate, f, coupled) =
+        corner::evaluate(unit, gas, outputs, slot.is_some(), &c.tyre, unit_state, motion, c.static_disp_m, c.tyre_static_deflection_m, valves, ambient_k);
+    if let Some(s) = slot {
+        *s = coupled;
+    }
+    *out = rate.to_array();
+    f
+}
+
 /// A corner's unit state and wheel displacement and velocity.
 #[inline]
 fn split_corner(cy: &[f64]) -> (UnitState, f64, f64) {
@@ -543,37 +569,21 @@ impl Dynamics<'_> {
             };
             // Every output only for a sample; the stages need the rate and forces.
             let outputs = sample.is_some();
-            let coupling = couplings.is_some();
-            let (unit_rate, f, coupled) = match &v.gas_table {
+            let slot = couplings.as_deref_mut().and_then(|k| k.get_mut(i));
+            let (unit_out, wheel_out) = cr.split_at_mut(UNIT_STATES);
+            let Some(unit_out) = unit_out.first_chunk_mut::<UNIT_STATES>() else { continue };
+            let f = match &v.gas_table {
                 Some(table) if unit.params().gas == Gas::Span => {
-                    corner::evaluate(unit, table, outputs, coupling, &c.tyre, &unit_state, &motion, c.static_disp_m, c.tyre_static_deflection_m, *valves, v.ambient_k)
+                    corner_into(table, unit, c, outputs, slot, &unit_state, &motion, *valves, v.ambient_k, unit_out)
                 }
-                _ => corner::evaluate(
-                    unit,
-                    &unit.params().gas,
-                    outputs,
-                    coupling,
-                    &c.tyre,
-                    &unit_state,
-                    &motion,
-                    c.static_disp_m,
-                    c.tyre_static_deflection_m,
-                    *valves,
-                    v.ambient_k,
-                ),
+                _ => corner_into(&unit.params().gas, unit, c, outputs, slot, &unit_state, &motion, *valves, v.ambient_k, unit_out),
             };
-            if let Some(slot) = couplings.as_deref_mut().and_then(|k| k.get_mut(i)) {
-                *slot = coupled;
-            }
             let strut = f.unit.force_true_n;
             let wheel_acc = (f.tyre_force_n - strut - c.lateral_transfer_kg * a_y) / c.unsprung_mass_kg - G;
             force += strut;
             moment_pitch -= c.x_m * strut;
             moment_roll += c.y_m * strut;
-            if let Some(o) = cr.first_chunk_mut::<UNIT_STATES>() {
-                *o = unit_rate.to_array();
-            }
-            if let Some(o) = cr.last_chunk_mut::<2>() {
+            if let Some(o) = wheel_out.first_chunk_mut::<2>() {
                 *o = [wheel_vel, wheel_acc];
             }
             if let Some(s) = sample.as_deref_mut().and_then(|s| s.corners.get_mut(i)) {
