@@ -227,3 +227,30 @@ fn the_vehicles_turn_steadily_as_the_single_track_model_says() {
         }
     }
 }
+
+#[test]
+fn a_state_that_is_not_finite_anywhere_is_refused_naming_it() {
+    // Every element is checked, including the last ones (the scan runs over
+    // whole 4-lane chunks and a remainder: VEHICLE_STATES is not a multiple
+    // of 4) and the unused corners of a 4x4.
+    use hp_core::error::Error;
+    use hp_vehicle::vehicle::VEHICLE_STATES;
+    let valves = Valves::from_modes(false, true);
+    let vehicle = Vehicle::new(presets::armoured_4x4(), T_K, valves).unwrap();
+    let x = vehicle.initial_state(&[valves; MAX_CORNERS]).unwrap();
+    let d = vehicle.dynamics(&Road::FLAT, DriveInputs::default(), [valves; MAX_CORNERS]);
+    assert!(d.rate(0.0, &x).is_ok());
+    for i in [0, 1, 10, 11 + 18, 11 + 19, VEHICLE_STATES - 4, VEHICLE_STATES - 3, VEHICLE_STATES - 2, VEHICLE_STATES - 1] {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut y = x;
+            y.y[i] = bad;
+            match d.rate(0.5, &y) {
+                Err(Error::StateOutOfRange { name, value, time_s, .. }) => {
+                    assert_eq!(name, "vehicle_state", "element {i}");
+                    assert!(!value.is_finite() && time_s == 0.5, "element {i}: {value} at {time_s}");
+                }
+                other => panic!("element {i} = {bad}: {other:?}"),
+            }
+        }
+    }
+}
