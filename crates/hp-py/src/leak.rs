@@ -52,6 +52,10 @@ struct Record {
     t_oil_k: Vec<f64>,
     disp_m: Vec<f64>,
     p_gas_pa: Vec<f64>,
+    /// The gas volumes of S and L (their sum against the strut's
+    /// `V_S0 + V_L0 - A x` shows a void in the strut).
+    v_gas_m3: Vec<f64>,
+    v_gas2_m3: Vec<f64>,
     speed_m_s: Vec<f64>,
     /// Share of the record's periods with a usable sample.
     sampled: Vec<f64>,
@@ -190,6 +194,8 @@ impl Drive {
                 out.t_oil_k.push(u.t_oil_k);
                 out.disp_m.push(p.sample.disp_m);
                 out.p_gas_pa.push(u.p_gas_pa);
+                out.v_gas_m3.push(p.sample.v_gas_m3);
+                out.v_gas2_m3.push(p.sample.v_gas2_m3);
                 out.speed_m_s.push(p.inputs.speed_m_s);
                 out.sampled.push(sampled as f64 / n);
                 out.valve6_open.push(open as f64 / n);
@@ -223,6 +229,8 @@ fn to_dict<'py>(py: Python<'py>, r: Record) -> PyResult<Bound<'py, PyDict>> {
         ("t_oil_k", r.t_oil_k),
         ("disp_m", r.disp_m),
         ("p_gas_pa", r.p_gas_pa),
+        ("v_gas_m3", r.v_gas_m3),
+        ("v_gas2_m3", r.v_gas2_m3),
         ("speed_m_s", r.speed_m_s),
         ("sampled", r.sampled),
         ("valve6_open", r.valve6_open),
