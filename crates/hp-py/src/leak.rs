@@ -165,7 +165,7 @@ impl Drive {
         let mut gas_state = GasChargeState::new();
         let mut state = State::new();
         let mut out = Record::default();
-        let (mut segment, mut sampled, mut open, mut safe) = (0usize, 0usize, 0usize, 0usize);
+        let (mut segment, mut sampled, mut open, mut safe, mut in_record) = (0usize, 0usize, 0usize, 0usize, 0usize);
         let dt_us = (DT_S * 1e6).round() as u32;
         let vehicle_at = |_, t_s: f64| {
             while self.start_s.get(segment + 1).is_some_and(|&next| t_s >= next) {
@@ -180,7 +180,9 @@ impl Drive {
             sampled += usize::from(sample.is_some());
             open += usize::from(p.outputs.valve6_open);
             safe += usize::from(p.outputs.diag & diag::SAFE_STATE != 0);
-            if (p.index + 1) % self.record_every == 0 {
+            in_record += 1;
+            if in_record == self.record_every {
+                in_record = 0;
                 let n = self.record_every as f64;
                 let u = &p.sample.unit;
                 out.time_s.push((p.index + 1) as f64 * DT_S);
