@@ -204,6 +204,8 @@ class GasChargeDriveDict(TypedDict):
     t_oil_k: NDArray[np.float64]
     disp_m: NDArray[np.float64]
     p_gas_pa: NDArray[np.float64]
+    v_gas_m3: NDArray[np.float64]
+    v_gas2_m3: NDArray[np.float64]
     speed_m_s: NDArray[np.float64]
     sampled: NDArray[np.float64]
     valve6_open: NDArray[np.float64]

@@ -205,6 +205,33 @@ impl<'a> Motion<'a> {
     }
 }
 
+/// The interval `i` with `ts[i] <= t <= ts[i+1]` of the first `n >= 1`
+/// times (the last interval includes its end), for `t` within them.
+/// Sampled motions are mostly uniform: the guess from the mean spacing is
+/// checked and taken if right (a long drive's base is millions of samples,
+/// where a bisection per evaluation missed the cache for a tenth of a
+/// drive's time), else the bisection decides.
+#[inline]
+fn interval(ts: &[f64], n: usize, t_first: f64, t_last: f64, t: f64) -> usize {
+    let last = n.saturating_sub(2);
+    let is = |i: usize| {
+        let below = ts.get(i).is_some_and(|&a| a <= t);
+        let above = i == last || ts.get(i + 1).is_some_and(|&b| b > t);
+        below && above
+    };
+    if t_last > t_first {
+        // Truncation towards zero of a value in [0, n - 1]; NaN gives 0.
+        let guess = (((t - t_first) / (t_last - t_first)) * (n - 1) as f64) as usize;
+        let guess = guess.min(last);
+        for i in [guess, guess.saturating_sub(1), guess + 1] {
+            if i <= last && is(i) {
+                return i;
+            }
+        }
+    }
+    ts.get(..n).unwrap_or(ts).partition_point(|&ti| ti <= t).saturating_sub(1).min(last)
+}
+
 /// Cubic Hermite interpolation, with the given tangents or else
 /// Catmull-Rom (three-point) ones.
 fn hermite(ts: &[f64], xs: &[f64], tangents: Option<&[f64]>, t: f64) -> (f64, f64) {
@@ -218,8 +245,7 @@ fn hermite(ts: &[f64], xs: &[f64], tangents: Option<&[f64]>, t: f64) -> (f64, f6
     if t > t_last {
         return (xs.get(n - 1).copied().unwrap_or(0.0), 0.0);
     }
-    // Interval i with ts[i] <= t <= ts[i+1] (the last interval includes its end).
-    let i = ts.partition_point(|&ti| ti <= t).saturating_sub(1).min(n.saturating_sub(2));
+    let i = interval(ts, n, t_first, t_last, t);
     let pt = |j: usize| (ts.get(j).copied().unwrap_or(0.0), xs.get(j).copied().unwrap_or(0.0));
     let (t0, x0) = pt(i);
     let (t1, x1) = pt(i + 1);
@@ -255,4 +281,37 @@ fn hermite(ts: &[f64], xs: &[f64], tangents: Option<&[f64]>, t: f64) -> (f64, f6
         + (3.0 * u2 - 2.0 * u) * h * m1)
         / h;
     (x, dx)
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
+mod tests {
+    extern crate std;
+    use super::interval;
+    use std::vec::Vec;
+
+    /// The bisection `interval` replaces where its guess is right.
+    fn bisection(ts: &[f64], t: f64) -> usize {
+        ts.partition_point(|&ti| ti <= t).saturating_sub(1).min(ts.len() - 2)
+    }
+
+    #[test]
+    fn interval_agrees_with_bisection_on_uniform_and_uneven_grids() {
+        let uniform: Vec<f64> = (0..1001).map(|i| 0.1 + i as f64 * 0.005).collect();
+        // Uneven: spacing growing tenfold along the grid.
+        let uneven: Vec<f64> = (0..1001).map(|i| { let x = i as f64 / 1000.0; 2.0 * x + 9.0 * x * x * x }).collect();
+        for ts in [&uniform, &uneven] {
+            let (first, last) = (ts[0], ts[ts.len() - 1]);
+            let mut t = first;
+            // Every node exactly (the boundary cases) and points between.
+            let points = ts.iter().copied().chain((0..20_000).map(|k| first + (last - first) * k as f64 / 19_999.0)).chain([last]);
+            for p in points {
+                t = p;
+                assert_eq!(interval(ts, ts.len(), first, last, t), bisection(ts, t), "t = {t}");
+            }
+            assert_eq!(interval(ts, ts.len(), first, last, t), ts.len() - 2);
+        }
+        // Two samples: the one interval.
+        assert_eq!(interval(&[0.0, 1.0], 2, 0.0, 1.0, 0.5), 0);
+    }
 }

@@ -9,7 +9,7 @@ use crate::exec::{run_parallel, threads_arg};
 use crate::params::{self, MotionSpec, Reader};
 use hp_core::rig::{Rig, RigKind};
 use hp_core::unit::{Unit, Valves};
-use hp_vehicle::closed_loop::{Sensors, VehicleSignals};
+use hp_vehicle::closed_loop::{Period, Sensors, VehicleSignals};
 use hp_ctrl::gas_charge::{self, GasChargeConfig, GasChargeParams, GasChargeState};
 use hp_ctrl::{diag, Params, State};
 use numpy::IntoPyArray;
@@ -32,6 +32,9 @@ struct Drive {
     gas: GasChargeConfig,
     max_dt_s: f64,
     sensors: Sensors,
+    /// The plant's gas evaluated by the direct equation of state (the
+    /// reference) rather than the tabulated one (fast).
+    reference_plant: bool,
 }
 
 /// Per record: the detector's verdict at its end, the plant's gas and oil
@@ -49,6 +52,10 @@ struct Record {
     t_oil_k: Vec<f64>,
     disp_m: Vec<f64>,
     p_gas_pa: Vec<f64>,
+    /// The gas volumes of S and L (their sum against the strut's
+    /// `V_S0 + V_L0 - A x` shows a void in the strut).
+    v_gas_m3: Vec<f64>,
+    v_gas2_m3: Vec<f64>,
     speed_m_s: Vec<f64>,
     /// Share of the record's periods with a usable sample.
     sampled: Vec<f64>,
@@ -119,6 +126,10 @@ impl Drive {
             None => 0.0,
         };
         let gas = gas_config(r.get_opt("gas_charge")?, &format!("{path}.gas_charge"))?;
+        let reference_plant = match r.get_opt("reference_plant")? {
+            Some(v) => v.extract::<bool>().map_err(|_| bad_argument(&format!("{path}.reference_plant"), &v, "True or False"))?,
+            None => false,
+        };
         r.finish()?;
         for (name, v, lo, hi) in [("duration_s", duration_s, 1.0, 1e7), ("record_dt_s", record_dt_s, DT_S, 1e4), ("max_dt_s", max_dt_s, 1e-6, DT_S)] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
@@ -138,6 +149,7 @@ impl Drive {
             gas,
             max_dt_s,
             sensors: Sensors { t_gas_tau_s, t_gas_offset_k },
+            reference_plant,
         })
     }
 
@@ -153,52 +165,56 @@ impl Drive {
         let mut gas_state = GasChargeState::new();
         let mut state = State::new();
         let mut out = Record::default();
-        let (mut segment, mut sampled, mut open, mut safe) = (0usize, 0usize, 0usize, 0usize);
+        let (mut segment, mut sampled, mut open, mut safe, mut in_record) = (0usize, 0usize, 0usize, 0usize, 0usize);
         let dt_us = (DT_S * 1e6).round() as u32;
-        hp_vehicle::closed_loop::run(
-            &rig,
-            params,
-            &self.sensors,
-            &mut state,
-            self.periods,
-            DT_S,
-            self.max_dt_s,
-            |_, t_s| {
-                while self.start_s.get(segment + 1).is_some_and(|&next| t_s >= next) {
-                    segment += 1;
-                }
-                let at = |v: &Vec<f64>| v.get(segment).copied().unwrap_or(0.0);
-                VehicleSignals { speed_m_s: at(&self.speed_m_s), ride_height_request_m: at(&self.request_m), ..VehicleSignals::default() }
-            },
-            |p| {
-                let sample = gas.corner_sample(params.large_table(), p.inputs, p.outputs.diag);
-                let verdict = gas_charge::step(&gas, &mut gas_state, sample, dt_us);
-                sampled += usize::from(sample.is_some());
-                open += usize::from(p.outputs.valve6_open);
-                safe += usize::from(p.outputs.diag & diag::SAFE_STATE != 0);
-                if (p.index + 1) % self.record_every == 0 {
-                    let n = self.record_every as f64;
-                    let u = &p.sample.unit;
-                    out.time_s.push((p.index + 1) as f64 * DT_S);
-                    out.charge_ratio.push(f64::from(verdict.charge_ratio));
-                    out.confidence.push(f64::from(verdict.confidence));
-                    out.settled.push(verdict.settled);
-                    out.fault.push(verdict.fault);
-                    out.t_gas_k.push(u.t_gas_k);
-                    out.t_gas2_k.push(u.t_gas2_k);
-                    out.t_gas_read_k.push(p.inputs.t_gas_k);
-                    out.t_oil_k.push(u.t_oil_k);
-                    out.disp_m.push(p.sample.disp_m);
-                    out.p_gas_pa.push(u.p_gas_pa);
-                    out.speed_m_s.push(p.inputs.speed_m_s);
-                    out.sampled.push(sampled as f64 / n);
-                    out.valve6_open.push(open as f64 / n);
-                    out.safe.push(safe as f64 / n);
-                    (sampled, open, safe) = (0, 0, 0);
-                }
-                true
-            },
-        )?;
+        let vehicle_at = |_, t_s: f64| {
+            while self.start_s.get(segment + 1).is_some_and(|&next| t_s >= next) {
+                segment += 1;
+            }
+            let at = |v: &Vec<f64>| v.get(segment).copied().unwrap_or(0.0);
+            VehicleSignals { speed_m_s: at(&self.speed_m_s), ride_height_request_m: at(&self.request_m), ..VehicleSignals::default() }
+        };
+        let on_period = |p: &Period<'_>| {
+            let sample = gas.corner_sample(params.large_table(), p.inputs, p.outputs.diag);
+            let verdict = gas_charge::step(&gas, &mut gas_state, sample, dt_us);
+            sampled += usize::from(sample.is_some());
+            open += usize::from(p.outputs.valve6_open);
+            safe += usize::from(p.outputs.diag & diag::SAFE_STATE != 0);
+            in_record += 1;
+            if in_record == self.record_every {
+                in_record = 0;
+                let n = self.record_every as f64;
+                let u = &p.sample.unit;
+                out.time_s.push((p.index + 1) as f64 * DT_S);
+                out.charge_ratio.push(f64::from(verdict.charge_ratio));
+                out.confidence.push(f64::from(verdict.confidence));
+                out.settled.push(verdict.settled);
+                out.fault.push(verdict.fault);
+                out.t_gas_k.push(u.t_gas_k);
+                out.t_gas2_k.push(u.t_gas2_k);
+                out.t_gas_read_k.push(p.inputs.t_gas_k);
+                out.t_oil_k.push(u.t_oil_k);
+                out.disp_m.push(p.sample.disp_m);
+                out.p_gas_pa.push(u.p_gas_pa);
+                out.v_gas_m3.push(p.sample.v_gas_m3);
+                out.v_gas2_m3.push(p.sample.v_gas2_m3);
+                out.speed_m_s.push(p.inputs.speed_m_s);
+                out.sampled.push(sampled as f64 / n);
+                out.valve6_open.push(open as f64 / n);
+                out.safe.push(safe as f64 / n);
+                (sampled, open, safe) = (0, 0, 0);
+            }
+            true
+        };
+        // The fast plant evaluates the same gas through the process's
+        // table (pressure within 1.3e-8 of the direct equation; the direct
+        // equation if the table could not be built); the reference plant
+        // evaluates the equation directly. Both step RK4 at `max_dt_s`.
+        let rig = match hp_vehicle::gas_table::span() {
+            Some(table) if !self.reference_plant && self.unit.gas == hp_core::gas::Gas::Span => rig.with_gas_table(table)?,
+            _ => rig,
+        };
+        hp_vehicle::closed_loop::run(&rig, params, &self.sensors, &mut state, self.periods, DT_S, self.max_dt_s, vehicle_at, on_period)?;
         Ok(out)
     }
 }
@@ -215,6 +231,8 @@ fn to_dict<'py>(py: Python<'py>, r: Record) -> PyResult<Bound<'py, PyDict>> {
         ("t_oil_k", r.t_oil_k),
         ("disp_m", r.disp_m),
         ("p_gas_pa", r.p_gas_pa),
+        ("v_gas_m3", r.v_gas_m3),
+        ("v_gas2_m3", r.v_gas2_m3),
         ("speed_m_s", r.speed_m_s),
         ("sampled", r.sampled),
         ("valve6_open", r.valve6_open),
@@ -238,7 +256,9 @@ fn to_dict<'py>(py: Python<'py>, r: Record) -> PyResult<Bound<'py, PyDict>> {
 /// configuration; default the production one), `max_dt_s`,
 /// `t_gas_sensor_tau_s` (1 s), `t_gas_sensor_offset_k` (0 K: the
 /// temperature sensor's calibration error; a pressure transducers' offset
-/// is the unit's sensor effect). The controller and the detector are the
+/// is the unit's sensor effect), `reference_plant` (False: the plant's
+/// reference gas evaluated through its table, `hp_core::gas::table`,
+/// about twice as fast a drive; True: by the direct equation). The controller and the detector are the
 /// ECU's production ones for the seed unit. Returns, per case, a dict of
 /// arrays (one value per record) or the exception the case raised.
 #[pyfunction]
