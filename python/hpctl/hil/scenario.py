@@ -70,7 +70,7 @@ SPEED_M_S = 10.0
 LOWER_M = -0.03
 ROAD_SEED = 11
 BLEND_M = 5.0  # the rough road gives way to the slope's plane over this distance
-T_DRIVE_S, T_STOP_S, T_SENSOR_S, T_DRIVE_END_S = 0.6, 4.0, 5.8, 5.95
+T_DRIVE_S, T_STOP_S, T_SENSOR_S, T_DRIVE_END_S = 0.6, 5.0, 6.8, 6.95
 LEAK_TAU_S, T_REQUEST_S, T_CUT_S, T_LEAK_END_S = 10.0, 1.5, 1.6, 1.66
 SPN_BASE, SPNS_PER_CORNER = 520192, 16  # docs/can.md: corner k's codes
 SLOT_PRESSURES, SLOT_GAS, SLOT_SAFE = 0, 4, 5
@@ -104,8 +104,9 @@ def vehicle(corners: int) -> VehicleDict:
 def slope_rad(corners: int) -> tuple[float, float]:
     """The slope (pitch nose up, roll left up): beyond the levelling
     tolerance, and levelled by less than the corners' lowering (the
-    corners' plane spans 22 mm: 2 (x tan(pitch) + y tan(roll)))."""
-    return (0.008, 0.005) if corners == 4 else (0.0025, 0.0055)
+    corners' plane spans 2 (x tan(pitch) + y tan(roll)): 22 mm on the 4x4,
+    24 mm on the 8x8)."""
+    return (0.008, 0.005) if corners == 4 else (0.002, 0.0075)
 
 
 @dataclass
