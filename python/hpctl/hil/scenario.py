@@ -4,37 +4,44 @@ the ECU, period by period, over any exchange of frames (the lock-step
 firmware in the emulator, :class:`hpctl.hil.pil.PilSession`, or the host
 build, :func:`host_exchange`).
 
-The plant is hpctl.hil.plant.CornerPlants, the stand-in for the
-full-vehicle plant (one SDOF rig per corner, see its docstring): the seed
-unit under the seed's sprung mass at every corner, the ECU's geometry
-(hp_ctrl::calibration: axles 1.5 m apart, 2 m track). The road is an ISO
-8608 class C profile per wheel track (left and right independent), each
-rear wheel on its track where the front wheels were. The ECU runs the
-processor-in-the-loop calibration (PIL_4 / PIL_8, hp_ctrl::calibration:
-production thresholds and control laws, the waits that only average
-shortened).
+The plant is hpctl.hil.plant.PilPlant: hp-vehicle's rigid body in heave,
+pitch and roll with one unit and one tyre per wheel (see its docstring),
+here hp-vehicle's armoured 4x4 or 8x8 (3 t sprung per wheel on the seed's
+unit) with its axles where the ECU's calibration has them (axles 1.5 m
+apart, 2 m track, hp_ctrl::calibration). The road: level under the wheels
+at the start, then ISO 8608 class C (two tracks with the isotropic
+coherence between them, faded in over 3 m), and in the drive scenario a
+plane at the slope's angles where the vehicle stops (the rough road gives
+way to it over the 5 m before the rear axle's stopping point, so at rest
+every wheel stands on the plane). The ECU runs the processor-in-the-loop
+calibration (PIL_4 / PIL_8, hp_ctrl::calibration: production thresholds
+and control laws, the waits that only average shortened).
 
 ``drive`` scenario, in phases:
 
 1. ``rest`` (0-0.6 s): at rest on a level road; the ECU leaves its
    power-on safe state and its load estimate starts at the static load.
-2. ``drive`` (0.6-4.0 s): 10 m/s on class C with a 30 mm lowering
+2. ``drive`` (0.6-5.0 s): 10 m/s on class C with a 30 mm lowering
    request (``HP_Driver.RideHeightRequest``, from power-on): once the load
    estimate has settled the corners lower on the road's pressure
-   differences and hold. (3.4 s: on the 8x8's roads two corners were
-   still lowering after 2.9 s.)
-3. ``slope`` (4.0-5.8 s): stopped on a slope (nose up, left side up,
-   and the road's unevenness under the wheels) with ``HeightMode =
-   slope_level``: the low side rises until the body is level.
-4. ``sensor`` (5.8-5.95 s): one corner's pressure transducer of S fails
+   differences. On the rigid body this is slower than on separate rigs:
+   after 4.4 s some corners hold the request, the others are still
+   lowering (20-27 mm).
+3. ``slope`` (5.0-6.8 s): stopped on the slope (4x4: 8 mrad nose up,
+   5 mrad left up; 8x8: 2 and 7.5 mrad) with ``HeightMode = slope_level``:
+   the low side rises until the body is level within the 5 mrad
+   tolerance.
+4. ``sensor`` (6.8-6.95 s): one corner's pressure transducer of S fails
    (reads 0 Pa): that corner drops to its safe state with its trouble
-   codes (in the DM1 a J1939 request asks for at 5.82 s, by BAM); the others keep
-   their heights.
+   codes (in the DM1 a J1939 request asks for at 6.82 s, by BAM); the
+   others keep their heights.
 
-Known limit, seen with a 4.4 s drive on the 8x8's roads and not tested
-here: a corner still lowering when the vehicle stops stays in its lowering
-step at rest (a pump-free unit lowers only on the road's pressure
-differences), and the body was then not levelled on the slope.
+Known limits (docs/firmware.md, Known issues): corners still lowering when
+the vehicle stops stay in their lowering step at rest (a pump-free unit
+lowers only on the road's pressure differences); slope levelling no longer
+waits for them (it re-latches once no oil has moved for the settling
+time), but with the 8x8 on a 3.5 / 6 mrad slope the body still ended at
+5.2 mrad of roll.
 
 ``leak`` scenario: at rest, one corner leaking gas (its unit's leakage
 time constant 10 s: 5 % of its charge in 0.5 s, 10 % in 1.05 s); the ECU
