@@ -161,15 +161,15 @@ class VehicleLoop:
         under every wheel at the start; from the front wheels' start on,
         the ISO 8608 class C tracks (left and right, each with its PSD and
         the isotropic coherence between them), faded in over 3 m; for the
-        drive scenario, the slope's plane (pitch nose up, roll left up)
-        blended in over the 5 m before the rear axle's stopping point, so
-        that every wheel stands on it, with the class C unevenness, once
-        the vehicle has stopped."""
+        drive scenario, the rough road gives way to the slope's plane
+        (pitch nose up, roll left up) over the ``BLEND_M`` before the rear
+        axle's stopping point, so that once the vehicle has stopped every
+        wheel stands on the plane: the tilt to level is the slope's."""
         x = self.plant_geometry_x_m()
         x_front, x_rear = max(x), min(x)
         stop_m = SPEED_M_S * (T_STOP_S - T_DRIVE_S)
         start_m, dx_m = x_rear - 1.0, 0.01
-        u = start_m + dx_m * np.arange(int(round((stop_m + x_front + 10.0 - start_m) / dx_m)) + 1)
+        u = np.asarray(start_m + dx_m * np.arange(int(round((stop_m + x_front + 10.0 - start_m) / dx_m)) + 1), dtype=np.float64)
         tracks = road.two_tracks("C", float(u[-1] - start_m) + 1.0, track_m=TRACK_M, seed=ROAD_SEED, dx_m=dx_m)
         fade = road.fade_in(u - x_front, 3.0)
         left, right = (
