@@ -56,7 +56,7 @@ use crate::clock::{dt_us, seconds_to_us};
 use crate::config::{check, ParamError};
 use crate::gas_charge::{self, GasCharge, GasChargeConfig, GasChargeParams, GasChargeState};
 use crate::input_group::{DRIVER, PRESSURES, STEERING, STRUT, TEMPERATURE, VEHICLE};
-use crate::{diag, Config, DriverMode, Inputs, Outputs, Params, SequencerState, State};
+use crate::{diag, Config, DriverMode, Inputs, Outputs, Params, State};
 
 /// Largest number of corners (four axles).
 pub const MAX_CORNERS: usize = 8;
