@@ -61,6 +61,33 @@ def test_the_plant_steps_one_period_at_a_time_with_valves_per_wheel() -> None:
         _core.VehiclePlant(d, flat, 293.15)
 
 
+def test_one_wheels_unit_can_be_replaced_for_a_gas_leak() -> None:
+    """``corner_units`` gives one wheel its own unit (here the seed unit with
+    a leak): that wheel's gas in L, from the plant's own pressure,
+    temperature and volume through the equation of state, follows the
+    leakage law m(t) = m0 exp(-t / tau) (valve 6 closed: L neither gains
+    nor loses oil); the other wheels keep theirs."""
+    v = preset("4x4")
+    unit = hpctl.Unit.seed()
+    tau_s = 5.0
+    leaky = unit.with_effects(leakage=hpctl.model.unit.Leakage(tau_s)).to_dict()
+    flat = {"start_m": 0.0, "dx_m": 1.0, "left_m": np.zeros(2), "right_m": np.zeros(2)}
+    plant = _core.VehiclePlant(v.to_core(), flat, unit.static_temperature_k, corner_units={3: leaky})
+    m0 = _core.gas_masses_kg(unit.to_dict())[1]
+    for _ in range(1000):
+        s = plant.step(1e-3, [False] * 4, [False] * 4, 0.0)
+    p, t, vol = (np.asarray(s[c]) for c in ("p_gas2_pa", "t_gas2_k", "v_gas2_m3"))
+    mass = np.array([_core.gas_density_kg_m3(unit.gas, p[k], t[k]) * vol[k] for k in range(4)])
+    assert mass[3] == pytest.approx(m0 * math.exp(-1.0 / tau_s), rel=1e-3)
+    assert mass[:3] == pytest.approx(np.full(3, m0), rel=1e-3)
+    with pytest.raises(hpctl.ParameterError, match="wheels 0 to 3"):
+        _core.VehiclePlant(v.to_core(), flat, 293.15, corner_units={4: leaky})
+    with pytest.raises(hpctl.ParameterError, match="leak_time_constant_s"):
+        bad = unit.to_dict()
+        bad["effects"]["leakage"] = {"time_constant_s": 0.0}
+        _core.VehiclePlant(v.to_core(), flat, 293.15, corner_units={0: bad})
+
+
 def test_the_lane_change_has_the_iso_3888_2_layout() -> None:
     lc = route.LaneChange(at_m=0.0, length_scale=1.0)
     assert sum(lc.sections_m()) == pytest.approx(61.0)  # the standard's track length

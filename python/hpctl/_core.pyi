@@ -1,5 +1,5 @@
 # Hand-kept stub of the Rust extension hpctl._core (checked by stubtest).
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Literal, final
 
 import numpy as np
@@ -227,7 +227,14 @@ def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) ->
 @final
 class VehiclePlant:
     def __new__(
-        cls, vehicle: VehicleDict, road: RoadDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True, max_dt_s: float = 1e-3
+        cls,
+        vehicle: VehicleDict,
+        road: RoadDict,
+        ambient_k: float,
+        spring_hard: bool = True,
+        damper_on: bool = True,
+        max_dt_s: float = 1e-3,
+        corner_units: Mapping[int, UnitDict] | None = None,
     ) -> VehiclePlant: ...
     @property
     def corner_count(self) -> int: ...

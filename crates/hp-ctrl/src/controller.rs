@@ -116,6 +116,12 @@ impl State {
     pub fn sequencer_phase(&self) -> crate::SequencerState {
         self.ride_height.phase()
     }
+
+    /// Oil is flowing through valve 6 for a height change
+    /// ([`crate::ride_height::RideHeightState::moving_oil`]).
+    pub fn moving_oil(&self) -> bool {
+        self.ride_height.moving_oil()
+    }
 }
 
 impl Default for State {

@@ -248,6 +248,14 @@ impl RideHeightState {
     pub fn phase(&self) -> SequencerState {
         self.phase
     }
+
+    /// Oil is flowing for a height change: `Lowering` or `Raising` with
+    /// valve 6 open. A sequence waiting for a pressure difference that does
+    /// not come (a pump-free unit at rest short of its target) moves
+    /// nothing.
+    pub fn moving_oil(&self) -> bool {
+        self.valve6_open && matches!(self.phase, SequencerState::Lowering | SequencerState::Raising)
+    }
 }
 
 impl Default for RideHeightState {

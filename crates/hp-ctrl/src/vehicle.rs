@@ -31,8 +31,9 @@
 //! - `SlopeLevel`: keep the body level on a slope: from the measured body
 //!   pitch and roll, each corner's correction `-(x - x0) tan(pitch) - (y -
 //!   y0) tan(roll)` (corner position relative to the centroid), re-latched
-//!   whenever the body is still tilted beyond `slope_tolerance_rad` after
-//!   every corner has finished moving, from the corners' present heights.
+//!   whenever the body is still tilted beyond `slope_tolerance_rad` once
+//!   no corner has moved oil for `settle_s` (a corner waiting in its
+//!   lowering step at rest moves none), from the corners' present heights.
 //!   At rest a pump-free unit can only move towards its zero offset (oil
 //!   flows only down the pressure difference a held offset keeps), so the
 //!   corrections' plane is shifted to lie between each corner's height and
@@ -55,7 +56,7 @@ use crate::clock::{dt_us, seconds_to_us};
 use crate::config::{check, ParamError};
 use crate::gas_charge::{self, GasCharge, GasChargeConfig, GasChargeParams, GasChargeState};
 use crate::input_group::{DRIVER, PRESSURES, STEERING, STRUT, TEMPERATURE, VEHICLE};
-use crate::{diag, Config, DriverMode, Inputs, Outputs, Params, SequencerState, State};
+use crate::{diag, Config, DriverMode, Inputs, Outputs, Params, State};
 
 /// Largest number of corners (four axles).
 pub const MAX_CORNERS: usize = 8;
@@ -596,8 +597,13 @@ pub fn step<const N: usize>(p: &VehicleParams<N>, s: &mut VehicleState<N>, i: &V
         mode = HeightMode::AutoLower;
     }
 
-    // Slope levelling: re-latch the corrections once nothing moves.
-    let moving = s.corners.iter().any(|c| matches!(c.sequencer_phase(), SequencerState::Lowering | SequencerState::Raising));
+    // Slope levelling: re-latch the corrections once no oil has moved for
+    // the settling time. Not "no corner in `Lowering` or `Raising`": a
+    // corner still lowering when the vehicle stops waits at rest for road
+    // pressure differences that never come, and would block levelling for
+    // ever (seen in the processor-in-the-loop runs on the rigid-body
+    // vehicle, where the corners finish lowering later than on separate rigs).
+    let moving = s.corners.iter().any(State::moving_oil);
     lev.quiet_us = if moving { 0 } else { lev.quiet_us.saturating_add(dt_us) };
     if mode == HeightMode::SlopeLevel {
         let heights: [f32; N] = core::array::from_fn(|k| s.corners.get(k).map_or(0.0, State::ride_height_m));

@@ -552,14 +552,35 @@ impl VehiclePlant {
     /// Puts `vehicle` on `road` at rest in static equilibrium at
     /// `ambient_k`, every wheel's valves as given (the default, both
     /// closed, is the controller's power-on safe state). `max_dt_s` bounds
-    /// the integration step inside each `step`.
+    /// the integration step inside each `step`. `corner_units` replaces
+    /// single wheels' units (`{wheel index: unit dict}`, e.g. one unit with
+    /// a gas leak); the others keep their axle's.
     #[new]
-    #[pyo3(signature = (vehicle, road, ambient_k, spring_hard=true, damper_on=true, max_dt_s=1e-3))]
-    fn new(vehicle: &Bound<'_, PyAny>, road: &Bound<'_, PyAny>, ambient_k: f64, spring_hard: bool, damper_on: bool, max_dt_s: f64) -> PyResult<Self> {
+    #[pyo3(signature = (vehicle, road, ambient_k, spring_hard=true, damper_on=true, max_dt_s=1e-3, corner_units=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        vehicle: &Bound<'_, PyAny>,
+        road: &Bound<'_, PyAny>,
+        ambient_k: f64,
+        spring_hard: bool,
+        damper_on: bool,
+        max_dt_s: f64,
+        corner_units: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         guard(|| {
             hp_core::error::check_range("max_dt_s", max_dt_s, 1e-9, 10.0).map_err(to_py)?;
             let initial = Valves::from_modes(spring_hard, damper_on);
-            let vehicle = Vehicle::new(vehicle_params(vehicle)?, ambient_k, initial).map_err(to_py)?;
+            let mut vehicle = Vehicle::new(vehicle_params(vehicle)?, ambient_k, initial).map_err(to_py)?;
+            if let Some(units) = corner_units {
+                let units = units.cast::<PyDict>().map_err(|_| parameter("corner_units must be a dict {wheel index: unit dict}"))?;
+                for (key, unit) in units.iter() {
+                    let i: usize = extract(&key, "corner_units key", "a wheel index (int >= 0)")?;
+                    if i >= vehicle.corner_count() {
+                        return Err(parameter(format!("corner_units has wheel {i}; the vehicle has wheels 0 to {}", vehicle.corner_count() - 1)));
+                    }
+                    vehicle = vehicle.with_corner_unit(i, params::unit(&unit)?, initial).map_err(to_py)?;
+                }
+            }
             let valves = [initial; MAX_CORNERS];
             let state = vehicle.initial_state(&valves).map_err(to_py)?;
             Ok(VehiclePlant { vehicle, road: road_spec(road)?, state, drive: DriveInputs::default(), valves, time_s: 0.0, max_dt_s })

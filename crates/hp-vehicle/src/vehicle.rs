@@ -394,6 +394,34 @@ impl Vehicle {
         self
     }
 
+    /// The same vehicle with corner `i`'s unit built from `unit` instead of
+    /// its axle's (e.g. the axle's unit with a gas leak, `Effects::leakage`),
+    /// at rest where it carries the corner's static load with `valves` (as
+    /// [`Vehicle::new`] places every unit). The other corners are unchanged.
+    ///
+    /// ```
+    /// use hp_core::unit::{Effects, Leakage, Valves};
+    /// use hp_vehicle::{presets::armoured_4x4, vehicle::Vehicle};
+    /// let p = armoured_4x4();
+    /// let v = Vehicle::new(p, 293.15, Valves::default()).unwrap();
+    /// let leaky = hp_core::unit::UnitParams { effects: Effects { leakage: Some(Leakage { time_constant_s: 100.0 }), ..p.axles[0].unit.effects }, ..p.axles[0].unit };
+    /// let w = v.with_corner_unit(3, leaky, Valves::default()).unwrap();
+    /// assert_eq!(w.unit(3).unwrap().params().effects.leakage, Some(Leakage { time_constant_s: 100.0 }));
+    /// assert_eq!(w.unit(2), v.unit(2));
+    /// assert!(v.with_corner_unit(4, leaky, Valves::default()).is_err()); // a 4x4 has corners 0-3
+    /// ```
+    pub fn with_corner_unit(mut self, i: usize, unit: UnitParams, valves: Valves) -> Result<Self> {
+        let count = self.corner_count();
+        let unit = Unit::new(unit)?;
+        let ambient_k = self.ambient_k;
+        let (Some(c), Some(u)) = (self.corners.get_mut(..count).and_then(|c| c.get_mut(i)), self.units.get_mut(..count).and_then(|u| u.get_mut(i))) else {
+            return Err(Error::OutOfRange { name: "corner", value: i as f64, min: 0.0, max: count as f64 - 1.0 });
+        };
+        c.static_disp_m = unit.static_disp_for_load_m(c.static_load_n, ambient_k, valves)?;
+        *u = unit;
+        Ok(self)
+    }
+
     /// The same vehicle advanced with `stepping`.
     pub fn with_stepping(mut self, stepping: Stepping) -> Self {
         self.stepping = stepping;

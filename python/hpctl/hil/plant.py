@@ -1,106 +1,137 @@
-"""The vehicle the ECU controls in processor-in-the-loop runs: a stand-in
-for the full-vehicle plant, one sprung mass per corner.
+"""The vehicle the ECU controls in processor-in-the-loop runs: hp-vehicle's
+full-vehicle plant (:class:`hpctl._core.VehiclePlant`) with the ECU's
+sensors.
 
-:class:`CornerPlants` mounts one unit per corner on its own single-degree-of-
-freedom rig (:class:`hpctl._core.Plant`: the unit under a static share of the
-body's mass over a moving base), each with its own road input, and reads
-the body's attitude from the corners' strut positions. What it leaves out
-(say so with any result): the body is not rigid (the corners do not pull
-on one another: no pitch and roll dynamics, no load transfer when a corner
-is lowered or on a slope); a slope tilts the body by its angle and nothing
-else. The full-vehicle plant (hp-vehicle's rigid body on 2-4 axles,
-``hpctl._core.VehiclePlant``) is now in the bindings; moving the
-processor-in-the-loop scenarios onto it is not done yet. The interface
-(valve commands per corner in, sensor readings per corner out) is the one
-such a plant has.
+:class:`PilPlant` is a rigid body in heave, pitch and roll on two to four
+axles, one hp-core unit and one tyre per wheel (``hp_vehicle::vehicle``),
+on a road given as the heights of the left and right wheel tracks over
+distance: the corners pull on one another through the body (load
+transfer when a corner is lowered, warp of a four-point stance), and a
+slope is the road's plane under the wheels.
 
-The sensors: gas pressures of S and L as the unit's transducers report
-them, the strut compression from the unit's nominal static position (the
-geometric position the gas volumes are defined at), the body's vertical
-acceleration above the corner, and the gas temperature of L through a
-first-order lag (a real sensor cannot follow the gas's adiabatic swings;
-``hp_vehicle::closed_loop`` uses the same model).
+**A slope, what is modelled.** The road's heights under the wheels tilt
+the body (pitch and roll are angles from the horizontal, as an
+inclinometer on the body reads them). Gravity stays vertical in the
+plant's equations (small angles), so the weight's component along the
+ground is added as it acts: along the slope it is held at the contact
+patches (brakes or drive) while it pulls at the centre of gravity, which
+is the pitch moment of a longitudinal acceleration ``g sin(grade)``, passed
+to the plant as such (hp-vehicle's ``-m_s a_x h_cg``; the grade is the
+plane fitted through the road heights under the wheels, so on an uneven
+road it follows the wheels' mean ground plane). Across the slope the
+sprung mass's weight shift above the roll axis is hp-vehicle's ``m_s g
+roll (h_cg - h_rc)`` term, roll being the body's roll from the
+horizontal. Not modelled: the share of the lateral weight component below
+the roll axis (the geometric load transfer through the links, about 0.3 %
+of a wheel's load on 5 mrad), and the tyres' lateral compliance.
+
+**A leak** is the unit's leakage effect in one corner's unit (both
+accumulators lose gas as ``exp(-t / tau)`` from the start): the corner's
+unit replaced through ``VehiclePlant(corner_units=...)``.
+
+**The sensors** (per corner, :class:`hpctl.hil.pil.CornerSensors`): gas
+pressures of S and L as the unit's transducers report them, the strut
+compression from the unit's nominal static position (the geometric
+position the gas volumes are defined at; hp-vehicle's ``disp_m``), the
+body's vertical acceleration above the corner (gravity removed), and the
+gas temperature of L through a first-order lag (a real sensor cannot
+follow the gas's adiabatic swings; ``hp_vehicle::closed_loop`` uses the
+same model). The body's attitude for the vehicle message: pitch nose up
+(hp-vehicle's is nose down) and roll left side up. A failing sensor is on
+the frame side (the scenario changes the reading it sends), not here.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import cast
 
 import numpy as np
 
 from hpctl import _core
+from hpctl._coretypes import RoadDict, VehicleDict
 from hpctl.hil.pil import CornerSensors, temperature_lag_weight
 from hpctl.model.unit import Leakage, Unit
-from hpctl.sim.run import Hold, Motion, sdof_rig
+
+G_M_S2 = _core.STANDARD_GRAVITY_M_S2
 
 
-class CornerPlants:
-    """``len(geometry)`` corners, corner ``k`` at ``geometry[k] = (x_m,
-    y_m)`` (x forward, y to the left), each carrying ``sprung_mass_kg`` on
-    its unit over ``bases[k]`` (default: a level road at rest), at ambient
-    temperature ``ambient_k``. ``leak_time_constants_s`` gives corners a gas
-    leak (``{corner: time constant}``, the unit's leakage effect: both
-    accumulators lose gas as ``exp(-t / tau)`` from the start). At power-on
-    both valves are closed (the ECU's safe state)."""
+class PilPlant:
+    """``vehicle`` on ``road`` at rest in static equilibrium at ambient
+    temperature ``ambient_k`` (the road must be level, height zero, under
+    the wheels at the start), both valves of every unit closed (the ECU's
+    power-on safe state). ``leak_time_constants_s`` gives corners a gas
+    leak (``{corner: time constant}``, corner numbering as the ECU's: axle
+    by axle from the front, left before right)."""
 
     def __init__(
         self,
-        unit: Unit,
-        geometry: Sequence[tuple[float, float]],
+        vehicle: VehicleDict,
+        road: RoadDict,
         *,
-        sprung_mass_kg: float,
         ambient_k: float,
-        bases: Sequence[Motion] | None = None,
-        leak_time_constants_s: dict[int, float] | None = None,
+        leak_time_constants_s: Mapping[int, float] | None = None,
         t_sensor_tau_s: float = 1.0,
         max_dt_s: float = 1e-3,
     ):
-        n = len(geometry)
-        bases = list(bases) if bases is not None else [Hold()] * n
-        if len(bases) != n:
-            raise ValueError(f"bases has {len(bases)} motions for {n} corners")
-        leaks = leak_time_constants_s or {}
-        self.geometry = np.asarray(geometry, dtype=float)
+        units = {}
+        axles = vehicle["axles"]
+        for k, tau in (leak_time_constants_s or {}).items():
+            if not 0 <= k < 2 * len(axles):
+                raise ValueError(f"leak_time_constants_s has corner {k}; the vehicle has corners 0 to {2 * len(axles) - 1}")
+            unit = Unit.from_dict(axles[k // 2]["unit"])
+            units[k] = unit.with_effects(leakage=Leakage(tau)).to_dict()
+        self.plant = _core.VehiclePlant(vehicle, road, ambient_k, spring_hard=True, damper_on=True, max_dt_s=max_dt_s, corner_units=units)
         self.t_sensor_tau_s = t_sensor_tau_s
-        self.plants = []
-        for k in range(n):
-            u = unit.with_effects(leakage=Leakage(leaks[k])) if k in leaks else unit
-            self.plants.append(_core.Plant(u.to_dict(), sdof_rig(bases[k], sprung_mass_kg).to_core(), ambient_k, True, True, max_dt_s))
-        self.samples = [p.sample() for p in self.plants]
-        self.t_read_k = [s["t_gas2_k"] for s in self.samples]
-        # Least squares of a plane z = a + b x + c y over the corners.
+        self.sample = self.plant.sample()
+        self.t_read_k = list(self.corner("t_gas2_k"))
+        statics = _core.vehicle_statics(vehicle, ambient_k)
+        #: Corner positions (x forward from the centre of gravity, y left), m.
+        self.geometry = np.column_stack([statics["x_m"], statics["y_m"]])
+        #: Each corner's static load, N.
+        self.static_load_n = np.asarray(statics["static_load_n"], dtype=float)
         x, y = self.geometry[:, 0], self.geometry[:, 1]
-        self._fit = np.linalg.pinv(np.column_stack([np.ones(n), x - x.mean(), y - y.mean()]))
+        self._fit = np.linalg.pinv(np.column_stack([np.ones(len(x)), x - x.mean(), y - y.mean()]))
 
     @property
     def corners(self) -> int:
-        return len(self.plants)
+        return int(self.plant.corner_count)
 
     @property
     def time_s(self) -> float:
-        return float(self.plants[0].time_s)
+        return float(self.plant.time_s)
+
+    def corner(self, channel: str) -> list[float]:
+        """A wheel channel (``_core.VEHICLE_CORNER_CHANNELS``) now, one value
+        per corner."""
+        return cast(list[float], self.sample[channel])
 
     def sensors(self) -> list[CornerSensors]:
         """What each corner's sensor cluster reads now."""
+        p_s, p_l, disp, acc = (self.corner(c) for c in ("p_gas_pa", "p_gas2_pa", "disp_m", "body_acc_m_s2"))
         return [
-            CornerSensors(
-                p_gas_pa=s["p_gas_pa"], p_gas2_pa=s["p_gas2_pa"], strut_disp_m=s["disp_m"], body_acc_m_s2=s["body_acc_m_s2"], t_gas_k=t
-            )
-            for s, t in zip(self.samples, self.t_read_k, strict=True)
+            CornerSensors(p_gas_pa=p_s[k], p_gas2_pa=p_l[k], strut_disp_m=disp[k], body_acc_m_s2=acc[k], t_gas_k=self.t_read_k[k])
+            for k in range(self.corners)
         ]
 
-    def attitude_rad(self, slope_pitch_rad: float = 0.0, slope_roll_rad: float = 0.0) -> tuple[float, float]:
-        """Body pitch (nose up) and roll (left side up): the slope's plus the
-        plane through the corners' heights (a corner compressed by ``d`` is
-        ``d`` lower)."""
-        z = -np.array([s["disp_m"] for s in self.samples])
-        _, b, c = self._fit @ z
-        return slope_pitch_rad + math.atan(b), slope_roll_rad + math.atan(c)
+    def attitude_rad(self) -> tuple[float, float]:
+        """Body pitch (nose up) and roll (left side up) from the horizontal."""
+        return -float(cast(float, self.sample["pitch_rad"])), float(cast(float, self.sample["roll_rad"]))
 
-    def step(self, dt_s: float, valve5_open: Sequence[bool], valve6_open: Sequence[bool]) -> None:
-        """Holds each corner's valve commands over ``dt_s`` and advances."""
+    def ground_rad(self) -> tuple[float, float]:
+        """The ground plane under the wheels (the least-squares plane through
+        the road heights at the contact points): pitch nose up, roll left
+        side up."""
+        _, b, c = self._fit @ np.asarray(self.corner("road_m"))
+        return math.atan(b), math.atan(c)
+
+    def step(self, dt_s: float, valve5_open: Sequence[bool], valve6_open: Sequence[bool], speed_m_s: float) -> None:
+        """Holds each corner's valve commands and the speed over ``dt_s`` and
+        advances (the weight's component along the ground as the equivalent
+        longitudinal acceleration, see the module's docstring)."""
+        grade_rad, _ = self.ground_rad()
+        self.sample = self.plant.step(dt_s, [bool(v) for v in valve5_open], [bool(v) for v in valve6_open], speed_m_s, G_M_S2 * math.sin(grade_rad))
         w = temperature_lag_weight(dt_s, self.t_sensor_tau_s)
-        for k, plant in enumerate(self.plants):
-            self.samples[k] = plant.step(dt_s, bool(valve5_open[k]), bool(valve6_open[k]))
-            self.t_read_k[k] += w * (self.samples[k]["t_gas2_k"] - self.t_read_k[k])
+        for k, t in enumerate(self.corner("t_gas2_k")):
+            self.t_read_k[k] += w * (t - self.t_read_k[k])
