@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl import _core
-from hpctl._coretypes import VehicleDict
+from hpctl._coretypes import ControllerConfigDict, VehicleDict
 from hpctl.errors import ParameterError
 from hpctl.model.unit import Unit
 
@@ -134,10 +134,10 @@ class VehicleSpec:
         """The same vehicle with ``unit`` at every wheel."""
         return dataclasses.replace(self, axles=tuple(dataclasses.replace(a, unit=unit) for a in self.axles))
 
-    def controller_config(self) -> dict[str, Any]:
+    def controller_config(self) -> ControllerConfigDict:
         """The controller configuration for this vehicle (the seed
         calibration with its steering ratio and effective wheelbase)."""
-        return dict(_core.vehicle_controller_config(self.to_core()))
+        return _core.vehicle_controller_config(self.to_core())
 
     def statics(self, ambient_k: float | None = None, *, spring_hard: bool = True) -> Statics:
         """Static wheel loads and positions."""
