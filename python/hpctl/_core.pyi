@@ -30,6 +30,7 @@ __all__ = [
     "DEFAULT_RTOL",
     "STANDARD_GRAVITY_M_S2",
     "PARAMETER_RANGES",
+    "EFFECT_PARAMETERS",
     "load_pressure_pa",
     "Plant",
     "__version__",
@@ -77,6 +78,7 @@ from hpctl._coretypes import (
     ControllerInputsDict,
     ControllerOutputsDict,
     CtrlArrays,
+    EffectTableDict,
     GasPropsDict,
     OilNodeDict,
     RigDict,
@@ -97,6 +99,8 @@ DEFAULT_RTOL: float
 STANDARD_GRAVITY_M_S2: float
 #: Every unit parameter's valid range (hp_core::ranges), inclusive.
 PARAMETER_RANGES: dict[str, tuple[float, float]]
+#: Every effect's parameter table (hp_core::effect_params!), in Effects order.
+EFFECT_PARAMETERS: list[EffectTableDict]
 
 class HpctlError(ValueError): ...
 class ParameterError(HpctlError): ...

@@ -9,6 +9,16 @@ from typing import Any, Literal, NotRequired, TypedDict, Union
 import numpy as np
 from numpy.typing import NDArray
 
+# The effects' dict forms are generated with their classes from the core's
+# tables (scripts/gen_effect_params.py).
+from hpctl._effect_params import EffectsDict as EffectsDict
+from hpctl._effect_params import FrictionDict as FrictionDict
+from hpctl._effect_params import LeakageDict as LeakageDict
+from hpctl._effect_params import OilComplianceDict as OilComplianceDict
+from hpctl._effect_params import OilNodeDict as OilNodeDict
+from hpctl._effect_params import SensorDict as SensorDict
+from hpctl._effect_params import ValveLagDict as ValveLagDict
+
 
 class DamperCurveDict(TypedDict):
     bleed_pa_s_per_m3: float
@@ -23,45 +33,6 @@ class DamperDict(TypedDict):
     on_rebound: DamperCurveDict
     off_compression: DamperCurveDict
     off_rebound: DamperCurveDict
-
-
-class FrictionDict(TypedDict):
-    coulomb_n: float
-    viscous_n_s_per_m: float
-    smoothing_velocity_m_s: float
-    stribeck_ratio: float
-    stribeck_velocity_m_s: float
-
-
-class OilComplianceDict(TypedDict):
-    bulk_modulus_pa: float
-    oil_volume_m3: float
-
-
-class OilNodeDict(TypedDict):
-    heat_capacity_j_per_k: float
-    oil_to_ambient_tau_s: float
-    wall_to_oil_tau_s: float
-    wall_to_ambient_tau_s: float
-
-
-class TimeConstantDict(TypedDict):
-    time_constant_s: float
-
-
-class SensorDict(TypedDict):
-    force_offset_n: float
-    pressure_offset_pa: float
-    time_constant_s: float
-
-
-class EffectsDict(TypedDict, total=False):
-    friction: FrictionDict
-    oil_compliance: OilComplianceDict
-    oil_node: OilNodeDict
-    leakage: TimeConstantDict
-    valve_lag: TimeConstantDict
-    sensor: SensorDict
 
 
 class UnitDict(TypedDict):
@@ -477,3 +448,26 @@ class VehicleCaseDict(TypedDict):
     max_dt_s: NotRequired[float]
     record_every: NotRequired[int]
     t_gas_sensor_tau_s: NotRequired[float]
+
+
+# --- the effects' parameter tables (hp-core effect_params!) -----------------------
+
+
+class EffectFieldDict(TypedDict):
+    """One parameter of an effect: its field in the effect's struct and dict
+    form, doc, the parameter's name across hpctl, valid range, default."""
+
+    field: str
+    doc: str
+    parameter: str
+    range: tuple[float, float]
+    default: float | None
+
+
+class EffectTableDict(TypedDict):
+    """One effect's parameter table (``_core.EFFECT_PARAMETERS``)."""
+
+    key: str
+    name: str
+    doc: str
+    fields: list[EffectFieldDict]
