@@ -12,7 +12,6 @@ names the fields.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -123,9 +122,14 @@ class VehicleSpec:
         }
 
     @classmethod
-    def from_core(cls, name: str, d: Mapping[str, Any]) -> VehicleSpec:
+    def from_core(cls, name: str, d: VehicleDict) -> VehicleSpec:
+        """From the core's dict form (``_core.vehicle_presets``); a malformed
+        one raises :class:`ParameterError` naming the vehicle."""
         try:
-            axles = tuple(Axle(**{**a, "unit": Unit.from_dict(a["unit"], f"{name}.axles[{k}].unit")}) for k, a in enumerate(d["axles"]))
+            # The keys splat into the dataclasses: a missing or unknown one is
+            # the TypeError below (the dict may come from outside the core).
+            fields: list[dict[str, Any]] = [{**a, "unit": Unit.from_dict(a["unit"], f"{name}.axles[{k}].unit")} for k, a in enumerate(d["axles"])]
+            axles = tuple(Axle(**f) for f in fields)
             return cls(name, Body(**d["body"]), axles, float(d["steering_ratio"]), Seat(**d["seat"]))
         except (KeyError, TypeError) as e:
             raise ParameterError(f"vehicle {name}: {e}") from None
