@@ -15,6 +15,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "python" / "hpctl"
 #: The layer of each subpackage (or top-level module): a module may import
 #: from lower layers and from its own subpackage only.
 LAYERS: dict[str, int] = {
+    # Generated from the core's effect tables; imports nothing of hpctl.
+    "_effect_params": -1,
     "_core": 0,
     "_coretypes": 0,
     "_version": 0,

@@ -97,10 +97,10 @@ def test_a_lowering_on_a_random_road_ends_within_tolerance_and_within_the_stroke
     s = closed_loop.height_change_summary(r, REQUEST_S, END_S)
     # Done and holding, at the target within tolerance, measured on the
     # plant: L's gas volume against its volume at the true static load.
-    assert s["sequencer_end"] == "holding"
-    assert abs(s["held_offset_m"] - target_m) < TOLERANCE_M, s
+    assert s.sequencer_end == "holding"
+    assert abs(s.held_offset_m - target_m) < TOLERANCE_M, s
     # Never past the stroke limits.
-    assert np.all(np.abs(r.plant["disp_m"]) < STROKE_M), (s["strut_disp_min_m"], s["strut_disp_max_m"])
+    assert np.all(np.abs(r.plant["disp_m"]) < STROKE_M), (s.strut_disp_min_m, s.strut_disp_max_m)
     # Valve 6 opened for sequencing only while the pressures, as the
     # controller saw them, pointed the right way by the margin (raising
     # too: a pulse may overshoot a small target by more than the tolerance).
@@ -119,15 +119,15 @@ def test_lowering_and_raising_back_by_30_mm() -> None:
     scenario = closed_loop.Scenario(64.0, 12.0, requests=(closed_loop.HeightRequest(8.0, -0.03), closed_loop.HeightRequest(40.0, 0.0)))
     r = closed_loop.run(closed_loop.Case(scenario, "C", seed=5))
     down = closed_loop.height_change_summary(r, 8.0, 40.0)
-    assert abs(down["error_m"]) < TOLERANCE_M and down["valve6_openings"] > 0
-    assert down["time_to_reach_s"] is not None and down["time_to_reach_s"] < 30.0
+    assert abs(down.error_m) < TOLERANCE_M and down.valve6_openings > 0
+    assert down.time_to_reach_s is not None and down.time_to_reach_s < 30.0
     # L's pressure ended at its target, within the pressure of the tolerance.
-    assert down["p_gas2_pa"] == pytest.approx(down["p_gas2_target_pa"], rel=0.01)
+    assert down.p_gas2_pa == pytest.approx(down.p_gas2_target_pa, rel=0.01)
     # Back to zero: sequenced (valve 6 only while p_L > p_S), then released
     # to the soft spring with the offset gone, so the body does not jump.
     up = closed_loop.height_change_summary(r, 40.0, 64.0)
-    assert up["released_to_soft_s"] is not None
-    assert abs(up["held_offset_m"]) < TOLERANCE_M
+    assert up.released_to_soft_s is not None
+    assert abs(up.held_offset_m) < TOLERANCE_M
     o, i = r.outputs, r.inputs
     raising = o["valve6_open"] & (o["sequencer"] == SequencerState.RAISING)
     assert np.any(raising)
@@ -140,8 +140,8 @@ def test_manoeuvres_switch_to_handling_at_once_and_back_after_the_hold() -> None
     scenario = closed_loop.Scenario(28.0, 15.0, manoeuvres=(closed_loop.LaneChange(8.0), closed_loop.Braking(18.0)))
     r = closed_loop.run(closed_loop.Case(scenario, "C", seed=9))
     m = closed_loop.mode_summary(r)
-    assert len(m["handling_entered_s"]) == 2 and len(m["ride_returned_s"]) == 2
-    assert {"TRIGGER_LATERAL", "TRIGGER_STEER_RATE", "TRIGGER_LONGITUDINAL", "TRIGGER_BRAKE"} <= set(m["triggers"])
+    assert len(m.handling_entered_s) == 2 and len(m.ride_returned_s) == 2
+    assert {"TRIGGER_LATERAL", "TRIGGER_STEER_RATE", "TRIGGER_LONGITUDINAL", "TRIGGER_BRAKE"} <= set(m.triggers)
     t, i, o = r.time_s, r.inputs, r.outputs
     hold_s = seed_config()["mode"]["handling_hold_s"]
     # The braking burst: Handling in the period the pedal is pressed.
@@ -151,8 +151,8 @@ def test_manoeuvres_switch_to_handling_at_once_and_back_after_the_hold() -> None
     # Ride returns no sooner than the hold after the last period with the
     # pedal pressed (the deceleration is below its exit threshold by then).
     last_pressed = int(np.flatnonzero(i["brake_pressed"])[-1])
-    assert m["ride_returned_s"][1] >= t[last_pressed] + hold_s - 1e-9
-    assert m["shortest_handling_s"] >= hold_s
+    assert m.ride_returned_s[1] >= t[last_pressed] + hold_s - 1e-9
+    assert m.shortest_handling_s >= hold_s
 
 
 # --- the command ---------------------------------------------------------------------
@@ -171,6 +171,15 @@ def test_the_closed_loop_command_writes_plots_and_a_summary(tmp_path: Path) -> N
     assert abs(down["held_offset_m"] + 0.03) < TOLERANCE_M
     assert down["valve6_openings"] > 0 and down["time_to_reach_s"] > 0
     assert summary["modes"]["handling_entered_s"]
+    # The file's keys, in order: a format others read (the typed summaries
+    # closed_loop.DemoSummary / HeightChange / ModeSwitches write it).
+    assert list(summary) == ["hpctl", "road_class", "speed_m_s", "seed", "lowering", "raising", "modes", "plots", "config", "config_source", "warnings"]
+    assert list(down) == list(summary["raising"]) == [
+        "start_s", "end_s", "request_m", "target_m", "held_offset_m", "error_m", "estimate_m", "time_to_reach_s", "released_to_soft_s",
+        "valve6_openings", "blocked_s", "tolerance_m", "reached", "road_mean_change_m", "p_gas_pa", "p_gas2_pa", "p_gas2_target_pa",
+        "p_load_estimate_pa", "p_load_true_pa", "sequencer_end", "strut_disp_min_m", "strut_disp_max_m",
+    ]
+    assert list(summary["modes"]) == ["first_ride_s", "handling_entered_s", "ride_returned_s", "triggers", "shortest_handling_s", "safe_state_after_first_ride"]
 
 
 @pytest.mark.parametrize(

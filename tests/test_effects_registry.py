@@ -85,6 +85,69 @@ def test_effects_doc_is_generated_from_the_registry() -> None:
     assert doc == markdown(), "docs/effects.md is stale: python -m hpctl.report.effects > docs/effects.md"
 
 
+def _generator() -> object:
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("gen_effect_params", ROOT / "scripts" / "gen_effect_params.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_effect_parameter_classes_are_generated_from_the_cores_tables() -> None:
+    # Each effect's parameters are declared once, in hp-core (effect_params!);
+    # the Python classes and dict types are generated from the exported table.
+    source = _generator().source()  # type: ignore[attr-defined]
+    assert (ROOT / "python" / "hpctl" / "_effect_params.py").read_text() == source, (
+        "python/hpctl/_effect_params.py is stale: python scripts/gen_effect_params.py > python/hpctl/_effect_params.py")
+
+
+def test_no_hand_written_copy_of_an_effects_parameters_in_python() -> None:
+    import dataclasses
+    import re
+
+    from hpctl import _effect_params
+    from hpctl.model import unit
+
+    tables = _core.EFFECT_PARAMETERS
+    # The public classes are the generated ones, field for field the core's.
+    for t in tables:
+        cls = getattr(unit, t["name"])
+        assert cls is getattr(_effect_params, t["name"])
+        assert [f.name for f in dataclasses.fields(cls)] == [f["field"] for f in t["fields"]]
+    assert [f.name for f in dataclasses.fields(unit.Effects)] == [t["key"] for t in tables]
+    # No other module declares one of them.
+    names = "|".join(t["name"] for t in tables)
+    for path in (ROOT / "python" / "hpctl").rglob("*.py"):
+        if path.name != "_effect_params.py":
+            assert not re.search(rf"^class ({names})(Dict)?\b", path.read_text(), flags=re.M), path
+    # Every parameter once, with its range: the core's ranges are the table's.
+    parameters = [f["parameter"] for t in tables for f in t["fields"]]
+    assert len(parameters) == len(set(parameters))
+    for t in tables:
+        for f in t["fields"]:
+            assert _core.PARAMETER_RANGES[f["parameter"]] == f["range"]
+    # The registry's effect parameters are among them (or the gas law's).
+    registry = {p.name for e in LIBRARY.values() for p in e.params}
+    assert registry - set(parameters) == {"tau_s"}
+
+
+def test_an_effect_value_out_of_its_range_names_it_from_python() -> None:
+    from hpctl.model import unit
+
+    u = Unit.seed()
+    for t in _core.EFFECT_PARAMETERS:
+        cls = getattr(unit, t["name"])
+        f = t["fields"][0]
+        lo, hi = f["range"]
+        bad = hi * 10 if hi > 0 else 1.0
+        values = {g["field"]: (bad if g is f else (g["default"] if g["default"] is not None else max(g["range"][0], min(1.0, g["range"][1]))))
+                  for g in t["fields"]}
+        with pytest.raises(_core.ParameterError, match=rf"{f['parameter']} = \S+ is outside the valid range \[\S+, \S+\]"):
+            u.with_effects(**{t["key"]: cls(**values)}).static_force_n(0.0, 293.15, True)
+
+
 def test_controller_enums_carry_the_controllers_values() -> None:
     for enum, names in ((DriverMode, _core.CTRL_DRIVER_MODES), (DriveMode, _core.CTRL_DRIVE_MODES), (SpringMode, _core.CTRL_SPRING_MODES),
                         (DamperMode, _core.CTRL_DAMPER_MODES), (SequencerState, _core.CTRL_SEQUENCER_STATES)):

@@ -163,11 +163,11 @@ def test_sweep_reports_failed_cases_and_fails_when_all_do(tmp_path: Path) -> Non
 
 
 @pytest.fixture(scope="module")
-def rough_road() -> tuple[closed_loop.ClosedLoop, closed_loop.ClosedLoop, dict[str, Any]]:
+def rough_road() -> tuple[closed_loop.ClosedLoop, closed_loop.ClosedLoop, closed_loop.DemoSummary]:
     return closed_loop.demo(road_class="E", speed_m_s=20.0, lower_m=0.05, seed=1)
 
 
-def test_a_rough_road_says_what_went_wrong(rough_road: tuple[closed_loop.ClosedLoop, closed_loop.ClosedLoop, dict[str, Any]]) -> None:
+def test_a_rough_road_says_what_went_wrong(rough_road: tuple[closed_loop.ClosedLoop, closed_loop.ClosedLoop, closed_loop.DemoSummary]) -> None:
     height, modes, summary = rough_road
     caveats = closed_loop.demo_caveats(height, modes, summary)
     found = {(c.code, c.details.get("run", c.details.get("change"))) for c in caveats}
@@ -183,7 +183,7 @@ def test_a_rough_road_says_what_went_wrong(rough_road: tuple[closed_loop.ClosedL
     assert height.case.unit.gas == "span"
     assert height.plant["p_gas_true_pa"].max() < checks.validated_range("span")[0][1]
     assert (Code.EOS_RANGE, "ride-height run") not in found
-    assert not summary["lowering"]["reached"]
+    assert not summary.lowering.reached
     title = _height_title(summary, 0.05, "class E")
     assert "NOT reached" in title and "and back" not in title
 
@@ -191,7 +191,7 @@ def test_a_rough_road_says_what_went_wrong(rough_road: tuple[closed_loop.ClosedL
 def test_the_calm_demo_is_clean_and_claims_its_lowering() -> None:
     height, modes, summary = closed_loop.demo(road_class="C", speed_m_s=10.0, lower_m=0.03, seed=1)
     assert closed_loop.demo_caveats(height, modes, summary) == []
-    assert summary["lowering"]["reached"] and summary["raising"]["reached"]
+    assert summary.lowering.reached and summary.raising.reached
     assert _height_title(summary, 0.03, "class C") == "Pump-free lowering by 30 mm and back (class C)"
 
 

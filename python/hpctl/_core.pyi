@@ -30,6 +30,7 @@ __all__ = [
     "DEFAULT_RTOL",
     "STANDARD_GRAVITY_M_S2",
     "PARAMETER_RANGES",
+    "EFFECT_PARAMETERS",
     "load_pressure_pa",
     "Plant",
     "__version__",
@@ -71,7 +72,13 @@ from hpctl._coretypes import (
     GasChargeDriveDict,
     CaseDict,
     Channels,
+    ClosedLoopCaseDict,
     ClosedLoopDict,
+    ControllerConfigDict,
+    ControllerInputsDict,
+    ControllerOutputsDict,
+    CtrlArrays,
+    EffectTableDict,
     GasPropsDict,
     OilNodeDict,
     RigDict,
@@ -79,6 +86,7 @@ from hpctl._coretypes import (
     SuspensionDict,
     UnitDict,
     ValidatedRangeDict,
+    VehicleCaseDict,
     VehicleDict,
     VehicleRunDict,
     VehicleStaticsDict,
@@ -91,6 +99,8 @@ DEFAULT_RTOL: float
 STANDARD_GRAVITY_M_S2: float
 #: Every unit parameter's valid range (hp_core::ranges), inclusive.
 PARAMETER_RANGES: dict[str, tuple[float, float]]
+#: Every effect's parameter table (hp_core::effect_params!), in Effects order.
+EFFECT_PARAMETERS: list[EffectTableDict]
 
 class HpctlError(ValueError): ...
 class ParameterError(HpctlError): ...
@@ -148,30 +158,30 @@ CTRL_SEQUENCER_STATES: list[str]
 CTRL_INPUT_FIELDS: list[str]
 CTRL_SCENARIO_FIELDS: list[str]
 
-def ctrl_seed_config() -> dict[str, Any]: ...
-def ctrl_config_for_unit(unit: UnitDict) -> dict[str, Any]: ...
+def ctrl_seed_config() -> ControllerConfigDict: ...
+def ctrl_config_for_unit(unit: UnitDict) -> ControllerConfigDict: ...
 def closed_loop(
     unit: UnitDict,
     rig: RigDict,
-    scenario: dict[str, NDArray[Any]],
+    scenario: CtrlArrays,
     dt_s: float,
     ambient_k: float,
-    config: dict[str, Any] | None = None,
+    config: ControllerConfigDict | None = None,
     max_dt_s: float = 1e-3,
     channels: Sequence[str] | None = None,
     record_every: int = 1,
     t_gas_sensor_tau_s: float = 1.0,
     progress: Callable[[int, int], object] | None = None,
 ) -> ClosedLoopDict: ...
-def closed_loop_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[ClosedLoopDict | HpctlError]: ...
+def closed_loop_many(cases: Sequence[ClosedLoopCaseDict], threads: int | None = None) -> list[ClosedLoopDict | HpctlError]: ...
 @final
 class Controller:
-    def __new__(cls, config: dict[str, Any] | None = None) -> Controller: ...
+    def __new__(cls, config: ControllerConfigDict | None = None) -> Controller: ...
     @property
-    def config(self) -> dict[str, Any]: ...
+    def config(self) -> ControllerConfigDict: ...
     def reset(self) -> None: ...
-    def step(self, inputs: dict[str, Any], dt_s: float) -> dict[str, Any]: ...
-    def step_many(self, inputs: dict[str, NDArray[Any]], dt_s: float | NDArray[np.float64]) -> dict[str, NDArray[Any]]: ...
+    def step(self, inputs: ControllerInputsDict, dt_s: float) -> ControllerOutputsDict: ...
+    def step_many(self, inputs: CtrlArrays, dt_s: float | NDArray[np.float64]) -> CtrlArrays: ...
 
 # The CAN codec and the ECU application (hp-ctrl::can): see hpctl.hil.pil and docs/can.md.
 class CanRejectError(HpctlError): ...
@@ -208,7 +218,7 @@ VEHICLE_CORNER_CHANNELS: list[str]
 VEHICLE_CONTROLLER_CHANNELS: list[str]
 
 def vehicle_presets() -> dict[str, VehicleDict]: ...
-def vehicle_controller_config(vehicle: VehicleDict) -> dict[str, Any]: ...
+def vehicle_controller_config(vehicle: VehicleDict) -> ControllerConfigDict: ...
 def vehicle_statics(vehicle: VehicleDict, ambient_k: float, spring_hard: bool = True, damper_on: bool = True) -> VehicleStaticsDict: ...
 def vehicle_run(
     vehicle: VehicleDict,
@@ -223,7 +233,7 @@ def vehicle_run(
     progress: Callable[[int, int], object] | None = None,
     reference_plant: bool = False,
 ) -> VehicleRunDict: ...
-def vehicle_run_many(cases: list[dict[str, Any]], threads: int | None = None) -> list[VehicleRunDict | HpctlError]: ...
+def vehicle_run_many(cases: Sequence[VehicleCaseDict], threads: int | None = None) -> list[VehicleRunDict | HpctlError]: ...
 @final
 class VehiclePlant:
     def __new__(

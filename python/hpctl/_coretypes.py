@@ -9,6 +9,16 @@ from typing import Any, Literal, NotRequired, TypedDict, Union
 import numpy as np
 from numpy.typing import NDArray
 
+# The effects' dict forms are generated with their classes from the core's
+# tables (scripts/gen_effect_params.py).
+from hpctl._effect_params import EffectsDict as EffectsDict
+from hpctl._effect_params import FrictionDict as FrictionDict
+from hpctl._effect_params import LeakageDict as LeakageDict
+from hpctl._effect_params import OilComplianceDict as OilComplianceDict
+from hpctl._effect_params import OilNodeDict as OilNodeDict
+from hpctl._effect_params import SensorDict as SensorDict
+from hpctl._effect_params import ValveLagDict as ValveLagDict
+
 
 class DamperCurveDict(TypedDict):
     bleed_pa_s_per_m3: float
@@ -23,45 +33,6 @@ class DamperDict(TypedDict):
     on_rebound: DamperCurveDict
     off_compression: DamperCurveDict
     off_rebound: DamperCurveDict
-
-
-class FrictionDict(TypedDict):
-    coulomb_n: float
-    viscous_n_s_per_m: float
-    smoothing_velocity_m_s: float
-    stribeck_ratio: float
-    stribeck_velocity_m_s: float
-
-
-class OilComplianceDict(TypedDict):
-    bulk_modulus_pa: float
-    oil_volume_m3: float
-
-
-class OilNodeDict(TypedDict):
-    heat_capacity_j_per_k: float
-    oil_to_ambient_tau_s: float
-    wall_to_oil_tau_s: float
-    wall_to_ambient_tau_s: float
-
-
-class TimeConstantDict(TypedDict):
-    time_constant_s: float
-
-
-class SensorDict(TypedDict):
-    force_offset_n: float
-    pressure_offset_pa: float
-    time_constant_s: float
-
-
-class EffectsDict(TypedDict, total=False):
-    friction: FrictionDict
-    oil_compliance: OilComplianceDict
-    oil_node: OilNodeDict
-    leakage: TimeConstantDict
-    valve_lag: TimeConstantDict
-    sensor: SensorDict
 
 
 class UnitDict(TypedDict):
@@ -176,6 +147,179 @@ class ClosedLoopDict(TypedDict):
     outputs: dict[str, NDArray[Any]]
 
 
+# --- the controller (hp-ctrl through hp-py ctrl.rs) ------------------------------
+# The keys are the field names of hp_ctrl's config structs (hp-py's `block!`
+# lists); tests/test_typing.py checks these TypedDicts against what the
+# extension returns, key for key.
+
+
+class CtrlUnitConfigDict(TypedDict):
+    """hp_ctrl::gas_table::UnitConfig."""
+
+    piston_area_m2: float
+    small_acc_volume_m3: float
+    large_acc_volume_m3: float
+    static_pressure_pa: float
+    static_temperature_k: float
+    stroke_compression_m: float
+    stroke_extension_m: float
+    gas: str
+
+
+class GroupTimeoutsDict(TypedDict):
+    """hp_ctrl::monitor::GroupTimeouts."""
+
+    pressures_s: float
+    strut_s: float
+    body_s: float
+    vehicle_s: float
+    steering_s: float
+    temperature_s: float
+    driver_s: float
+
+
+class MonitorConfigDict(TypedDict):
+    """hp_ctrl::monitor::MonitorConfig."""
+
+    pressure_min_pa: float
+    pressure_max_pa: float
+    temperature_min_k: float
+    temperature_max_k: float
+    disp_margin_m: float
+    body_acc_max_m_s2: float
+    vehicle_acc_max_m_s2: float
+    speed_min_m_s: float
+    speed_max_m_s: float
+    steer_angle_max_rad: float
+    steer_rate_max_rad_s: float
+    pressure_rate_max_pa_s: float
+    disp_rate_max_m_s: float
+    temperature_rate_max_k_s: float
+    recovery_s: float
+    dt_max_s: float
+    timeouts: GroupTimeoutsDict
+
+
+class EstimatorConfigDict(TypedDict):
+    """hp_ctrl::estimator::EstimatorConfig."""
+
+    strut_velocity_tau_s: float
+    body_velocity_tau_s: float
+    body_acc_bias_tau_s: float
+
+
+class ModeConfigDict(TypedDict):
+    """hp_ctrl::mode::ModeConfig."""
+
+    lat_acc_enter_m_s2: float
+    lat_acc_exit_m_s2: float
+    steering_ratio: float
+    wheelbase_m: float
+    steer_rate_enter_rad_s: float
+    steer_rate_exit_rad_s: float
+    steer_min_speed_m_s: float
+    long_acc_enter_m_s2: float
+    long_acc_exit_m_s2: float
+    brake_min_speed_m_s: float
+    speed_enter_m_s: float
+    speed_exit_m_s: float
+    handling_hold_s: float
+
+
+class DamperConfigDict(TypedDict):
+    """hp_ctrl::damper::DamperConfig."""
+
+    skyhook_deadband_m2_s2: float
+    valve5_min_interval_s: float
+
+
+class RideHeightConfigDict(TypedDict):
+    """hp_ctrl::ride_height::RideHeightConfig."""
+
+    request_max_m: float
+    request_deadband_m: float
+    tolerance_m: float
+    valve6_margin_pa: float
+    valve6_min_off_s: float
+    block_lat_acc_m_s2: float
+    block_long_acc_m_s2: float
+    resume_s: float
+    load_pressure_tau_s: float
+    load_settle_s: float
+
+
+class ControllerConfigDict(TypedDict):
+    """hp_ctrl::Config: the controller's whole configuration (every key
+    required: the extension rejects missing and unknown ones)."""
+
+    unit: CtrlUnitConfigDict
+    monitor: MonitorConfigDict
+    estimator: EstimatorConfigDict
+    mode: ModeConfigDict
+    damper: DamperConfigDict
+    ride_height: RideHeightConfigDict
+
+
+class ControllerInputsDict(TypedDict):
+    """hp_ctrl::Inputs, one period (``Controller.step``): enums and the
+    input-group mask as their numeric values."""
+
+    p_gas_pa: float
+    p_gas2_pa: float
+    t_gas_k: float
+    strut_disp_m: float
+    body_acc_m_s2: float
+    speed_m_s: float
+    lat_acc_m_s2: float
+    long_acc_m_s2: float
+    steer_angle_rad: float
+    steer_rate_rad_s: float
+    brake_pressed: bool
+    driver_mode: int
+    ride_height_request_m: float
+    fresh: int
+    link_fault: bool
+
+
+class ControllerOutputsDict(TypedDict):
+    """hp_ctrl::Outputs, one period: enums as their numeric values, ``diag``
+    the flag word (``CTRL_DIAG_FLAGS``)."""
+
+    valve5_open: bool
+    valve6_open: bool
+    drive_mode: int
+    spring_mode: int
+    damper_mode: int
+    sequencer: int
+    diag: int
+    ride_height_m: float
+    p_gas2_target_pa: float
+    p_load_pa: float
+    strut_vel_m_s: float
+    body_vel_m_s: float
+
+
+#: Field name (``CTRL_INPUT_FIELDS`` / ``CTRL_SCENARIO_FIELDS``) -> one value
+#: per period, in the dtype ``hpctl.control.controller.INPUT_DTYPES`` gives.
+CtrlArrays = dict[str, NDArray[Any]]
+
+
+class ClosedLoopCaseDict(TypedDict):
+    """One case of ``closed_loop_many``: the arguments of ``closed_loop``
+    (hp-py ``ctrl::closed_loop_many``; the optional ones as its defaults)."""
+
+    unit: UnitDict
+    rig: RigDict
+    scenario: CtrlArrays
+    dt_s: float
+    ambient_k: float
+    config: NotRequired[ControllerConfigDict | None]
+    max_dt_s: NotRequired[float]
+    channels: NotRequired[list[str] | None]
+    record_every: NotRequired[int]
+    t_gas_sensor_tau_s: NotRequired[float]
+
+
 # --- the gas-charge detector's drives (hp-py leak.rs) ---------------------------
 
 
@@ -268,7 +412,7 @@ class PassiveSuspensionDict(TypedDict):
 
 class SemiActiveSuspensionDict(TypedDict):
     kind: Literal["semi_active"]
-    config: dict[str, Any] | None
+    config: ControllerConfigDict | None
 
 
 SuspensionDict = Union[PassiveSuspensionDict, SemiActiveSuspensionDict]
@@ -291,3 +435,41 @@ class VehicleRunDict(TypedDict):
     vehicle: dict[str, NDArray[np.float64]]
     corners: dict[str, NDArray[np.float64]]
     controller: dict[str, NDArray[np.float64]]
+
+
+class VehicleCaseDict(TypedDict):
+    """One case of ``vehicle_run_many``: the arguments of ``vehicle_run``
+    (hp-py ``vehicle::vehicle_run_many``; the optional ones as its defaults)."""
+
+    vehicle: VehicleDict
+    road: RoadDict
+    drive: dict[str, NDArray[Any]]
+    suspension: SuspensionDict
+    dt_s: float
+    ambient_k: float
+    max_dt_s: NotRequired[float]
+    record_every: NotRequired[int]
+    t_gas_sensor_tau_s: NotRequired[float]
+
+
+# --- the effects' parameter tables (hp-core effect_params!) -----------------------
+
+
+class EffectFieldDict(TypedDict):
+    """One parameter of an effect: its field in the effect's struct and dict
+    form, doc, the parameter's name across hpctl, valid range, default."""
+
+    field: str
+    doc: str
+    parameter: str
+    range: tuple[float, float]
+    default: float | None
+
+
+class EffectTableDict(TypedDict):
+    """One effect's parameter table (``_core.EFFECT_PARAMETERS``)."""
+
+    key: str
+    name: str
+    doc: str
+    fields: list[EffectFieldDict]

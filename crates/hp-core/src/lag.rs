@@ -27,6 +27,12 @@
 //! assert!((state.output - exact).abs() < 1e-15);
 //! ```
 
+use crate::ranges::Range;
+
+/// The valid range of a transducer lag's time constant (the unit's sensor
+/// effect and the fit's filter of sampled outputs check the same one).
+pub const TIME_CONSTANT_S: Range = Range::new("sensor_time_constant_s", 0.0, 10.0);
+
 /// The lag's parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lag {

@@ -20,6 +20,7 @@
 
 pub mod adaptive;
 pub mod damper;
+pub mod effect;
 pub mod error;
 pub mod gas;
 pub mod lag;

@@ -1,9 +1,10 @@
-//! The valid range of every unit parameter, in one place.
+//! The valid range of every unit parameter but the effects' (each effect
+//! declares its parameters' ranges next to its struct, [`crate::effect`]).
 //!
 //! [`Unit::new`](crate::unit::Unit::new) checks each parameter against its
-//! [`Range`]; the bindings export [`ALL`] so that the Python side (record
-//! schema, effect registry, command line) reads the same names and limits
-//! instead of copying them.
+//! [`Range`]; the bindings export [`ALL`] and the effects' ranges so that the
+//! Python side (record schema, effect registry, command line) reads the same
+//! names and limits instead of copying them.
 
 use crate::error::{check_range, Result};
 use crate::gas::PRESSURE_RANGE_PA;
@@ -22,6 +23,11 @@ pub struct Range {
 }
 
 impl Range {
+    /// The range `[min, max]` of the parameter `name`.
+    pub const fn new(name: &'static str, min: f64, max: f64) -> Self {
+        Range { name, min, max }
+    }
+
     /// `value` if it lies in the range, else an error naming the
     /// parameter, the value and the range.
     ///
@@ -36,7 +42,7 @@ impl Range {
 }
 
 const fn r(name: &'static str, min: f64, max: f64) -> Range {
-    Range { name, min, max }
+    Range::new(name, min, max)
 }
 
 pub const PISTON_AREA_M2: Range = r("piston_area_m2", 1e-5, 1.0);
@@ -54,31 +60,16 @@ pub const END_STOP_DAMPING_N_S_PER_M: Range = r("end_stop_damping_n_s_per_m", 0.
 pub const RATED_SPEED_M_S: Range = r("rated_speed_m_s", 1e-3, 100.0);
 pub const TAU_S: Range = r("tau_s", 1e-6, MAX_FINITE_TAU_S);
 pub const POLYTROPIC_EXPONENT: Range = r("polytropic_exponent", 1.0, 2.0);
-pub const FRICTION_COULOMB_N: Range = r("friction_coulomb_n", 0.0, 1e6);
-pub const FRICTION_VISCOUS_N_S_PER_M: Range = r("friction_viscous_n_s_per_m", 0.0, 1e7);
-pub const FRICTION_SMOOTHING_VELOCITY_M_S: Range = r("friction_smoothing_velocity_m_s", 1e-6, 1.0);
-/// Static-to-kinetic friction ratio of the Stribeck term (1 = none).
-pub const FRICTION_STRIBECK_RATIO: Range = r("friction_stribeck_ratio", 1.0, 10.0);
-pub const FRICTION_STRIBECK_VELOCITY_M_S: Range = r("friction_stribeck_velocity_m_s", 1e-5, 1.0);
 /// Width of a damper curve's blow-off knee as a fraction of the blow-off
 /// flow (0 = the sharp knee).
 pub const DAMPER_BLOWOFF_KNEE: Range = r("blowoff_knee", 0.0, 2.0);
-pub const OIL_BULK_MODULUS_PA: Range = r("oil_bulk_modulus_pa", 1e6, 1e11);
-pub const OIL_VOLUME_M3: Range = r("oil_volume_m3", 1e-6, 1.0);
-pub const OIL_HEAT_CAPACITY_J_PER_K: Range = r("oil_heat_capacity_j_per_k", 1.0, 1e9);
-pub const OIL_TO_AMBIENT_TAU_S: Range = r("oil_to_ambient_tau_s", 1e-3, 1e9);
-pub const WALL_TO_OIL_TAU_S: Range = r("wall_to_oil_tau_s", 1e-3, 1e9);
-pub const WALL_TO_AMBIENT_TAU_S: Range = r("wall_to_ambient_tau_s", 1e-3, 1e9);
-pub const LEAK_TIME_CONSTANT_S: Range = r("leak_time_constant_s", 1.0, 1e12);
-pub const VALVE_TIME_CONSTANT_S: Range = r("valve_time_constant_s", 1e-5, 10.0);
-pub const SENSOR_FORCE_OFFSET_N: Range = r("sensor_force_offset_n", -1e6, 1e6);
-pub const SENSOR_PRESSURE_OFFSET_PA: Range = r("sensor_pressure_offset_pa", -1e8, 1e8);
-pub const SENSOR_TIME_CONSTANT_S: Range = r("sensor_time_constant_s", 0.0, 10.0);
 /// The SDOF rig's sprung mass.
 pub const SPRUNG_MASS_KG: Range = r("sprung_mass_kg", 1.0, 1e6);
 
-/// Every range above, for the bindings.
-pub const ALL: [Range; 33] = [
+/// Every range above, for the bindings. The effects' parameters have
+/// theirs in their own tables ([`crate::effect`], declared in
+/// [`crate::unit`]); [`crate::unit::Effects::visit`] lists them.
+pub const ALL: [Range; 17] = [
     PISTON_AREA_M2,
     SMALL_ACC_VOLUME_M3,
     LARGE_ACC_VOLUME_M3,
@@ -94,23 +85,7 @@ pub const ALL: [Range; 33] = [
     RATED_SPEED_M_S,
     TAU_S,
     POLYTROPIC_EXPONENT,
-    FRICTION_COULOMB_N,
-    FRICTION_VISCOUS_N_S_PER_M,
-    FRICTION_SMOOTHING_VELOCITY_M_S,
-    FRICTION_STRIBECK_RATIO,
-    FRICTION_STRIBECK_VELOCITY_M_S,
     DAMPER_BLOWOFF_KNEE,
-    OIL_BULK_MODULUS_PA,
-    OIL_VOLUME_M3,
-    OIL_HEAT_CAPACITY_J_PER_K,
-    OIL_TO_AMBIENT_TAU_S,
-    WALL_TO_OIL_TAU_S,
-    WALL_TO_AMBIENT_TAU_S,
-    LEAK_TIME_CONSTANT_S,
-    VALVE_TIME_CONSTANT_S,
-    SENSOR_FORCE_OFFSET_N,
-    SENSOR_PRESSURE_OFFSET_PA,
-    SENSOR_TIME_CONSTANT_S,
     SPRUNG_MASS_KG,
 ];
 

@@ -17,29 +17,32 @@
 //! remove; with all of them off the unit is the seed's model.
 
 use crate::damper::{Damper, Orifice};
+use crate::effect::{EffectParams, EffectVisitor};
+use crate::effect_params;
 use crate::error::{check_range, Error, Result};
 use crate::gas::{EquationOfState, Gas, GasProps, DENSITY_RANGE_KG_M3, TEMPERATURE_RANGE_K};
 use crate::lag::{self, Lag, LagState};
-use crate::ranges;
+use crate::ranges::{self, Range};
 use crate::thermal::{gas_temperature_k, temperature_rate_k_s, temperature_rate_per_volume_rate, HeatTransfer};
 
 /// Standard gravity, m/s^2.
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.80665;
 
-/// Seal friction between strut piston and cylinder.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Friction {
-    /// Coulomb (dry) friction force, N.
-    pub coulomb_n: f64,
-    /// Viscous friction coefficient, N s/m.
-    pub viscous_n_s_per_m: f64,
-    /// Velocity over which the Coulomb force builds up (tanh), m/s: the
-    /// seal's pre-sliding compliance, and what keeps the model smooth.
-    pub smoothing_velocity_m_s: f64,
-    /// Static over kinetic friction, `F_s / F_c` (1 = no Stribeck peak).
-    pub stribeck_ratio: f64,
-    /// Velocity over which the static excess decays, `exp(-(v/v_s)^2)`, m/s.
-    pub stribeck_velocity_m_s: f64,
+effect_params! {
+    /// Seal friction between strut piston and cylinder.
+    Friction = "friction" {
+        /// Coulomb (dry) friction force, N.
+        coulomb_n: [Range::new("friction_coulomb_n", 0.0, 1e6)],
+        /// Viscous friction coefficient, N s/m.
+        viscous_n_s_per_m: [Range::new("friction_viscous_n_s_per_m", 0.0, 1e7), default 0.0],
+        /// Velocity over which the Coulomb force builds up (tanh), m/s: the
+        /// seal's pre-sliding compliance, and what keeps the model smooth.
+        smoothing_velocity_m_s: [Range::new("friction_smoothing_velocity_m_s", 1e-6, 1.0), default 1e-3],
+        /// Static over kinetic friction, `F_s / F_c` (1 = no Stribeck peak).
+        stribeck_ratio: [Range::new("friction_stribeck_ratio", 1.0, 10.0), default 1.0],
+        /// Velocity over which the static excess decays, `exp(-(v/v_s)^2)`, m/s.
+        stribeck_velocity_m_s: [Range::new("friction_stribeck_velocity_m_s", 1e-5, 1.0), default 0.01],
+    }
 }
 
 impl Friction {
@@ -71,55 +74,65 @@ impl Friction {
     }
 }
 
-/// Oil compressibility and hose compliance between strut and damper.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct OilCompliance {
-    /// Effective bulk modulus of oil plus hoses, Pa.
-    pub bulk_modulus_pa: f64,
-    /// Oil volume on the strut side of the damper, m^3.
-    pub oil_volume_m3: f64,
+effect_params! {
+    /// Oil compressibility and hose compliance between strut and damper.
+    OilCompliance = "oil_compliance" {
+        /// Effective bulk modulus of oil plus hoses, Pa.
+        bulk_modulus_pa: [Range::new("oil_bulk_modulus_pa", 1e6, 1e11)],
+        /// Oil volume on the strut side of the damper, m^3.
+        oil_volume_m3: [Range::new("oil_volume_m3", 1e-6, 1.0)],
+    }
 }
 
-/// Lumped thermal nodes for damper heat build-up: the damper heats the oil,
-/// the oil warms the gas accumulators' wall slowly, both lose heat to ambient.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct OilNode {
-    /// Heat capacity of the oil and the steel around it, J/K.
-    pub heat_capacity_j_per_k: f64,
-    /// Oil-to-ambient time constant, s.
-    pub oil_to_ambient_tau_s: f64,
-    /// Time constant of the gas wall following the oil, s.
-    pub wall_to_oil_tau_s: f64,
-    /// Time constant of the gas wall following ambient, s.
-    pub wall_to_ambient_tau_s: f64,
+effect_params! {
+    /// Lumped thermal nodes for damper heat build-up: the damper heats the oil,
+    /// the oil warms the gas accumulators' wall slowly, both lose heat to ambient.
+    OilNode = "oil_node" {
+        /// Heat capacity of the oil and the steel around it, J/K.
+        heat_capacity_j_per_k: [Range::new("oil_heat_capacity_j_per_k", 1.0, 1e9)],
+        /// Oil-to-ambient time constant, s.
+        oil_to_ambient_tau_s: [Range::new("oil_to_ambient_tau_s", 1e-3, 1e9)],
+        /// Time constant of the gas wall following the oil, s.
+        wall_to_oil_tau_s: [Range::new("wall_to_oil_tau_s", 1e-3, 1e9)],
+        /// Time constant of the gas wall following ambient, s.
+        wall_to_ambient_tau_s: [Range::new("wall_to_ambient_tau_s", 1e-3, 1e9)],
+    }
 }
 
-/// Slow loss of gas from both accumulators (past the floating piston seals).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Leakage {
-    /// Time constant of the gas mass decay, s.
-    pub time_constant_s: f64,
+effect_params! {
+    /// Slow loss of gas from both accumulators (past the floating piston seals).
+    Leakage = "leakage" {
+        /// Time constant of the gas mass decay, s.
+        time_constant_s: [Range::new("leak_time_constant_s", 1.0, 1e12)],
+    }
 }
 
-/// The solenoid valves follow their command with a first-order lag.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ValveLag {
-    /// Valve response time constant, s.
-    pub time_constant_s: f64,
+effect_params! {
+    /// The solenoid valves follow their command with a first-order lag.
+    ValveLag = "valve_lag" {
+        /// Valve response time constant, s.
+        time_constant_s: [Range::new("valve_time_constant_s", 1e-5, 10.0)],
+    }
 }
 
-/// Imperfect transducers on the measured force and pressures.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sensor {
-    /// Offset added to the measured strut force, N.
-    pub force_offset_n: f64,
-    /// Offset added to both measured gas pressures, Pa.
-    pub pressure_offset_pa: f64,
-    /// First-order lag of all measured channels ([`crate::lag`]), s (0 = none).
-    pub time_constant_s: f64,
+effect_params! {
+    /// Imperfect transducers on the measured force and pressures.
+    Sensor = "sensor" {
+        /// Offset added to the measured strut force, N.
+        force_offset_n: [Range::new("sensor_force_offset_n", -1e6, 1e6), default 0.0],
+        /// Offset added to both measured gas pressures, Pa.
+        pressure_offset_pa: [Range::new("sensor_pressure_offset_pa", -1e8, 1e8), default 0.0],
+        /// First-order lag of all measured channels ([`crate::lag`]), s (0 = none).
+        time_constant_s: [lag::TIME_CONSTANT_S, default 0.0],
+    }
 }
 
 /// The switchable model terms. `None` = the effect is absent.
+///
+/// Adding an effect: its parameter struct with [`effect_params!`] above (the
+/// fields, their ranges and defaults), a field here and a line in
+/// [`Effects::visit`], its term in the unit's equations; the bindings and
+/// the Python parameter classes follow from the table (docs/architecture.md).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Effects {
     pub friction: Option<Friction>,
@@ -128,6 +141,34 @@ pub struct Effects {
     pub leakage: Option<Leakage>,
     pub valve_lag: Option<ValveLag>,
     pub sensor: Option<Sensor>,
+}
+
+impl Effects {
+    /// Calls `v` on every effect slot, in declaration order: the one list of
+    /// the effects that checking, the bindings' conversions and the
+    /// exported parameter tables walk.
+    pub fn visit<V: EffectVisitor>(&mut self, v: &mut V) -> core::result::Result<(), V::Error> {
+        v.visit(&mut self.friction)?;
+        v.visit(&mut self.oil_compliance)?;
+        v.visit(&mut self.oil_node)?;
+        v.visit(&mut self.leakage)?;
+        v.visit(&mut self.valve_lag)?;
+        v.visit(&mut self.sensor)?;
+        Ok(())
+    }
+
+    /// Every present effect's parameters in their ranges.
+    pub fn validate(&self) -> Result<()> {
+        struct Check;
+        impl EffectVisitor for Check {
+            type Error = Error;
+            fn visit<T: EffectParams>(&mut self, slot: &mut Option<T>) -> Result<()> {
+                slot.as_ref().map_or(Ok(()), EffectParams::validate)
+            }
+        }
+        let mut copy = *self;
+        copy.visit(&mut Check)
+    }
 }
 
 /// Everything that defines a unit, in SI units.
@@ -406,35 +447,7 @@ impl Unit {
         }
         p.valve6.validate()?;
         p.damper.validate()?;
-        let e = &p.effects;
-        if let Some(f) = e.friction {
-            ranges::FRICTION_COULOMB_N.check(f.coulomb_n)?;
-            ranges::FRICTION_VISCOUS_N_S_PER_M.check(f.viscous_n_s_per_m)?;
-            ranges::FRICTION_SMOOTHING_VELOCITY_M_S.check(f.smoothing_velocity_m_s)?;
-            ranges::FRICTION_STRIBECK_RATIO.check(f.stribeck_ratio)?;
-            ranges::FRICTION_STRIBECK_VELOCITY_M_S.check(f.stribeck_velocity_m_s)?;
-        }
-        if let Some(c) = e.oil_compliance {
-            ranges::OIL_BULK_MODULUS_PA.check(c.bulk_modulus_pa)?;
-            ranges::OIL_VOLUME_M3.check(c.oil_volume_m3)?;
-        }
-        if let Some(n) = e.oil_node {
-            ranges::OIL_HEAT_CAPACITY_J_PER_K.check(n.heat_capacity_j_per_k)?;
-            ranges::OIL_TO_AMBIENT_TAU_S.check(n.oil_to_ambient_tau_s)?;
-            ranges::WALL_TO_OIL_TAU_S.check(n.wall_to_oil_tau_s)?;
-            ranges::WALL_TO_AMBIENT_TAU_S.check(n.wall_to_ambient_tau_s)?;
-        }
-        if let Some(l) = e.leakage {
-            ranges::LEAK_TIME_CONSTANT_S.check(l.time_constant_s)?;
-        }
-        if let Some(v) = e.valve_lag {
-            ranges::VALVE_TIME_CONSTANT_S.check(v.time_constant_s)?;
-        }
-        if let Some(s) = e.sensor {
-            ranges::SENSOR_FORCE_OFFSET_N.check(s.force_offset_n)?;
-            ranges::SENSOR_PRESSURE_OFFSET_PA.check(s.pressure_offset_pa)?;
-            ranges::SENSOR_TIME_CONSTANT_S.check(s.time_constant_s)?;
-        }
+        p.effects.validate()?;
         let rho = p.gas.density_kg_m3(p.static_pressure_pa, p.static_temperature_k)?;
         Ok(Unit {
             params,

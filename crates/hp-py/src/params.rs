@@ -6,9 +6,10 @@ use hp_core::damper::{Damper, DamperCurve, Orifice};
 use hp_core::gas::Gas;
 use hp_core::motion::Motion;
 use hp_core::thermal::HeatTransfer;
-use hp_core::unit::{Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, UnitParams, ValveLag};
+use hp_core::effect::{EffectParams, EffectVisitor};
+use hp_core::unit::{Effects, UnitParams};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList};
 use std::collections::BTreeSet;
 
 /// Reads keys from a dict and remembers which were read, so that unknown
@@ -164,50 +165,66 @@ pub fn unit(obj: &Bound<'_, PyAny>) -> PyResult<UnitParams> {
     Ok(params)
 }
 
+/// Reads each effect's block, field by field, from the effect's own table
+/// (hp_core::effect): no per-effect code here.
+struct ReadEffects<'a, 'py> {
+    dict: &'a mut Reader<'py>,
+}
+
+impl EffectVisitor for ReadEffects<'_, '_> {
+    type Error = PyErr;
+    fn visit<T: EffectParams>(&mut self, slot: &mut Option<T>) -> PyResult<()> {
+        if let Some(mut block) = self.dict.sub_opt(T::KEY)? {
+            let mut value = T::ZERO;
+            for f in T::FIELDS {
+                (f.set)(&mut value, block.f64(f.field)?);
+            }
+            block.finish()?;
+            *slot = Some(value);
+        }
+        Ok(())
+    }
+}
+
 fn effects(mut e: Reader<'_>) -> PyResult<Effects> {
     let mut out = Effects::default();
-    if let Some(mut f) = e.sub_opt("friction")? {
-        out.friction = Some(Friction {
-            coulomb_n: f.f64("coulomb_n")?,
-            viscous_n_s_per_m: f.f64("viscous_n_s_per_m")?,
-            smoothing_velocity_m_s: f.f64("smoothing_velocity_m_s")?,
-            stribeck_ratio: f.f64("stribeck_ratio")?,
-            stribeck_velocity_m_s: f.f64("stribeck_velocity_m_s")?,
-        });
-        f.finish()?;
-    }
-    if let Some(mut c) = e.sub_opt("oil_compliance")? {
-        out.oil_compliance =
-            Some(OilCompliance { bulk_modulus_pa: c.f64("bulk_modulus_pa")?, oil_volume_m3: c.f64("oil_volume_m3")? });
-        c.finish()?;
-    }
-    if let Some(mut n) = e.sub_opt("oil_node")? {
-        out.oil_node = Some(OilNode {
-            heat_capacity_j_per_k: n.f64("heat_capacity_j_per_k")?,
-            oil_to_ambient_tau_s: n.f64("oil_to_ambient_tau_s")?,
-            wall_to_oil_tau_s: n.f64("wall_to_oil_tau_s")?,
-            wall_to_ambient_tau_s: n.f64("wall_to_ambient_tau_s")?,
-        });
-        n.finish()?;
-    }
-    if let Some(mut l) = e.sub_opt("leakage")? {
-        out.leakage = Some(Leakage { time_constant_s: l.f64("time_constant_s")? });
-        l.finish()?;
-    }
-    if let Some(mut v) = e.sub_opt("valve_lag")? {
-        out.valve_lag = Some(ValveLag { time_constant_s: v.f64("time_constant_s")? });
-        v.finish()?;
-    }
-    if let Some(mut s) = e.sub_opt("sensor")? {
-        out.sensor = Some(Sensor {
-            force_offset_n: s.f64("force_offset_n")?,
-            pressure_offset_pa: s.f64("pressure_offset_pa")?,
-            time_constant_s: s.f64("time_constant_s")?,
-        });
-        s.finish()?;
-    }
+    out.visit(&mut ReadEffects { dict: &mut e })?;
     e.finish()?;
     Ok(out)
+}
+
+/// Every effect's parameter table, for Python (`_core.EFFECT_PARAMETERS`):
+/// per effect its key, struct name and doc, per field its name, doc,
+/// parameter name, valid range and default (None: required).
+pub fn effect_tables<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+    struct Export<'py> {
+        py: Python<'py>,
+        list: Bound<'py, PyList>,
+    }
+    impl EffectVisitor for Export<'_> {
+        type Error = PyErr;
+        fn visit<T: EffectParams>(&mut self, _slot: &mut Option<T>) -> PyResult<()> {
+            let fields = PyList::empty(self.py);
+            for f in T::FIELDS {
+                let d = PyDict::new(self.py);
+                d.set_item("field", f.field)?;
+                d.set_item("doc", f.doc.trim())?;
+                d.set_item("parameter", f.range.name)?;
+                d.set_item("range", (f.range.min, f.range.max))?;
+                d.set_item("default", f.default)?;
+                fields.append(d)?;
+            }
+            let d = PyDict::new(self.py);
+            d.set_item("key", T::KEY)?;
+            d.set_item("name", T::NAME)?;
+            d.set_item("doc", T::DOC.trim())?;
+            d.set_item("fields", fields)?;
+            self.list.append(d)
+        }
+    }
+    let mut export = Export { py, list: PyList::empty(py) };
+    Effects::default().visit(&mut export)?;
+    Ok(export.list)
 }
 
 /// A motion description, owning its samples (so it can cross threads).

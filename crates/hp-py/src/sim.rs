@@ -347,7 +347,7 @@ pub fn sensor_lag<'py>(
         if times.len() != x.len() {
             return Err(parameter(format!("values has {} samples; expected one per time in times_s ({})", x.len(), times.len())));
         }
-        let lag = Lag { time_constant_s: hp_core::ranges::SENSOR_TIME_CONSTANT_S.check(time_constant_s).map_err(to_py)? };
+        let lag = Lag { time_constant_s: hp_core::lag::TIME_CONSTANT_S.check(time_constant_s).map_err(to_py)? };
         for (i, w) in times.windows(2).enumerate() {
             if let [t0, t1] = *w {
                 if t1 <= t0 || !t1.is_finite() || !t0.is_finite() {
@@ -513,6 +513,15 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     for r in hp_core::ranges::ALL {
         ranges.set_item(r.name, (r.min, r.max))?;
     }
+    // The effects' parameters: their ranges live in their own tables.
+    let effects = params::effect_tables(m.py())?;
+    for table in effects.iter() {
+        for field in table.get_item("fields")?.try_iter()? {
+            let field = field?;
+            ranges.set_item(field.get_item("parameter")?, field.get_item("range")?)?;
+        }
+    }
     m.add("PARAMETER_RANGES", ranges)?;
+    m.add("EFFECT_PARAMETERS", effects)?;
     Ok(())
 }

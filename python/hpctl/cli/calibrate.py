@@ -75,13 +75,13 @@ def _fit_caveats(result: FitResult) -> list[Caveat]:
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}", {"message": result.message}))
     analysis = diagnose.analyse(result)
     if analysis.structured:
-        worst = [r for r in analysis.rows if r["structured"]]
-        where = ", ".join(f"{r['record']}/{r['channel']}" for r in worst[:6]) + (" ..." if len(worst) > 6 else "")
+        worst = [r for r in analysis.rows if r.structured]
+        where = ", ".join(f"{r.record}/{r.channel}" for r in worst[:6]) + (" ..." if len(worst) > 6 else "")
         out.append(Caveat(
             Code.RESIDUAL_STRUCTURED,
             f"the residual is more than noise (RMS / noise {result.rms_ratio:.3g}; structured in {where or 'the pooled residual'}): "
             "the model misses something (hpctl diagnose looks for what)",
-            {"rms_ratio": result.rms_ratio, "structured": [f"{r['record']}/{r['channel']}" for r in worst]},
+            {"rms_ratio": result.rms_ratio, "structured": [f"{r.record}/{r.channel}" for r in worst]},
         ))
     return out
 

@@ -20,7 +20,7 @@ true static load.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any, Union
 
 import numpy as np
@@ -28,10 +28,10 @@ from numpy.typing import NDArray
 from scipy.signal import lfilter
 
 from hpctl import _core
-from hpctl._coretypes import ClosedLoopDict
+from hpctl._coretypes import ClosedLoopCaseDict, ClosedLoopDict
 from hpctl.caveats import Caveat, Code
 from hpctl.control import road
-from hpctl.control.controller import Diag, DriveMode, DriverMode, SequencerState
+from hpctl.control.controller import ControllerConfig, Diag, DriveMode, DriverMode, SequencerState
 from hpctl.errors import ParameterError, bad_argument, check_int, check_number
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim import checks
@@ -152,18 +152,18 @@ class Case:
     seed: int = 0
     unit: Unit = field(default_factory=Unit.seed)
     sprung_mass_kg: float = SEED_SPRUNG_MASS_KG
-    config: Mapping[str, Any] | None = None
+    config: ControllerConfig | None = None
     dt_s: float = 1e-3
     ambient_k: float | None = None
     record_every: int = 1
     t_gas_sensor_tau_s: float = 1.0
 
-    def controller_config(self) -> dict[str, Any]:
+    def controller_config(self) -> ControllerConfig:
         """The controller configuration the run uses: ``config`` if given,
         else the one derived from the unit."""
-        return dict(self.config) if self.config is not None else config_for_unit(self.unit)
+        return self.config if self.config is not None else config_for_unit(self.unit)
 
-    def core_args(self) -> dict[str, Any]:
+    def core_args(self) -> ClosedLoopCaseDict:
         """The arguments of ``_core.closed_loop``."""
         if not isinstance(self.scenario, Scenario):
             raise bad_argument("scenario", self.scenario, "an hpctl.control.closed_loop.Scenario")
@@ -232,12 +232,11 @@ class ClosedLoop:
         return np.asarray((self.plant["v_gas2_m3"] - rest_m3) / u.piston_area_m2, dtype=np.float64)
 
 
-def config_for_unit(unit: Unit) -> dict[str, Any]:
+def config_for_unit(unit: Unit) -> ControllerConfig:
     """The controller configuration for ``unit``: the unit block derived
     from the unit (in the controller crate, ``UnitConfig::from_unit``), the
     default calibration for the rest. The seed unit gives the seed config."""
-    config: dict[str, Any] = _core.ctrl_config_for_unit(unit.to_dict())
-    return config
+    return _core.ctrl_config_for_unit(unit.to_dict())
 
 
 def _result(case: Case, d: ClosedLoopDict) -> ClosedLoop:
@@ -265,7 +264,74 @@ def _rising_edges(x: NDArray[np.bool_]) -> NDArray[np.bool_]:
     return np.concatenate([[bool(x[0])], x[1:] & ~x[:-1]]) if x.size else x
 
 
-def height_change_summary(r: ClosedLoop, start_s: float, end_s: float, *, window_s: float = 5.0) -> dict[str, Any]:
+@dataclass(frozen=True, kw_only=True)
+class HeightChange:
+    """How one ride-height request went (:func:`height_change_summary`),
+    SI units; ``to_dict`` is its form in ``summary.json``."""
+
+    start_s: float
+    end_s: float
+    request_m: float
+    target_m: float
+    held_offset_m: float
+    error_m: float
+    estimate_m: float
+    time_to_reach_s: float | None
+    released_to_soft_s: float | None
+    valve6_openings: int
+    blocked_s: float
+    tolerance_m: float
+    reached: bool
+    road_mean_change_m: float
+    p_gas_pa: float
+    p_gas2_pa: float
+    p_gas2_target_pa: float
+    p_load_estimate_pa: float
+    p_load_true_pa: float
+    sequencer_end: str
+    strut_disp_min_m: float
+    strut_disp_max_m: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields in declaration order (the keys of ``summary.json``)."""
+        return asdict(self)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModeSwitches:
+    """Mode switches over a run (:func:`mode_summary`), times in s."""
+
+    first_ride_s: float | None
+    handling_entered_s: list[float]
+    ride_returned_s: list[float]
+    triggers: list[str]
+    shortest_handling_s: float | None
+    safe_state_after_first_ride: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields in declaration order (the keys of ``summary.json``)."""
+        return asdict(self)
+
+
+@dataclass(frozen=True, kw_only=True)
+class DemoSummary:
+    """What :func:`demo` reports: the road, the two height changes and the
+    mode switches."""
+
+    road_class: str
+    speed_m_s: float
+    seed: int
+    lowering: HeightChange
+    raising: HeightChange
+    modes: ModeSwitches
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as ``hpctl closed-loop`` writes it to ``summary.json``
+        (before the command adds its plots, configuration and warnings)."""
+        return asdict(self)
+
+
+def height_change_summary(r: ClosedLoop, start_s: float, end_s: float, *, window_s: float = 5.0) -> HeightChange:
     """How a ride-height request made at ``start_s`` went, up to ``end_s``.
 
     - ``held_offset_m``: the plant's held offset (see
@@ -319,33 +385,33 @@ def height_change_summary(r: ClosedLoop, start_s: float, end_s: float, *, window
     blocked_s = float(np.count_nonzero(seq == SequencerState.BLOCKED) * dt)
     held = float(r.held_offset_m()[k_eval])
     disp = r.plant["disp_m"]
-    return {
-        "start_s": start_s,
-        "end_s": end_s,
-        "request_m": request,
-        "target_m": target,
-        "held_offset_m": held,
-        "error_m": held - target,
-        "estimate_m": float(o["ride_height_m"][k_eval]),
-        "time_to_reach_s": reached_s,
-        "released_to_soft_s": released_s,
-        "valve6_openings": openings,
-        "blocked_s": blocked_s,
-        "tolerance_m": float(cfg["tolerance_m"]),
-        "reached": reached_s is not None and abs(held - target) <= float(cfg["tolerance_m"]),
-        "road_mean_change_m": -float(disp[last].mean() - disp[before].mean()),
-        "p_gas_pa": float(r.plant["p_gas_pa"][k_eval]),
-        "p_gas2_pa": float(r.plant["p_gas2_pa"][k_eval]),
-        "p_gas2_target_pa": float(o["p_gas2_target_pa"][k_eval]),
-        "p_load_estimate_pa": float(o["p_load_pa"][k_eval]),
-        "p_load_true_pa": r.static_load_pressure_pa,
-        "sequencer_end": SequencerState(int(o["sequencer"][k_end])).name.lower(),
-        "strut_disp_min_m": float(disp.min()),
-        "strut_disp_max_m": float(disp.max()),
-    }
+    return HeightChange(
+        start_s=start_s,
+        end_s=end_s,
+        request_m=request,
+        target_m=target,
+        held_offset_m=held,
+        error_m=held - target,
+        estimate_m=float(o["ride_height_m"][k_eval]),
+        time_to_reach_s=reached_s,
+        released_to_soft_s=released_s,
+        valve6_openings=openings,
+        blocked_s=blocked_s,
+        tolerance_m=float(cfg["tolerance_m"]),
+        reached=reached_s is not None and abs(held - target) <= float(cfg["tolerance_m"]),
+        road_mean_change_m=-float(disp[last].mean() - disp[before].mean()),
+        p_gas_pa=float(r.plant["p_gas_pa"][k_eval]),
+        p_gas2_pa=float(r.plant["p_gas2_pa"][k_eval]),
+        p_gas2_target_pa=float(o["p_gas2_target_pa"][k_eval]),
+        p_load_estimate_pa=float(o["p_load_pa"][k_eval]),
+        p_load_true_pa=r.static_load_pressure_pa,
+        sequencer_end=SequencerState(int(o["sequencer"][k_end])).name.lower(),
+        strut_disp_min_m=float(disp.min()),
+        strut_disp_max_m=float(disp.max()),
+    )
 
 
-def mode_summary(r: ClosedLoop) -> dict[str, Any]:
+def mode_summary(r: ClosedLoop) -> ModeSwitches:
     """Mode switches over the run after the power-on Handling (the safe
     state and its hold): when Handling was entered and Ride returned, the
     triggers that fired, and the shortest stay in Handling."""
@@ -365,40 +431,40 @@ def mode_summary(r: ClosedLoop) -> dict[str, Any]:
         later = [x for x in exits if x > e]
         if later:
             spans.append(later[0] - e)
-    return {
-        "first_ride_s": float(t[first_ride]) if ride.size else None,
-        "handling_entered_s": entries,
-        "ride_returned_s": exits,
-        "triggers": triggers,
-        "shortest_handling_s": min(spans) if spans else None,
-        "safe_state_after_first_ride": bool(np.any(after & Diag.SAFE_STATE)),
-    }
+    return ModeSwitches(
+        first_ride_s=float(t[first_ride]) if ride.size else None,
+        handling_entered_s=entries,
+        ride_returned_s=exits,
+        triggers=triggers,
+        shortest_handling_s=min(spans) if spans else None,
+        safe_state_after_first_ride=bool(np.any(after & Diag.SAFE_STATE)),
+    )
 
 
-def height_change_caveats(s: Mapping[str, Any], what: str) -> list[Caveat]:
+def height_change_caveats(s: HeightChange, what: str) -> list[Caveat]:
     """What a height change summary (:func:`height_change_summary`) cannot
     claim: a request not reached (never settled, or held further from the
     target than the controller's tolerance) and a blocked sequencer."""
     out = []
-    duration = float(s["end_s"]) - float(s["start_s"])
+    duration = float(s.end_s) - float(s.start_s)
     # A short pause on a bump is the sequencer working; a pause that lost
     # the request or took most of the time is worth saying.
-    if s["blocked_s"] > 0 and (not s["reached"] or s["blocked_s"] >= 0.5 * duration):
-        share = s["blocked_s"] / duration
+    if s.blocked_s > 0 and (not s.reached or s.blocked_s >= 0.5 * duration):
+        share = s.blocked_s / duration
         out.append(Caveat(
             Code.SEQUENCER_BLOCKED,
             f"{what}: the ride-height sequencer was blocked (paused by driving dynamics, the load estimate settling or the "
-            f"safe state) for {s['blocked_s']:.1f} s of {duration:.1f} s ({100 * share:.0f} %)",
-            {"change": what, "blocked_s": s["blocked_s"], "duration_s": duration, "sequencer_end": s["sequencer_end"]},
+            f"safe state) for {s.blocked_s:.1f} s of {duration:.1f} s ({100 * share:.0f} %)",
+            {"change": what, "blocked_s": s.blocked_s, "duration_s": duration, "sequencer_end": s.sequencer_end},
         ))
-    if not s["reached"]:
-        why = "the sequencer never settled" if s["time_to_reach_s"] is None else f"held {1e3 * s['held_offset_m']:.1f} mm"
+    if not s.reached:
+        why = "the sequencer never settled" if s.time_to_reach_s is None else f"held {1e3 * s.held_offset_m:.1f} mm"
         out.append(Caveat(
             Code.TARGET_MISSED,
-            f"{what}: the request of {1e3 * s['target_m']:.1f} mm was not reached ({why}; error {1e3 * s['error_m']:+.1f} mm, "
-            f"tolerance {1e3 * s['tolerance_m']:.1f} mm)",
-            {"change": what, "target_m": s["target_m"], "held_offset_m": s["held_offset_m"], "error_m": s["error_m"],
-             "tolerance_m": s["tolerance_m"], "time_to_reach_s": s["time_to_reach_s"]},
+            f"{what}: the request of {1e3 * s.target_m:.1f} mm was not reached ({why}; error {1e3 * s.error_m:+.1f} mm, "
+            f"tolerance {1e3 * s.tolerance_m:.1f} mm)",
+            {"change": what, "target_m": s.target_m, "held_offset_m": s.held_offset_m, "error_m": s.error_m,
+             "tolerance_m": s.tolerance_m, "time_to_reach_s": s.time_to_reach_s},
         ))
     return out
 
@@ -429,8 +495,8 @@ def run_caveats(r: ClosedLoop, name: str) -> list[Caveat]:
         ))
     if r.case.config is not None:
         derived = config_for_unit(r.case.unit)["unit"]
-        given = dict(r.case.config)["unit"]
-        differ = sorted(k for k in derived if given.get(k) != derived[k])
+        given = r.case.config["unit"]
+        differ = sorted(k for k, v in derived.items() if given.get(k) != v)
         if differ:
             out.append(Caveat(
                 Code.CONFIG_NOT_DERIVED,
@@ -448,7 +514,7 @@ DEMO_MANOEUVRE_END_S = 28.0
 
 
 def demo_cases(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None,
-               config: Mapping[str, Any] | None = None) -> tuple[Case, Case]:
+               config: ControllerConfig | None = None) -> tuple[Case, Case]:
     """The two demonstration runs: (a) lowering by ``lower_m`` and back on
     the random road, (b) a lane change and a braking burst. The controller
     runs ``config`` (None: derived from the unit)."""
@@ -458,8 +524,8 @@ def demo_cases(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, 
     return Case(height, road_class, seed, u, config=config), Case(modes, road_class, seed + 1, u, config=config)
 
 
-def demo(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None, config: Mapping[str, Any] | None = None,
-         threads: int | None = None) -> tuple[ClosedLoop, ClosedLoop, dict[str, Any]]:
+def demo(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: Unit | None = None, config: ControllerConfig | None = None,
+         threads: int | None = None) -> tuple[ClosedLoop, ClosedLoop, DemoSummary]:
     """Runs the demonstration; returns the height-change run, the mode run
     and the summary (:mod:`hpctl.report.closed_loop` plots the runs)."""
     if not (np.isfinite(lower_m) and 0 < lower_m <= 0.1):
@@ -472,19 +538,19 @@ def demo(*, road_class: str, speed_m_s: float, lower_m: float, seed: int, unit: 
         if isinstance(r, Exception):
             raise r
     height, modes = (r for r in results if isinstance(r, ClosedLoop))
-    summary = {
-        "road_class": road_class.upper(),
-        "speed_m_s": speed_m_s,
-        "seed": seed,
-        "lowering": height_change_summary(height, DEMO_LOWER_AT_S, DEMO_RAISE_AT_S),
-        "raising": height_change_summary(height, DEMO_RAISE_AT_S, DEMO_END_S),
-        "modes": mode_summary(modes),
-    }
+    summary = DemoSummary(
+        road_class=road_class.upper(),
+        speed_m_s=speed_m_s,
+        seed=seed,
+        lowering=height_change_summary(height, DEMO_LOWER_AT_S, DEMO_RAISE_AT_S),
+        raising=height_change_summary(height, DEMO_RAISE_AT_S, DEMO_END_S),
+        modes=mode_summary(modes),
+    )
     return height, modes, summary
 
 
-def demo_caveats(height: ClosedLoop, modes: ClosedLoop, summary: Mapping[str, Any]) -> list[Caveat]:
+def demo_caveats(height: ClosedLoop, modes: ClosedLoop, summary: DemoSummary) -> list[Caveat]:
     """The warnings of :func:`demo`: each run's (:func:`run_caveats`) and
     each height change's (:func:`height_change_caveats`)."""
-    return (run_caveats(height, "ride-height run") + height_change_caveats(summary["lowering"], "lowering")
-            + height_change_caveats(summary["raising"], "raising") + run_caveats(modes, "mode run"))
+    return (run_caveats(height, "ride-height run") + height_change_caveats(summary.lowering, "lowering")
+            + height_change_caveats(summary.raising, "raising") + run_caveats(modes, "mode run"))

@@ -29,18 +29,20 @@ import json
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import tomli_w
 
-from hpctl.control.controller import Controller
+from hpctl.control.controller import Controller, ControllerConfig
 from hpctl.errors import HpctlError, ParameterError
 
 
 def merge(base: Mapping[str, Any], changes: Mapping[str, Any], where: str = "config") -> dict[str, Any]:
     """``base`` with ``changes`` merged in, table by table; a key that
     ``base`` does not have raises :class:`ParameterError` naming it and the
-    known keys (a misspelt key must not be ignored)."""
+    known keys (a misspelt key must not be ignored). Generic over nested
+    tables (the result is what the file said, not yet checked: :func:`check`
+    turns it into a :class:`ControllerConfig`)."""
     out = copy.deepcopy(dict(base))
     for key, value in changes.items():
         path = f"{where}.{key}"
@@ -57,19 +59,30 @@ def merge(base: Mapping[str, Any], changes: Mapping[str, Any], where: str = "con
     return out
 
 
-def check(config: Mapping[str, Any], source: str = "config") -> dict[str, Any]:
-    """``config`` checked by the controller (types, ranges, the order of
-    hysteresis thresholds); returns it as a plain dict."""
+def merged(base: ControllerConfig, changes: Mapping[str, Any], where: str = "config") -> ControllerConfig:
+    """:func:`merge` of a configuration's changes (any subset of its
+    tables and keys) over a whole configuration: the same keys as ``base``
+    by construction (merge adds none and drops none), the values as given
+    (the controller checks them where it is built)."""
+    return cast(ControllerConfig, merge(base, changes, where))
+
+
+def check(config: Mapping[str, Any], source: str = "config") -> ControllerConfig:
+    """``config`` checked by the controller (every key present, no unknown
+    one, types, ranges, the order of hysteresis thresholds); returns it as a
+    plain dict, typed (the check is what makes the type true)."""
+    checked = cast(ControllerConfig, dict(config))
     try:
-        Controller(config)
+        Controller(checked)
     except HpctlError as e:
         raise type(e)(f"{source}: {e}") from None
-    return dict(config)
+    return checked
 
 
 def read_changes(path: str | Path) -> dict[str, Any]:
     """The values a configuration file gives (TOML, or JSON as ``hpctl tune``
-    writes it), not yet merged or checked."""
+    writes it), not yet merged or checked: any subset of the tables, so
+    untyped until :func:`read_config` merges and checks it."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -86,7 +99,7 @@ def read_changes(path: str | Path) -> dict[str, Any]:
     return data
 
 
-def read_config(path: str | Path, base: Mapping[str, Any]) -> dict[str, Any]:
+def read_config(path: str | Path, base: ControllerConfig) -> ControllerConfig:
     """The configuration a file describes: its values merged over ``base``
     (usually :func:`~hpctl.control.closed_loop.config_for_unit` of the unit
     the controller runs), checked."""
@@ -98,12 +111,12 @@ def read_config(path: str | Path, base: Mapping[str, Any]) -> dict[str, Any]:
     return check(merged, str(path))
 
 
-def to_toml(config: Mapping[str, Any]) -> str:
+def to_toml(config: ControllerConfig) -> str:
     """A configuration as the TOML text :func:`read_config` reads."""
     return tomli_w.dumps(dict(config))
 
 
-def write_config(config: Mapping[str, Any], path: str | Path) -> Path:
+def write_config(config: ControllerConfig, path: str | Path) -> Path:
     """Writes ``config`` as TOML (checked first: a file hpctl writes reads back)."""
     path = Path(path)
     path.write_text(to_toml(check(config)))

@@ -5,8 +5,9 @@ controller and steps it one control period at a time (:meth:`Controller.step`,
 typed :class:`Inputs` in, :class:`Outputs` out) or many at once
 (:meth:`Controller.step_many`, arrays in and out, for long sequences and
 property tests). The configuration is a nested dict in SI units, like
-:func:`seed_config` returns; every key is required and unknown keys are
-rejected.
+:func:`seed_config` returns (typed: :class:`ControllerConfig`, one
+TypedDict per block of ``hp_ctrl::Config``); every key is required and
+unknown keys are rejected.
 
 NaN, infinite, out-of-range and stale inputs are legal: the controller
 answers them with its documented safe state (``docs/controller.md``). Only
@@ -19,13 +20,18 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
 from enum import IntEnum, IntFlag
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpctl import _core
+from hpctl._coretypes import ControllerConfigDict, ControllerInputsDict, ControllerOutputsDict
 from hpctl.errors import bad_argument, check_float_array, check_number
+
+#: The controller's whole configuration, typed block by block (the
+#: TypedDicts of hpctl._coretypes: hp_ctrl::Config's fields).
+ControllerConfig = ControllerConfigDict
 
 # The values come from the controller itself (the bindings export its
 # tables); the names are checked against those tables by the tests.
@@ -158,11 +164,12 @@ class Inputs:
     fresh: InputGroup = InputGroup.ALL
     link_fault: bool = False
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> ControllerInputsDict:
+        """The extension's form: enums and the group mask as numbers."""
         d = asdict(self)
         d["driver_mode"] = int(self.driver_mode)
         d["fresh"] = int(self.fresh)
-        return d
+        return cast(ControllerInputsDict, d)
 
 
 @dataclass(frozen=True)
@@ -183,7 +190,7 @@ class Outputs:
     body_vel_m_s: float
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Outputs:
+    def from_dict(cls, d: ControllerOutputsDict) -> Outputs:
         return cls(
             valve5_open=bool(d["valve5_open"]),
             valve6_open=bool(d["valve6_open"]),
@@ -245,7 +252,7 @@ def input_arrays(inputs: Mapping[str, ArrayLike]) -> dict[str, NDArray[Any]]:
     return out
 
 
-def seed_config() -> dict[str, Any]:
+def seed_config() -> ControllerConfig:
     """The seed unit's controller configuration (nested dict, SI units)."""
     return _core.ctrl_seed_config()
 
@@ -254,13 +261,14 @@ class Controller:
     """One controller: compiled parameters and state, starting at power-on
     (the safe state)."""
 
-    def __init__(self, config: Mapping[str, Any] | None = None) -> None:
+    def __init__(self, config: ControllerConfig | None = None) -> None:
         if config is not None and not isinstance(config, Mapping):
             raise bad_argument("config", config, "a configuration mapping like seed_config() (or None)")
-        self._core = _core.Controller(None if config is None else dict(config))
+        # A copy as a plain dict: the extension reads dicts (any Mapping is accepted here).
+        self._core = _core.Controller(None if config is None else cast(ControllerConfig, dict(config)))
 
     @property
-    def config(self) -> dict[str, Any]:
+    def config(self) -> ControllerConfig:
         return self._core.config
 
     def reset(self) -> None:

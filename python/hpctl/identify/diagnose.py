@@ -64,14 +64,39 @@ def autocorr(r: NDArray[np.float64], lag: int = 1) -> float:
     return float(r[:-lag] @ r[lag:] / den) if den > 0 and len(r) > lag else 0.0
 
 
+@dataclass(frozen=True)
+class ResidualRow:
+    """One record's channel: its residual's RMS over the noise, its lag-1
+    autocorrelation, whether it is structured, and the record's test."""
+
+    record: str
+    channel: str
+    rms_ratio: float
+    autocorr: float
+    structured: bool
+    frequency_hz: float | None = None
+    amplitude_m: float | None = None
+
+
+@dataclass(frozen=True)
+class Correlation:
+    """How one record's channel's residual correlates (Pearson ``r``) with a
+    physical quantity (:data:`REGRESSORS`)."""
+
+    record: str
+    channel: str
+    regressor: str
+    r: float
+
+
 @dataclass
 class ResidualReport:
     """What the residual of a fit looks like, per record and channel."""
 
     rms_ratio: float
     structured: bool
-    rows: list[dict[str, Any]]
-    correlations: list[dict[str, Any]]
+    rows: list[ResidualRow]
+    correlations: list[Correlation]
 
 
 REGRESSORS = ("disp_m", "vel_m_s", "sign_vel", "acc_m_s2", "time_s", "dissipated_j", "p_gas_pa", "t_gas_k")
@@ -93,14 +118,15 @@ def _regressors(d: Dataset) -> dict[str, NDArray[np.float64]]:
 def analyse(result: FitResult) -> ResidualReport:
     """Whiteness, size relative to the noise, and correlation with the
     physical quantities, of each residual."""
-    rows, corr = [], []
+    rows: list[ResidualRow] = []
+    corr: list[Correlation] = []
     structured = False
     for i, d in enumerate(result.datasets):
         regs = _regressors(d)
         for c in d.targets:
             r = result.residuals(i, c)
             if not np.all(np.isfinite(r)):
-                rows.append({"record": d.name, "channel": c, "rms_ratio": math.inf, "autocorr": math.nan, "structured": True})
+                rows.append(ResidualRow(d.name, c, math.inf, math.nan, True))
                 structured = True
                 continue
             z = r / d.weight_sigma[c]
@@ -108,11 +134,10 @@ def analyse(result: FitResult) -> ResidualReport:
             rho = autocorr(z)
             s = ratio > CHANNEL_RMS_RATIO or (ratio > CORRELATED_RMS_RATIO and abs(rho) > AUTOCORR_STRUCTURED)
             structured |= s
-            rows.append({"record": d.name, "channel": c, "rms_ratio": ratio, "autocorr": rho, "structured": s,
-                         "frequency_hz": d.record.test.frequency_hz, "amplitude_m": d.record.test.amplitude_m})
+            rows.append(ResidualRow(d.name, c, ratio, rho, s, d.record.test.frequency_hz, d.record.test.amplitude_m))
             for name, g in regs.items():
                 if np.ptp(g) > 0:
-                    corr.append({"record": d.name, "channel": c, "regressor": name, "r": float(np.corrcoef(r, g)[0, 1])})
+                    corr.append(Correlation(d.name, c, name, float(np.corrcoef(r, g)[0, 1])))
     return ResidualReport(result.rms_ratio, structured or result.rms_ratio > POOLED_RMS_RATIO, rows, corr)
 
 
@@ -195,17 +220,17 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
     places with more than noise, worst first, each with the regimes where
     it is largest and the quantities it correlates with."""
     a = analysis or analyse(result)
-    ratios = [r["rms_ratio"] for r in a.rows]
+    ratios = [r.rms_ratio for r in a.rows]
     worst = max(ratios, default=0.0)
     at_noise = not a.structured and result.rms_ratio <= NOISE_CEILING and worst <= NOISE_CEILING
     places: list[Place] = []
     index = {d.name: i for i, d in enumerate(result.datasets)}
-    above = sorted((r for r in a.rows if r["rms_ratio"] > NOISE_CEILING or r["structured"]), key=lambda r: -r["rms_ratio"])
+    above = sorted((r for r in a.rows if r.rms_ratio > NOISE_CEILING or r.structured), key=lambda r: -r.rms_ratio)
     for row in above[:limit]:
-        i = index[row["record"]]
+        i = index[row.record]
         d = result.datasets[i]
-        r = result.residuals(i, row["channel"])
-        z = r / d.weight_sigma[row["channel"]]
+        r = result.residuals(i, row.channel)
+        z = r / d.weight_sigma[row.channel]
         regimes: dict[str, float] = {}
         worst_regimes: dict[str, str] = {}
         if np.all(np.isfinite(z)):
@@ -218,10 +243,10 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
                     # clearly more of it than the other side of the axis.
                     if r1 > 1.2 * r2:
                         worst_regimes[axis] = n1
-        corr = sorted(((c["regressor"], c["r"]) for c in a.correlations
-                       if c["record"] == row["record"] and c["channel"] == row["channel"] and math.isfinite(c["r"])),
+        corr = sorted(((c.regressor, c.r) for c in a.correlations
+                       if c.record == row.record and c.channel == row.channel and math.isfinite(c.r)),
                       key=lambda qc: -abs(qc[1]))
-        places.append(Place(row["record"], row["channel"], row["rms_ratio"], row["autocorr"], regimes, worst_regimes,
+        places.append(Place(row.record, row.channel, row.rms_ratio, row.autocorr, regimes, worst_regimes,
                             [qc for qc in corr[:2] if abs(qc[1]) >= 0.3]))
     return Judgement(result.rms_ratio, worst, at_noise, places)
 
@@ -435,7 +460,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
                 "cv_rss_after": c.cv_after,
                 "rms_ratio_before": rnd.before.rms_ratio,
                 "rms_ratio_after": c.result.rms_ratio,
-                "worst_rms_ratio_before": max((row["rms_ratio"] for row in rnd.analysis.rows), default=None),
+                "worst_rms_ratio_before": max((row.rms_ratio for row in rnd.analysis.rows), default=None),
                 "worst_rms_ratio_after": after.worst_rms_ratio,
                 "residual_after": after.to_json(),
             })

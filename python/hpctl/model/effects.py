@@ -18,7 +18,9 @@ to know about it:
 
 The fitter, the diagnosis, the virtual rig, ``hpctl diagnose
 --list-effects`` and ``docs/effects.md`` all read :data:`LIBRARY`. Adding an
-effect means adding its term to hp-core and one entry here.
+effect means adding its term to hp-core (its parameter table with
+``effect_params!``) and one entry here, then regenerating
+``hpctl._effect_params`` (docs/architecture.md, "Adding an effect").
 
 The gas law is the one term that is always present in some form: without
 ``heat_transfer`` the gas follows the classical polytropic law with a

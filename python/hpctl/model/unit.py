@@ -18,7 +18,7 @@ from typing import Any, cast
 import numpy as np
 import tomli_w
 
-from hpctl import _core
+from hpctl import _core, _effect_params
 from hpctl._coretypes import UnitDict
 from hpctl.errors import ParameterError, bad_argument, check_number
 
@@ -61,68 +61,16 @@ class Damper:
         return Damper(s(self.on_compression), s(self.on_rebound), s(self.off_compression), s(self.off_rebound))
 
 
-@dataclass(frozen=True)
-class Friction:
-    coulomb_n: float
-    viscous_n_s_per_m: float = 0.0
-    smoothing_velocity_m_s: float = 1e-3
-    #: Static over kinetic friction (1: no Stribeck peak), and the velocity
-    #: over which the excess decays, ``exp(-(v/v_s)^2)`` (hp_core::unit::Friction).
-    stribeck_ratio: float = 1.0
-    stribeck_velocity_m_s: float = 0.01
-
-
-@dataclass(frozen=True)
-class OilCompliance:
-    bulk_modulus_pa: float
-    oil_volume_m3: float
-
-
-@dataclass(frozen=True)
-class OilNode:
-    heat_capacity_j_per_k: float
-    oil_to_ambient_tau_s: float
-    wall_to_oil_tau_s: float
-    wall_to_ambient_tau_s: float
-
-
-@dataclass(frozen=True)
-class Leakage:
-    time_constant_s: float
-
-
-@dataclass(frozen=True)
-class ValveLag:
-    time_constant_s: float
-
-
-@dataclass(frozen=True)
-class Sensor:
-    force_offset_n: float = 0.0
-    pressure_offset_pa: float = 0.0
-    time_constant_s: float = 0.0
-
-
-@dataclass(frozen=True)
-class Effects:
-    """Optional model terms; ``None`` means the effect is absent."""
-
-    friction: Friction | None = None
-    oil_compliance: OilCompliance | None = None
-    oil_node: OilNode | None = None
-    leakage: Leakage | None = None
-    valve_lag: ValveLag | None = None
-    sensor: Sensor | None = None
-
-
-_EFFECT_TYPES: dict[str, type] = {
-    "friction": Friction,
-    "oil_compliance": OilCompliance,
-    "oil_node": OilNode,
-    "leakage": Leakage,
-    "valve_lag": ValveLag,
-    "sensor": Sensor,
-}
+# The effects' parameter classes, generated from the core's tables
+# (scripts/gen_effect_params.py): each parameter is declared once, in hp-core.
+Friction = _effect_params.Friction
+OilCompliance = _effect_params.OilCompliance
+OilNode = _effect_params.OilNode
+Leakage = _effect_params.Leakage
+ValveLag = _effect_params.ValveLag
+Sensor = _effect_params.Sensor
+Effects = _effect_params.Effects
+_EFFECT_TYPES = _effect_params.EFFECT_TYPES
 
 
 @dataclass(frozen=True)

@@ -256,12 +256,12 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
     lines += ["", "## Residual analysis of the final model", "",
               "| record | channel | RMS / noise | lag-1 autocorrelation | structured |", "|---|---|---|---|---|"]
     for row in diag.final_analysis.rows:
-        lines.append(f"| {row['record']} | {row['channel']} | {row['rms_ratio']:.3g} | {row['autocorr']:.2f} | {'yes' if row['structured'] else 'no'} |")
-    strongest = sorted(diag.final_analysis.correlations, key=lambda c: -abs(c["r"]))[:8]
+        lines.append(f"| {row.record} | {row.channel} | {row.rms_ratio:.3g} | {row.autocorr:.2f} | {'yes' if row.structured else 'no'} |")
+    strongest = sorted(diag.final_analysis.correlations, key=lambda c: -abs(c.r))[:8]
     if strongest:
         lines += ["", "Strongest correlations of the final residual with physical quantities:", "",
                   "| record | channel | quantity | correlation |", "|---|---|---|---|"]
-        lines += [f"| {c['record']} | {c['channel']} | {c['regressor']} | {c['r']:+.2f} |" for c in strongest]
+        lines += [f"| {c.record} | {c.channel} | {c.regressor} | {c.r:+.2f} |" for c in strongest]
     before = record_plots(initial, out, "declared")
     after = record_plots(final, out, "final")
     lines += ["", "## Plots", "", "Declared model:", "", *[f"![{p.stem}]({p.name})" for p in before], "", "Final model:", "",

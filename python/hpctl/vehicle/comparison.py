@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from hpctl import _core
 from hpctl._coretypes import SuspensionDict
 from hpctl.caveats import Caveat, Code
-from hpctl.control.config import merge
+from hpctl.control.config import merged
 from hpctl.control.controller import DriveMode
 from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
 from hpctl.errors import HpctlError, ParameterError
@@ -56,13 +56,13 @@ class Setting:
     semi_active: bool = False
     #: Controller configuration (semi-active): None for the vehicle's
     #: default, else the values given merged over it (a whole
-    #: configuration, or a part: :func:`hpctl.control.config.merge`).
+    #: configuration, or a part: :func:`hpctl.control.config.merged`).
     config: Mapping[str, Any] | None = None
 
     def to_core(self, vehicle: VehicleSpec) -> SuspensionDict:
         if self.semi_active:
             default = vehicle.controller_config()
-            return {"kind": "semi_active", "config": default if self.config is None else merge(default, self.config)}
+            return {"kind": "semi_active", "config": default if self.config is None else merged(default, self.config)}
         return {"kind": "passive", "spring_hard": self.spring_hard, "damper_on": self.damper_on}
 
 

@@ -12,7 +12,6 @@ names the fields.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl import _core
-from hpctl._coretypes import VehicleDict
+from hpctl._coretypes import ControllerConfigDict, VehicleDict
 from hpctl.errors import ParameterError
 from hpctl.model.unit import Unit
 
@@ -123,9 +122,14 @@ class VehicleSpec:
         }
 
     @classmethod
-    def from_core(cls, name: str, d: Mapping[str, Any]) -> VehicleSpec:
+    def from_core(cls, name: str, d: VehicleDict) -> VehicleSpec:
+        """From the core's dict form (``_core.vehicle_presets``); a malformed
+        one raises :class:`ParameterError` naming the vehicle."""
         try:
-            axles = tuple(Axle(**{**a, "unit": Unit.from_dict(a["unit"], f"{name}.axles[{k}].unit")}) for k, a in enumerate(d["axles"]))
+            # The keys splat into the dataclasses: a missing or unknown one is
+            # the TypeError below (the dict may come from outside the core).
+            fields: list[dict[str, Any]] = [{**a, "unit": Unit.from_dict(a["unit"], f"{name}.axles[{k}].unit")} for k, a in enumerate(d["axles"])]
+            axles = tuple(Axle(**f) for f in fields)
             return cls(name, Body(**d["body"]), axles, float(d["steering_ratio"]), Seat(**d["seat"]))
         except (KeyError, TypeError) as e:
             raise ParameterError(f"vehicle {name}: {e}") from None
@@ -134,10 +138,10 @@ class VehicleSpec:
         """The same vehicle with ``unit`` at every wheel."""
         return dataclasses.replace(self, axles=tuple(dataclasses.replace(a, unit=unit) for a in self.axles))
 
-    def controller_config(self) -> dict[str, Any]:
+    def controller_config(self) -> ControllerConfigDict:
         """The controller configuration for this vehicle (the seed
         calibration with its steering ratio and effective wheelbase)."""
-        return dict(_core.vehicle_controller_config(self.to_core()))
+        return _core.vehicle_controller_config(self.to_core())
 
     def statics(self, ambient_k: float | None = None, *, spring_hard: bool = True) -> Statics:
         """Static wheel loads and positions."""

@@ -34,13 +34,14 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import differential_evolution
 
-from hpctl.control.config import merge
+from hpctl.control.config import merged
+from hpctl.control.controller import ControllerConfig
 from hpctl.errors import ParameterError
 from hpctl.vehicle.comparison import PASSIVE, Case, Setting, run_case
 from hpctl.vehicle.model import preset
@@ -83,9 +84,17 @@ PARAMETERS: tuple[Parameter, ...] = (
 _EXIT_OF = {("mode", "lat_acc_enter_m_s2"): "lat_acc_exit_m_s2", ("mode", "steer_rate_enter_rad_s"): "steer_rate_exit_rad_s"}
 
 
-def apply(config: Mapping[str, Any], params: Sequence[Parameter], x: Sequence[float]) -> dict[str, Any]:
+def _value(config: ControllerConfig, p: Parameter) -> float:
+    """The value of ``p`` in ``config`` (a parameter names its block and key
+    at run time, so it reads the configuration as the nested mapping it is)."""
+    return float(cast(Mapping[str, Mapping[str, float]], config)[p.block][p.key])
+
+
+def apply(config: ControllerConfig, params: Sequence[Parameter], x: Sequence[float]) -> ControllerConfig:
     """``config`` with the parameters set to ``x`` (exit thresholds scaled along)."""
-    c = copy.deepcopy(dict(config))
+    # Keys named at run time (Parameter.block/key): written through a plain
+    # nested dict; the copy has every key of ``config``, so the type holds.
+    c: dict[str, dict[str, Any]] = copy.deepcopy(cast(dict[str, dict[str, Any]], config))
     for p, v in zip(params, x):
         value = float(10.0**v) if p.log else float(v)
         exit_key = _EXIT_OF.get((p.block, p.key))
@@ -93,12 +102,12 @@ def apply(config: Mapping[str, Any], params: Sequence[Parameter], x: Sequence[fl
             ratio = c[p.block][exit_key] / c[p.block][p.key]
             c[p.block][exit_key] = value * ratio
         c[p.block][p.key] = value
-    return c
+    return cast(ControllerConfig, c)
 
 
-def values(config: Mapping[str, Any], params: Sequence[Parameter]) -> list[float]:
+def values(config: ControllerConfig, params: Sequence[Parameter]) -> list[float]:
     """The search coordinates of ``config`` (log10 where the parameter is log-scaled)."""
-    return [math.log10(config[p.block][p.key]) if p.log else float(config[p.block][p.key]) for p in params]
+    return [math.log10(_value(config, p)) if p.log else _value(config, p) for p in params]
 
 
 @dataclass(frozen=True)
@@ -115,10 +124,10 @@ class Problem:
     #: else values merged over it (``hpctl tune --config``).
     config: Mapping[str, Any] | None = None
 
-    def start(self, vehicle: str) -> dict[str, Any]:
+    def start(self, vehicle: str) -> ControllerConfig:
         """The starting configuration of ``vehicle``."""
         default = preset(vehicle).controller_config()
-        return default if self.config is None else merge(default, self.config)
+        return default if self.config is None else merged(default, self.config)
 
     def reference(self, vehicle: str, k: int) -> tuple[float, float]:
         for v, i, a, b in self.references:
@@ -250,7 +259,7 @@ class TuneResult:
     default: Score
     best: Score
     best_x: tuple[float, ...]
-    config: dict[str, Any]
+    config: ControllerConfig
     generations: int
     evaluations: int
     #: Best objective after each generation.
@@ -259,7 +268,7 @@ class TuneResult:
     def changes(self) -> list[tuple[str, float, float]]:
         """(parameter, default value, tuned value)."""
         default = self.problem.start(self.problem.vehicles[0])
-        return [(p.name, float(default[p.block][p.key]), float(self.config[p.block][p.key])) for p in self.problem.params]
+        return [(p.name, _value(default, p), _value(self.config, p)) for p in self.problem.params]
 
 
 def tune(
