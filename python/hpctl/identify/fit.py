@@ -5,6 +5,8 @@ displacement, smoothed), its valve states and its static state; the
 residuals of the measured channels, each divided by that channel's noise
 level estimated from the data itself, are minimised by SciPy's trust-region
 least squares. The Jacobian's columns are simulated in parallel in Rust.
+The standard errors carry both the channels' noise and the measured
+input's noise (drawn anew and run through the model).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from scipy.optimize import least_squares
 
 from hpctl import _core
 from hpctl.errors import HpctlError, SimulationError
-from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper
+from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
@@ -286,7 +288,9 @@ def fit(
     _raise_failed(datasets, sims)
     r = residual_vector(datasets, sims, fold)
     rss = float(r @ r)
-    stderr = _stderr(params, x, jmat, rss, len(r))
+    n_data = len(r)
+    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], rss, _output_share(datasets, fold),
+                     _input_noise_residuals(model, datasets, values, r, fold) if params else np.zeros((n_data, 0)))
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
 
 
@@ -309,15 +313,74 @@ def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArr
             raise cls(f"record {d.name}: the model cannot be simulated on it: {sim}") from sim
 
 
-def _stderr(params: Sequence[Param], x: FloatArray, jmat: FloatArray, rss: float, n: int) -> dict[str, float]:
-    """Standard errors from the Jacobian at the optimum (residual variance
-    scaled), mapped through the log transform where there is one."""
+#: Draws of the input displacement's noise carried through the model for
+#: the covariance (:func:`_input_noise_residuals`); their sampling error
+#: is sqrt(2/N) of the input's share of the variance (about a fifth of it on
+#: the virtual rig's sweep: under 3 % of the standard errors).
+INPUT_NOISE_DRAWS = 32
+#: Their seed: a fit is reproducible.
+INPUT_NOISE_SEED = 12
+
+
+def _output_share(datasets: Sequence[Dataset], fold: int | None) -> FloatArray:
+    """Per residual: the share of its weight that is the channel's own
+    (output) noise, (sigma / weight_sigma)^2; the rest of the weight is the
+    input noise's, which the covariance takes from the model instead."""
+    parts = []
+    for d in datasets:
+        m = np.ones(len(d.times_s), bool) if fold is None else fold_mask(d, fold)
+        for c in d.targets:
+            parts.append(((d.sigma[c] / d.weight_sigma[c]) ** 2)[m])
+    return np.concatenate(parts)
+
+
+def _input_noise_residuals(
+    model: Model, datasets: Sequence[Dataset], values: Mapping[str, float], r0: FloatArray, fold: int | None
+) -> FloatArray:
+    """Residual changes (columns, noise units) when the measured input
+    displacement gets a fresh draw of its own noise, at the fitted values:
+    samples of what the input noise puts into the residuals. The model is
+    driven by the measured input, so its noise reaches every output through
+    the model's sensitivity and, smoothed, is correlated over the smoothing
+    window: on the virtual rig's sweep it is about a fifth of the variance
+    of the charge and gas time constant, which a covariance assuming
+    independent residuals missed (issue 12, docs/foreign-rig.md)."""
+    rng = np.random.default_rng(INPUT_NOISE_SEED)
+    noisy = [[with_input_noise(d, rng) for d in datasets] for _ in range(INPUT_NOISE_DRAWS)]
+    flat = [d for draw in noisy for d in draw]
+    sims = simulate_all(model, flat, [values])[0]
+    n = len(datasets)
+    cols = []
+    for i, draw in enumerate(noisy):
+        part = sims[i * n:(i + 1) * n]
+        if any(isinstance(s, Exception) for s in part):
+            continue  # a draw the model cannot follow says nothing about the noise
+        cols.append(residual_vector(draw, part, fold) - r0)
+    return np.column_stack(cols) if cols else np.zeros((len(r0), 0))
+
+
+def _stderr(
+    params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, rss: float,
+    output_share: FloatArray, input_draws: FloatArray,
+) -> dict[str, float]:
+    """Standard errors from the Jacobian at the optimum, mapped through the
+    log transform where there is one. The residuals' covariance is the
+    output noise's (independent, each sample's share of its weight, scaled
+    so that with the input's part it accounts for the residual sum of
+    squares) plus the input noise's, sampled by ``input_draws``; the
+    estimate's covariance is the sandwich (J'J)^-1 J' S J (J'J)^-1. The
+    prior rows are unit variance by construction."""
     k = len(params)
     if k == 0:
         return {}
-    s2 = rss / max(n - k, 1)
+    m = input_draws.shape[1]
+    g = j_data.T @ input_draws / math.sqrt(m) if m else np.zeros((k, 0))
+    input_ss = float(np.sum(input_draws**2)) / m if m else 0.0
+    kappa = max(rss - input_ss, 0.0) / max(float(np.sum(output_share)) - k, 1.0)
+    meat = kappa * (j_data.T * output_share) @ j_data + g @ g.T + j_prior.T @ j_prior
     try:
-        cov = np.linalg.inv(jmat.T @ jmat) * s2
+        bread = np.linalg.inv(j_data.T @ j_data + j_prior.T @ j_prior)
+        cov = bread @ meat @ bread
         sx = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
         sx = np.full(k, np.inf)
