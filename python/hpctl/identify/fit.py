@@ -287,10 +287,21 @@ def fit(
     sims = simulate_all(model, datasets, [values])[0]
     _raise_failed(datasets, sims)
     r = residual_vector(datasets, sims, fold)
-    rss = float(r @ r)
     n_data = len(r)
-    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], rss, _output_share(datasets, fold),
-                     _input_noise_residuals(model, datasets, values, r, fold) if params else np.zeros((n_data, 0)))
+    draws = _input_noise_residuals(model, datasets, values, r, fold) if params else np.zeros((n_data, 0))
+    if draws.shape[1]:
+        # The input noise's mean effect (second order in it: the model's
+        # mean response to a noisy drive is not its response to the clean
+        # one) biases the estimate; one more dose of the noise shows it,
+        # and the estimate is moved back by as much (SIMEX, extrapolated
+        # linearly to no input noise).
+        x = np.clip(x + _least_squares_step(jmat[:n_data], jmat[n_data:], draws.mean(axis=1)), lo, hi)
+        values = values_from_x(params, x)
+        sims = simulate_all(model, datasets, [values])[0]
+        _raise_failed(datasets, sims)
+        r = residual_vector(datasets, sims, fold)
+    rss = float(r @ r)
+    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], rss, _output_share(datasets, fold), draws)
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
 
 
@@ -359,6 +370,15 @@ def _input_noise_residuals(
     return np.column_stack(cols) if cols else np.zeros((len(r0), 0))
 
 
+def _least_squares_step(j_data: FloatArray, j_prior: FloatArray, dr: FloatArray) -> FloatArray:
+    """The change of the least-squares estimate when the data residuals
+    change by ``-dr`` (linearised: (J'J)^-1 J' dr)."""
+    try:
+        return np.asarray(np.linalg.solve(j_data.T @ j_data + j_prior.T @ j_prior, j_data.T @ dr))
+    except np.linalg.LinAlgError:
+        return np.zeros(j_data.shape[1])
+
+
 def _stderr(
     params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, rss: float,
     output_share: FloatArray, input_draws: FloatArray,
@@ -374,7 +394,9 @@ def _stderr(
     if k == 0:
         return {}
     m = input_draws.shape[1]
-    g = j_data.T @ input_draws / math.sqrt(m) if m else np.zeros((k, 0))
+    # The input noise's part, plus the sampling error of the bias
+    # correction that the same draws made (their mean: 1/m of it).
+    g = j_data.T @ (input_draws - input_draws.mean(axis=1, keepdims=True)) * math.sqrt((1.0 + 1.0 / m) / max(m - 1, 1)) if m else np.zeros((k, 0))
     input_ss = float(np.sum(input_draws**2)) / m if m else 0.0
     kappa = max(rss - input_ss, 0.0) / max(float(np.sum(output_share)) - k, 1.0)
     meat = kappa * (j_data.T * output_share) @ j_data + g @ g.T + j_prior.T @ j_prior
