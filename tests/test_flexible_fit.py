@@ -116,26 +116,17 @@ def test_flexible_damper_brings_the_foreign_control_case_near_the_noise() -> Non
 #: Randomised runs per coverage test: one to two minutes on the shared
 #: 2-core machine.
 COVERAGE_RUNS = 40
-#: Parameters whose errors are known to be overconfident (measured with
-#: scripts/coverage_stderr.py --runs 100 --seed 1000: tau_s 88/100 inside
-#: 2 sigma, z mean +0.41, sd 1.18; charge_scale 91/100, z sd 1.22; see
-#: docs/foreign-rig.md). Their checks run and report, but as expected
-#: failures (each fails about one CI run in six) until the covariance is
-#: fixed; then this set must be emptied (an unexpected pass is shown).
-OVERCONFIDENT = {"tau_s", "charge_scale"}
-
-
 @pytest.fixture(scope="module")
 def coverage_runs() -> tuple[int, list[coverage.Run]]:
     base = int(os.environ.get("COVERAGE_SEED", secrets.randbelow(2**31)))
     return base, [coverage.run(base + i) for i in range(COVERAGE_RUNS)]
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=pytest.mark.xfail(reason="overconfident standard error (docs/foreign-rig.md)", strict=False))
-    if n in OVERCONFIDENT else n
-    for n in ("tau_s", "friction_coulomb_n", "friction_viscous_n_s_per_m", "charge_scale", "damper_gain")
-])
+# All five strict: tau_s and charge_scale were overconfident (88 and 91 of
+# 100 runs inside 2 sigma) until the fit carried the input displacement's
+# noise into the covariance and stopped the smoothing from shrinking the
+# excitation (94 and 94 of 100 since: docs/foreign-rig.md).
+@pytest.mark.parametrize("name", ["tau_s", "friction_coulomb_n", "friction_viscous_n_s_per_m", "charge_scale", "damper_gain"])
 def test_standard_errors_cover_the_truth_in_randomised_runs(coverage_runs: tuple[int, list[coverage.Run]], name: str) -> None:
     # 40 virtual-rig runs (truth drawn from the registry's random ranges,
     # noise anew): for honest standard errors the count of runs with the

@@ -4,7 +4,7 @@ the measured channels it is compared with, their noise levels and weights."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -52,6 +52,10 @@ class Dataset:
     # and its rate: what the residual analysis and the reports plot against.
     strut_disp_m: FloatArray = field(default_factory=lambda: np.zeros(0))
     strut_vel_m_s: FloatArray = field(default_factory=lambda: np.zeros(0))
+    #: The white noise level of the measured input displacement (the strut's,
+    #: or the base's on the SDOF rig), m: the fit's covariance carries it
+    #: through the model (:func:`with_input_noise`).
+    input_noise_m: float = 0.0
 
     @property
     def name(self) -> str:
@@ -79,17 +83,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     out = []
     for rec in records:
         t = np.asarray(rec["time_s"], float)
-        x_in = rec["base_disp_m"] if rec.kind == "sdof" else rec["disp_m"]
-        xs = smooth(t, x_in)
-        vs = derivative(t, xs)
-        motion = Sampled(t, xs, vs)
-        rig: Rig
-        if rec.kind == "sdof":
-            if rec.sprung_mass_kg is None:
-                raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
-            rig = sdof_rig(motion, rec.sprung_mass_kg)
-        else:
-            rig = characterisation_rig(motion)
+        x_in = input_disp_m(rec)
+        rig, xs, vs = _drive(rec, t, x_in)
         targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
         sigma: dict[str, float] = {}
         weight_sigma: dict[str, FloatArray] = {}
@@ -111,8 +106,40 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         hard, on = rec.spring_hard(), rec.damper_on()
         strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
         out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, weight_sigma,
-                           strut, derivative(t, strut) if rec.kind == "sdof" else vs))
+                           strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise))
     return out
+
+
+def input_disp_m(rec: RigRecord) -> FloatArray:
+    """The measured displacement that drives the model: the strut's on the
+    characterisation rig, the base's on the SDOF rig."""
+    return np.asarray(rec["base_disp_m"] if rec.kind == "sdof" else rec["disp_m"], float)
+
+
+def _drive(rec: RigRecord, t: FloatArray, x_in: FloatArray) -> tuple[Rig, FloatArray, FloatArray]:
+    """The rig driven by the measured input ``x_in`` (smoothed), and the
+    smoothed displacement and its rate."""
+    xs = smooth(t, x_in)
+    vs = derivative(t, xs)
+    motion = Sampled(t, xs, vs)
+    if rec.kind == "sdof":
+        if rec.sprung_mass_kg is None:
+            raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
+        return sdof_rig(motion, rec.sprung_mass_kg), xs, vs
+    return characterisation_rig(motion), xs, vs
+
+
+def with_input_noise(d: Dataset, rng: np.random.Generator) -> Dataset:
+    """``d`` driven by its measured input plus a fresh draw of the input's
+    own white noise (:attr:`Dataset.input_noise_m`), prepared as the
+    measured input is: the model's response to it is a draw of what the
+    input noise puts into the residuals. That part is coloured (the
+    smoothing spreads each sample's noise over its window) and follows the
+    model's own sensitivity, which no per-sample weight can describe."""
+    t = d.times_s
+    x = input_disp_m(d.record) + rng.normal(0.0, d.input_noise_m, len(t))
+    rig, _, _ = _drive(d.record, t, x)
+    return replace(d, rig=rig)
 
 
 def loop_area_j(d: Dataset, force_n: FloatArray) -> float | None:

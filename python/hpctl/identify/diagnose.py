@@ -320,7 +320,7 @@ def cross_validation(datasets: Sequence[Dataset], effects: Sequence[str], start:
     total = 0.0
     fit_damper = uses_damper(datasets)
     for train, test in ((0, 1), (1, 0)):
-        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train)
+        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False)
         rss, _ = predict(r, datasets, fold=test)
         total += rss
     return total
@@ -331,7 +331,9 @@ Progress = Callable[[str], None]
 
 def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], say: Progress) -> Candidate:
     say(f"trying {'+'.join(add)}")
-    trial = fit(datasets, effects + add, initial=current.values)
+    # A screening fit: its errors are not the verdict's (the accepted one
+    # is fitted again with the input noise carried through).
+    trial = fit(datasets, effects + add, initial=current.values, input_noise=False)
     added = len(trial.model.params) - len(current.model.params)
     excess = max(current.rss - current.n, 1e-12)
     return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess)
@@ -393,6 +395,9 @@ def diagnose(
             tried += tried_pairs
         judgement = None
         if accepted is not None:
+            # Honest errors (and the input noise's bias taken out) for the
+            # model that goes on: the screening fit left them out.
+            accepted.result = fit(datasets, effects + accepted.effects, initial=accepted.result.values)
             judgement = judge(accepted.result)
             say(f"added {accepted.effect}: {judgement.describe(1)}")
         rounds.append(Round(current, analysis, tried, accepted, judgement))
