@@ -495,3 +495,37 @@ fn sequencing_pauses_during_manoeuvres_even_without_a_resume_time() {
     assert!(!out.valve6_open);
     assert_eq!(step(&params, &mut state, &request, DT_S).sequencer, SequencerState::Lowering);
 }
+
+#[test]
+fn a_lowering_corner_moves_oil_only_while_valve_6_is_open() {
+    // The vehicle's slope levelling waits until no corner moves oil
+    // (`State::moving_oil`), not until no corner is in `Lowering`: a
+    // pump-free corner at rest can sit in `Lowering` for ever waiting for
+    // a pressure difference the road no longer gives.
+    let params = seed();
+    let unit = params.config().unit;
+    let margin = params.config().ride_height.valve6_margin_pa;
+    let mut state = in_ride(&params);
+    let p_l = unit.static_pressure_pa;
+    // At rest: S at L's pressure, the difference never reaches the margin.
+    let still = Inputs { p_gas_pa: p_l, p_gas2_pa: p_l, ride_height_request_m: -0.03, ..calm(&params) };
+    let mut lowering = 0;
+    for _ in 0..3000 {
+        let out = step(&params, &mut state, &still, DT_S);
+        assert!(!out.valve6_open);
+        if out.sequencer == SequencerState::Lowering {
+            lowering += 1;
+            assert!(!state.moving_oil(), "waiting in Lowering with valve 6 closed moves no oil");
+        }
+    }
+    assert!(lowering > 0, "the request must put the sequencer in Lowering");
+    // A road stroke gives S the difference: valve 6 opens and oil moves.
+    let pushed = Inputs { p_gas_pa: p_l + margin + 1.0e5, ..still };
+    let mut opened = false;
+    for _ in 0..1000 {
+        let out = step(&params, &mut state, &pushed, DT_S);
+        assert_eq!(state.moving_oil(), out.valve6_open && out.sequencer == SequencerState::Lowering);
+        opened |= out.valve6_open;
+    }
+    assert!(opened, "valve 6 never opened past the margin");
+}
