@@ -57,6 +57,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "python"))
 
 from hpctl import _core  # noqa: E402
+from hpctl._coretypes import GasChargeCaseDict, GasChargeDriveDict  # noqa: E402
 from hpctl.control import gas_charge as gc  # noqa: E402
 
 P_TOL_PA = 0.2e6
@@ -95,9 +96,9 @@ def case_specs(fleet_hours: float, scale: float = 1.0) -> Iterator[dict[str, Any
                "charge_ratio": 1.0}  # fmt: skip
 
 
-def build(spec: dict[str, Any], reference_plant: bool = False) -> dict[str, Any]:
+def build(spec: dict[str, Any], reference_plant: bool = False) -> GasChargeCaseDict:
     segments = gc.plan(np.random.default_rng(spec["seed"]), spec["hours"] * 3600.0)
-    return {**gc.drive_case(
+    case = gc.drive_case(
         segments,
         ambient_k=gc.DAYS[spec["day"]],
         seed=spec["seed"],
@@ -105,10 +106,12 @@ def build(spec: dict[str, Any], reference_plant: bool = False) -> dict[str, Any]
         leak_time_constant_s=spec.get("leak_tau_s"),
         pressure_offset_pa=spec["p_offset_pa"],
         t_offset_k=spec["t_offset_k"],
-    ), "reference_plant": reference_plant}
+    )
+    case["reference_plant"] = reference_plant
+    return case
 
 
-def summarise(spec: dict[str, Any], r: dict[str, Any]) -> dict[str, Any]:
+def summarise(spec: dict[str, Any], r: GasChargeDriveDict) -> dict[str, Any]:
     t = np.asarray(r["time_s"])
     loss = gc.settled_loss(r)
     first = gc.first_fault_s(r)

@@ -68,6 +68,7 @@ __all__ = [
 
 # The plain-dict forms the core reads and returns: hpctl._coretypes.
 from hpctl._coretypes import (
+    GasChargeCaseDict,
     GasChargeConfigDict,
     GasChargeDriveDict,
     CaseDict,
@@ -209,7 +210,7 @@ class Ecu:
     def period(self) -> list[tuple[int, bytes]]: ...
 
 # The gas-charge detector on long drives (hp-py leak.rs): see hpctl.control.gas_charge.
-def gas_charge_drives(cases: list[dict[str, Any]], threads: int | None = None) -> list[GasChargeDriveDict | HpctlError]: ...
+def gas_charge_drives(cases: Sequence[GasChargeCaseDict], threads: int | None = None) -> list[GasChargeDriveDict | HpctlError]: ...
 def gas_charge_config() -> GasChargeConfigDict: ...
 
 # The vehicles (hp-vehicle): see hpctl.vehicle.

@@ -335,6 +335,46 @@ class GasChargeConfigDict(TypedDict):
     healthy_sigma: float
 
 
+class GasChargeChangesDict(TypedDict, total=False):
+    """Changes to the detector's configuration for one drive (any subset
+    of :class:`GasChargeConfigDict`; the core refuses unknown keys)."""
+
+    tau_s: float
+    settle_s: float
+    loss_threshold: float
+    loss_hysteresis: float
+    confirm_s: float
+    loss_significant: float
+    healthy_sigma: float
+
+
+class GasChargeSegmentsDict(TypedDict):
+    """A drive's piecewise-constant scenario: from ``start_s[i]`` on,
+    ``speed_m_s[i]`` and ``ride_height_request_m[i]``."""
+
+    start_s: NDArray[np.float64]
+    speed_m_s: NDArray[np.float64]
+    ride_height_request_m: NDArray[np.float64]
+
+
+class GasChargeCaseDict(TypedDict):
+    """One drive of ``gas_charge_drives`` (hp-py leak.rs ``Drive::from_py``;
+    the optional ones as its defaults)."""
+
+    unit: UnitDict
+    sprung_mass_kg: float
+    ambient_k: float
+    base: MotionDict
+    segments: GasChargeSegmentsDict
+    duration_s: float
+    record_dt_s: NotRequired[float]
+    max_dt_s: NotRequired[float]
+    t_gas_sensor_tau_s: NotRequired[float]
+    t_gas_sensor_offset_k: NotRequired[float]
+    gas_charge: NotRequired[GasChargeChangesDict]
+    reference_plant: NotRequired[bool]
+
+
 class GasChargeDriveDict(TypedDict):
     """One gas-charge drive: per record (``record_dt_s``) the detector's
     verdict at its end, the plant's temperatures and what the controller did."""

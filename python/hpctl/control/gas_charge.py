@@ -24,14 +24,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from hpctl import _core
-from hpctl._coretypes import GasChargeDriveDict
+from hpctl._coretypes import GasChargeCaseDict, GasChargeChangesDict, GasChargeDriveDict
 from hpctl.control import road
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Leakage, OilNode, Sensor, Unit
 from hpctl.sim.run import Sampled, _motion_dict
@@ -146,7 +146,7 @@ def drive_case(
     t_offset_k: float = 0.0,
     gas_charge: Mapping[str, float] | None = None,
     record_dt_s: float = 1.0,
-) -> dict[str, Any]:
+) -> GasChargeCaseDict:
     """The arguments of one drive for :func:`hpctl._core.gas_charge_drives`:
     the unit charged with ``charge_ratio`` of its nominal gas, leaking with
     ``leak_time_constant_s`` if given; its pressure transducers reading
@@ -158,7 +158,7 @@ def drive_case(
     if pressure_offset_pa:
         u = u.with_effects(sensor=Sensor(pressure_offset_pa=pressure_offset_pa))
     starts = np.cumsum([0.0] + [s.duration_s for s in segments[:-1]])
-    return {
+    case: GasChargeCaseDict = {
         "unit": u.to_dict(),
         "sprung_mass_kg": SEED_SPRUNG_MASS_KG,
         "ambient_k": float(ambient_k),
@@ -171,11 +171,15 @@ def drive_case(
         "duration_s": float(sum(s.duration_s for s in segments)),
         "record_dt_s": record_dt_s,
         "t_gas_sensor_offset_k": float(t_offset_k),
-        **({"gas_charge": dict(gas_charge)} if gas_charge else {}),
     }
+    if gas_charge:
+        # Any subset of the detector's configuration; the core names an
+        # unknown key or a value out of range.
+        case["gas_charge"] = cast(GasChargeChangesDict, dict(gas_charge))
+    return case
 
 
-def run(cases: Sequence[dict[str, Any]], threads: int | None = None) -> list[GasChargeDriveDict]:
+def run(cases: Sequence[GasChargeCaseDict], threads: int | None = None) -> list[GasChargeDriveDict]:
     """Runs the drives in parallel; a drive that failed raises its error."""
     out = []
     for r in _core.gas_charge_drives(list(cases), threads):
