@@ -14,15 +14,23 @@ use crate::error::{check_range, Result};
 /// `p_b + S (q - q_b)` above it.
 ///
 /// With a `blowoff_knee` `k > 0` the knee is smooth: the sharp curve is
-/// `g(q - r(q - q_b)) + S r(q - q_b)` with `g(q) = R q + K q |q|` and the
-/// ramp `r(x) = max(x, 0)`; the smooth one takes
-/// `r(x) = (x + sqrt(x^2 + w^2)) / 2` with `w = k q_b`, less its value at
-/// `q = 0` so that no flow still means no pressure drop. Its slope
-/// `g'(1 - r') + S r'` is a positive blend of the orifice's and the
-/// blow-off's slopes, so the curve stays monotone for any parameters: what
-/// a fit may try. Far from the knee it is the sharp curve again (offset by
-/// about `S w^2 / (4 q_b)`). `k = 0` takes the sharp curve's own code path,
-/// so existing characteristics are unchanged bit for bit.
+/// `g(q - r(q)) + S r(q)` with `g(q) = R q + K q |q|` and the ramp
+/// `r(q) = max(q - q_b, 0)`; the smooth one rounds the ramp with the
+/// hyperbola `h(x) = (x + sqrt(x^2 + w^2)) / 2`, `w = k q_b`, less its
+/// tangent at no flow and rescaled to unit slope:
+/// `r(q) = (h(q - q_b) - h(-q_b) - h'(-q_b) q) / (1 - h'(-q_b))`.
+/// Its slope `g'(1 - r') + S r'` is a positive blend of the orifice's and
+/// the blow-off's slopes (`0 <= r' < 1`, `h` being convex), so the curve
+/// stays monotone for any parameters: what a fit may try. `r` and `r'` are
+/// zero at no flow, so the knee leaves the low-speed curve `R q + K q^2`
+/// alone: without the tangent removed the hyperbola's tail reached down to
+/// zero flow and added `2 K h(-q_b) + (S - R) h'(-q_b)` to the slope there,
+/// a linear damping the bleed could not take back (about half the bleed's
+/// own on the foreign rig's fits, docs/foreign-rig.md). Far above the knee
+/// it is the sharp curve with the knee moved to `q_b (1 + h(-q_b)/q_b) /
+/// (1 - h'(-q_b))` (1.8 `q_b` at `k = 1.5`). `k = 0` takes the sharp
+/// curve's own code path, so existing characteristics are unchanged bit
+/// for bit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DamperCurve {
     /// Laminar (bleed) coefficient R, Pa s/m^3.
@@ -101,24 +109,23 @@ impl DamperCurve {
         let q_b = self.blowoff_flow_m3_s();
         let w = self.blowoff_knee * q_b;
         let g = |x: f64| x * (r + k * libm::fabs(x));
-        // (x + sqrt(x^2 + w^2)) / 2, without the cancellation for x < 0.
-        let ramp = |x: f64| {
-            let root = libm::sqrt(x * x + w * w);
-            if x >= 0.0 {
-                0.5 * (x + root)
-            } else if root - x > 0.0 {
-                0.5 * w * w / (root - x)
-            } else {
-                0.0
-            }
-        };
-        let x = q_m3_s - q_b;
-        let ramp_q = ramp(x);
-        let ramp_0 = ramp(-q_b);
-        let dp = g(q_m3_s - ramp_q) + s * ramp_q - (g(-ramp_0) + s * ramp_0);
-        let root = libm::sqrt(x * x + w * w);
-        let ramp_slope = if root > 0.0 { 0.5 * (1.0 + x / root) } else { 0.5 };
-        let inner = q_m3_s - ramp_q;
+        // With a = q - q_b, b = -q_b, s_a = sqrt(a^2 + w^2), s_b likewise,
+        // the ramp and its slope in forms free of the cancellation near
+        // q = 0 (where both are O(q^2) and O(q) differences of O(q) terms):
+        //   r  = q^2 (s_a s_b + w^2 + q_b (q - q_b)) / ((s_a + s_b)^2 (s_b + q_b))
+        //   r' = q (s_b + q_b (q - 2 q_b) / (s_a + s_b)) / (s_a (s_b + q_b))
+        // (the first numerator is at least 2 w^2 by Cauchy-Schwarz).
+        let q = q_m3_s;
+        let a = q - q_b;
+        let s_a = libm::sqrt(a * a + w * w);
+        let s_b = libm::sqrt(q_b * q_b + w * w);
+        let sum = s_a + s_b;
+        let den = sum * sum * (s_b + q_b);
+        let ramp_q = if den > 0.0 { q * q * (s_a * s_b + w * w + q_b * a) / den } else { 0.0 };
+        let slope_den = s_a * (s_b + q_b);
+        let ramp_slope = if slope_den > 0.0 && sum > 0.0 { q * (s_b + q_b * (q - 2.0 * q_b) / sum) / slope_den } else { 0.0 };
+        let inner = q - ramp_q;
+        let dp = g(inner) + s * ramp_q;
         let slope = (r + 2.0 * k * libm::fabs(inner)) * (1.0 - ramp_slope) + s * ramp_slope;
         (dp, slope)
     }

@@ -71,3 +71,48 @@ fn knee_outside_its_range_is_refused() {
     assert!(curve(f64::NAN).validate().is_err());
     assert!(curve(0.5).validate().is_ok());
 }
+
+#[test]
+fn knee_leaves_the_low_speed_curve_alone() {
+    // At low flow the smooth curve is the sharp one, R q + K q^2, to
+    // second order: its slope at no flow is the bleed's, whatever the knee
+    // (the hyperbola's tail used to add 2 K h(-q_b) + (S - R) h'(-q_b)).
+    for knee in [0.3, 1.0, 1.5, 2.0] {
+        let c = curve(knee);
+        let sharp = curve(0.0);
+        let q_b = sharp.flow_m3_s(sharp.blowoff_pa);
+        for q in [1e-9, 1e-8, 1e-7] {
+            let slope = c.pressure_drop_pa(q) / q;
+            assert!((slope / c.bleed_pa_s_per_m3 - 1.0).abs() < 1e-3, "knee {knee}: dp/q {slope} at q {q}");
+        }
+        // Below a tenth of the blow-off flow it stays within 1 % (k <= 1)
+        // or 3 % (k = 2) of the sharp curve.
+        let tol = if knee > 1.0 { 0.03 } else { 0.01 };
+        for i in 1..=100 {
+            let q = 0.1 * q_b * f64::from(i) / 100.0;
+            let (s, k) = (sharp.pressure_drop_pa(q), c.pressure_drop_pa(q));
+            assert!((k / s - 1.0).abs() < tol, "knee {knee}: {k} vs {s} at q/q_b {}", q / q_b);
+        }
+    }
+}
+
+#[test]
+fn far_above_the_knee_the_curve_is_the_sharp_one_with_the_knee_moved() {
+    // dp -> g(q*) + S (q - q*), q* = (q_b + h(-q_b)) / (1 - h'(-q_b)),
+    // h the hyperbola of width w = k q_b: the closed form, computed here
+    // independently of the library's ramp.
+    for knee in [0.3, 1.5] {
+        let c = curve(knee);
+        let q_b = curve(0.0).flow_m3_s(c.blowoff_pa);
+        let w = knee * q_b;
+        let s_b = (q_b * q_b + w * w).sqrt();
+        let (h0, h0_slope) = (0.5 * (s_b - q_b), 0.5 * (1.0 - q_b / s_b));
+        let q_star = (q_b + h0) / (1.0 - h0_slope);
+        let g = q_star * (c.bleed_pa_s_per_m3 + c.orifice_pa_s2_per_m6 * q_star);
+        for q in [200.0 * q_b, 1000.0 * q_b] {
+            let expected = g + c.blowoff_slope_pa_s_per_m3 * (q - q_star);
+            let got = c.pressure_drop_pa(q);
+            assert!((got / expected - 1.0).abs() < 1e-3, "knee {knee}: {got} vs {expected} at q/q_b {}", q / q_b);
+        }
+    }
+}
