@@ -312,8 +312,9 @@ DAMPER_GAIN = Param("damper_gain", 0.05, 20.0, 1.0, 1.0, (0.7, 1.4), log=True)
 # branches of hp_core::damper::Damper), multipliers of the nominal curve's
 # bleed (laminar) and orifice (quadratic) coefficients, of its blow-off
 # pressure and of the slope above it, and the width of a smooth blow-off
-# knee (hp_core's `blowoff_knee`; 0 = the sharp nominal knee). Each curve
-# stays monotone for any of these values. A Gaussian prior ties each to the
+# knee (hp_core's `blowoff_knee`; 0 = the sharp nominal knee; the knee
+# leaves the low-speed curve R q + K q^2 alone, so the bleed alone sets the
+# slope at no flow). Each curve stays monotone for any of these values. A Gaussian prior ties each to the
 # nominal curve (a factor 10 per sigma on the multipliers: the assumed
 # curve may be far off, e.g. the foreign rig's bypass wants 12-16 times its
 # quadratic term; a knee of 0.5 q_b): branches or regimes the records do
@@ -328,8 +329,10 @@ DAMPER_SHAPE_COEFFICIENTS = (
 )
 DAMPER_SCALE_PRIOR_DECADES = 1.0
 DAMPER_KNEE_PRIOR = 0.5
-#: The knee's fit bounds, inside the core's range of `blowoff_knee`.
-DAMPER_KNEE_BOUNDS = (0.0, 1.5)
+#: The knee's fit bounds: the core's whole range of `blowoff_knee`. The
+#: foreign rig's dampers (two washers in parallel opening progressively)
+#: take the widest knee the core allows on most draws (docs/foreign-rig.md).
+DAMPER_KNEE_BOUNDS = (0.0, 2.0)
 
 
 def _damper_shape_params(branch: str) -> tuple[Param, ...]:

@@ -33,7 +33,8 @@ class DamperCurve:
     """One branch of the damper pack: pressure drop over flow magnitude ``q``,
     ``R q + K q^2`` below the blow-off pressure, ``p_b + S (q - q_b)`` above;
     ``blowoff_knee`` > 0 rounds the knee over that fraction of the blow-off
-    flow (``hp_core::damper::DamperCurve``; 0 = sharp)."""
+    flow without touching the low-speed curve (``hp_core::damper::DamperCurve``;
+    0 = sharp)."""
 
     bleed_pa_s_per_m3: float
     orifice_pa_s2_per_m6: float
