@@ -174,6 +174,18 @@ def test_input_noise_correction_holds_parameters_at_their_bounds() -> None:
     expected = np.linalg.lstsq(j[:, :2], dr, rcond=None)[0]
     assert step[2] == 0.0
     np.testing.assert_allclose(step[:2], expected, rtol=1e-8)
+    # A parameter near its bound (not on it) that the step would take
+    # across is held too, and the others solved without it; the result
+    # stays inside the bounds.
+    from hpctl.identify.fit import _bounded_step
+
+    full = np.linalg.lstsq(j, dr, rcond=None)[0]
+    wide_lo, wide_hi = np.array([-10.0, -10.0, 0.0]), np.array([10.0, 10.0, 1.0])
+    near = np.array([0.3, 0.6, 1.0 - 1e-4 if full[2] > 0 else 1e-4])
+    assert abs(full[2]) > 1e-3  # the unconstrained step crosses the bound
+    held = _bounded_step(near, wide_lo, wide_hi, j, np.zeros((0, 3)), dr)
+    assert held[2] == 0.0 and np.all(near + held >= wide_lo) and np.all(near + held <= wide_hi)
+    np.testing.assert_allclose(held[:2], expected, rtol=1e-8)
 
 
 #: Randomised runs per coverage test: one to two minutes on the shared
