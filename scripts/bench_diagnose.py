@@ -32,7 +32,7 @@ same run: one simulation of every campaign record at the declared model,
 so that the times can be read as "so many model runs". The load average
 (``uptime``) is printed with every time: the machine is shared.
 
-    python scripts/bench_diagnose.py [--only campaign,heat,fit,breakdown] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
+    python scripts/bench_diagnose.py [--only decimation,campaign,heat,fit,breakdown] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
 
 This is a benchmark, not a test: it prints numbers and never fails because
 the machine is slow.
@@ -240,11 +240,60 @@ def breakdown(campaign: Path) -> dict[str, Any]:
             "verdict": diag.verdict, "found": diag.found, "progress": lines}
 
 
+#: Decimation criterion: a record's drive (the smoothed measured input) may
+#: be given to the model on every m-th sample only where the cubic Hermite
+#: interpolation between those samples (what the core does between knots)
+#: reproduces the full-rate drive within this share of the drive's own
+#: noise, in displacement and velocity: the interpolation then adds at most
+#: 1 % to the input noise's variance. The steps of the adaptive integrator
+#: end at every knot of a sampled drive (hp-core's motion.rs says why), so
+#: the knots, not the output samples, set a run's cost.
+DECIMATION_TOL = 0.1
+
+
+def decimation_check(campaign: Path) -> dict[str, dict[int, tuple[float, float]]]:
+    """Per record and factor m: the largest interpolation error of the
+    drive on every m-th sample, over its noise (displacement, velocity)."""
+    import numpy as np
+
+    from hpctl.data.records import read_record
+    from hpctl.identify.dataset import input_disp_m
+    from hpctl.identify.signals import SMOOTH_NOISE_GAIN, derivative, noise_sigma, smooth, velocity_noise_gain
+
+    out: dict[str, dict[int, tuple[float, float]]] = {}
+    print(f"decimation check: the drive's Hermite interpolation on every m-th sample, largest error over the drive's noise "
+          f"(displacement / velocity; decimation allowed below {DECIMATION_TOL})")
+    for p in sorted(campaign.glob("*.csv")):
+        rec = read_record(p)
+        t = np.asarray(rec["time_s"], float)
+        x_in = input_disp_m(rec)
+        xs = smooth(t, x_in)
+        vs = derivative(t, xs)
+        sx = noise_sigma(x_in) * SMOOTH_NOISE_GAIN
+        sv = noise_sigma(x_in) * velocity_noise_gain(float(np.median(np.diff(t))))
+        row: dict[int, tuple[float, float]] = {}
+        for m in (2, 4, 8):
+            k = np.arange(0, len(t), m)
+            if k[-1] != len(t) - 1:
+                k = np.append(k, len(t) - 1)
+            seg = np.clip(np.searchsorted(t[k], t, side="right") - 1, 0, len(k) - 2)
+            a, b = k[seg], k[seg + 1]
+            h = t[b] - t[a]
+            s = (t - t[a]) / h
+            x = (2 * s**3 - 3 * s**2 + 1) * xs[a] + (s**3 - 2 * s**2 + s) * h * vs[a] + (3 * s**2 - 2 * s**3) * xs[b] + (s**3 - s**2) * h * vs[b]
+            v = (6 * s**2 - 6 * s) / h * (xs[a] - xs[b]) + (3 * s**2 - 4 * s + 1) * vs[a] + (3 * s**2 - 2 * s) * vs[b]
+            row[m] = (float(np.max(np.abs(x - xs)) / sx), float(np.max(np.abs(v - vs)) / sv))
+        out[rec.name] = row
+        print(f"  {rec.name:20} {len(t):6d} samples, dt {np.median(np.diff(t)) * 1e3:6.1f} ms: "
+              + "; ".join(f"m={m} {ex:.2g} / {ev:.2g}" + (" ok" if max(ex, ev) <= DECIMATION_TOL else "") for m, (ex, ev) in row.items()))
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", default="campaign,heat,fit,breakdown",
+    ap.add_argument("--only", default="decimation,campaign,heat,fit,breakdown",
                     help="which timings (comma-separated): campaign, heat, fit (each in a fresh hpctl process), breakdown (the campaign's "
-                         "diagnosis in this process, by phase)")
+                         "diagnosis in this process, by phase), decimation (how far the records' drives could be decimated)")
     ap.add_argument("--timeout-s", type=float, default=1800.0, help="give up on a timing after this long (reported as not finished)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results here")
     a = ap.parse_args()
@@ -268,6 +317,8 @@ def main() -> int:
         elif "verdict" in r:
             print(f"  {r['label']}: {r['verdict']} found={r['found']} rms/noise {r.get('rms_ratio_before')} -> {r.get('rms_ratio_after')}")
     result: dict[str, Any] = {"timings": rows, "foreign_rig_version": code_version(), "cores": os.cpu_count()}
+    if "decimation" in only:
+        result["decimation"] = decimation_check(campaign)
     if "breakdown" in only:
         result["breakdown"] = breakdown(campaign)
     if a.json is not None:
