@@ -24,15 +24,18 @@ Timed, each in a fresh process (``hpctl ... --json -q``), one at a time:
 2. ``hpctl diagnose HEATRUN --model seed --json`` (target <= 120 s);
 3. ``hpctl fit CAMPAIGN --model seed --json`` (one fit, target <= 10 s);
 
-plus, in this process, the diagnosis again with a per-phase breakdown
+plus, in this process: the diagnosis again with a per-phase breakdown
 (simulation of the records, the Jacobian's runs, the screening fits of the
 candidates, cross-validation, the final fits with input noise) from
-counters wrapped around hpctl's functions, and a baseline measured in the
-same run: one simulation of every campaign record at the declared model,
-so that the times can be read as "so many model runs". The load average
-(``uptime``) is printed with every time: the machine is shared.
+counters wrapped around hpctl's functions, against a baseline measured in
+the same run (one simulation of every campaign record at the declared
+model: the times read as "so many model runs"); the first round with the
+candidates fitted one at a time and in the thread pool (the pool's gain,
+same run); and how far the records' drives could be decimated (the
+criterion is in :data:`DECIMATION_TOL`). The load average (``uptime``) is
+printed with every time: the machine is shared.
 
-    python scripts/bench_diagnose.py [--only decimation,campaign,heat,fit,breakdown] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
+    python scripts/bench_diagnose.py [--only decimation,campaign,heat,fit,breakdown,parallel] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
 
 This is a benchmark, not a test: it prints numbers and never fails because
 the machine is slow.
@@ -46,6 +49,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -132,13 +136,24 @@ def timed(cmd: list[str], label: str, timeout_s: float) -> dict[str, Any]:
 class Phases:
     """Wall time and calls per phase, from wrappers around hpctl's functions
     (the innermost phase gets the time: a fit inside cross-validation is
-    cross-validation's)."""
+    cross-validation's). The candidates' fits run in threads: a phase's
+    time is summed over them (thread-seconds), so the phases can add up to
+    more than the wall time."""
 
     def __init__(self) -> None:
-        self.stack: list[str] = []
+        self._local = threading.local()
+        self.lock = threading.Lock()
         self.time_s: dict[str, float] = {}
         self.calls: dict[str, int] = {}
         self.runs: dict[str, int] = {}
+
+    @property
+    def stack(self) -> list[str]:
+        """This thread's phases (the candidates' fits run in threads)."""
+        if not hasattr(self._local, "stack"):
+            self._local.stack = []
+        stack: list[str] = self._local.stack
+        return stack
 
     def wrap(self, module: Any, name: str, phase: Callable[[tuple[Any, ...], dict[str, Any]], str]) -> Callable[[], None]:
         original = getattr(module, name)
@@ -152,11 +167,12 @@ class Phases:
             finally:
                 took = time.perf_counter() - start
                 self.stack.pop()
-                self.time_s[ph] = self.time_s.get(ph, 0.0) + took
-                self.calls[ph] = self.calls.get(ph, 0) + 1
-                if self.stack:  # the outer phase's time excludes this one
-                    outer = self.stack[-1]
-                    self.time_s[outer] = self.time_s.get(outer, 0.0) - took
+                with self.lock:
+                    self.time_s[ph] = self.time_s.get(ph, 0.0) + took
+                    self.calls[ph] = self.calls.get(ph, 0) + 1
+                    if self.stack:  # the outer phase's time excludes this one
+                        outer = self.stack[-1]
+                        self.time_s[outer] = self.time_s.get(outer, 0.0) - took
 
         setattr(module, name, wrapper)
         return lambda: setattr(module, name, original)
@@ -181,7 +197,8 @@ def phase_counters() -> Iterator[Phases]:
         kind = "simulate: Jacobian columns" if steps is not None else "simulate: residuals"
         if len(datasets) > 5 * 3 and len(value_sets) == 1:
             kind = "simulate: input-noise draws"
-        ph.runs[kind] = ph.runs.get(kind, 0) + len(datasets) * len(value_sets)
+        with ph.lock:
+            ph.runs[kind] = ph.runs.get(kind, 0) + len(datasets) * len(value_sets)
         return kind
 
     restore.append(ph.wrap(dg, "cross_validation", lambda a, k: "cross-validation"))
@@ -229,7 +246,7 @@ def breakdown(campaign: Path) -> dict[str, Any]:
         total = time.perf_counter() - t0
     print(f"breakdown (in this process, load {load} -> {uptime()}): diagnosis {total:.1f} s, verdict {diag.verdict}, found {diag.found}")
     print(f"  baseline: one run of the {len(datasets)} campaign records at the declared model {run_s * 1e3:.0f} ms; preparing them {prep_s:.2f} s")
-    print(f"  {'phase':32} {'wall s':>8} {'share':>6} {'calls':>6} {'model runs':>11} {'x baseline':>11}")
+    print(f"  {'phase':32} {'thread-s':>8} {'share':>6} {'calls':>6} {'model runs':>11} {'x baseline':>11}")
     for k in sorted(ph.time_s, key=lambda k: -ph.time_s[k]):
         runs = ph.runs.get(k, 0)
         print(f"  {k:32} {ph.time_s[k]:8.1f} {ph.time_s[k] / total:6.0%} {ph.calls[k]:6d} {runs // max(len(datasets), 1) if runs else '':>11} "
@@ -289,11 +306,37 @@ def decimation_check(campaign: Path) -> dict[str, dict[int, tuple[float, float]]
     return out
 
 
+def parallel_ratio(campaign: Path) -> dict[str, Any]:
+    """The campaign's first round (every candidate's screening fit,
+    cross-validation, the accepted model's fit) with the candidates one at
+    a time and in the default thread pool, in the same run: the pool's
+    gain, and a check that the result is the same."""
+    from hpctl.data.records import read_record
+    from hpctl.identify import diagnose as dg
+    from hpctl.model.effects import parse_model
+
+    recs = [read_record(p) for p in sorted(campaign.glob("*.csv"))]
+    start = parse_model("seed")
+    times: dict[int, float] = {}
+    found = {}
+    for workers in (1, dg.default_workers()):
+        load = uptime()
+        t0 = time.perf_counter()
+        d = dg.diagnose(recs, start, max_rounds=1, workers=workers)
+        times[workers] = time.perf_counter() - t0
+        found[workers] = (d.found, d.final.values)
+        print(f"first round, {workers} worker(s): {times[workers]:.1f} s (load {load} -> {uptime()}), found {d.found}", flush=True)
+    w = dg.default_workers()
+    same = found[1] == found[w]
+    print(f"  thread pool of {w}: {times[1] / times[w]:.2f} x faster than one at a time; same result: {same}")
+    return {"seconds": times, "speedup": times[1] / times[w], "same_result": same}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", default="decimation,campaign,heat,fit,breakdown",
+    ap.add_argument("--only", default="decimation,campaign,heat,fit,breakdown,parallel",
                     help="which timings (comma-separated): campaign, heat, fit (each in a fresh hpctl process), breakdown (the campaign's "
-                         "diagnosis in this process, by phase), decimation (how far the records' drives could be decimated)")
+                         "diagnosis in this process, by phase), parallel (its first round with one worker and with the pool), decimation (how far the records' drives could be decimated)")
     ap.add_argument("--timeout-s", type=float, default=1800.0, help="give up on a timing after this long (reported as not finished)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results here")
     a = ap.parse_args()
@@ -317,6 +360,8 @@ def main() -> int:
         elif "verdict" in r:
             print(f"  {r['label']}: {r['verdict']} found={r['found']} rms/noise {r.get('rms_ratio_before')} -> {r.get('rms_ratio_after')}")
     result: dict[str, Any] = {"timings": rows, "foreign_rig_version": code_version(), "cores": os.cpu_count()}
+    if "parallel" in only:
+        result["parallel"] = parallel_ratio(campaign)
     if "decimation" in only:
         result["decimation"] = decimation_check(campaign)
     if "breakdown" in only:
