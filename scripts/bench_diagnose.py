@@ -104,13 +104,21 @@ def records(name: str, effect: str, seed: int, tests: tuple[Test, ...]) -> Path:
 def timed(cmd: list[str], label: str, timeout_s: float) -> dict[str, Any]:
     load = uptime()
     start = time.perf_counter()
-    try:
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        took = time.perf_counter() - start
-        print(f"{label:9} did not finish in {took:.0f} s (load {load} -> {uptime()})", flush=True)
-        return {"label": label, "command": " ".join(cmd), "wall_s": None, "timeout_s": timeout_s, "load_before": load, "load_after": uptime()}
+    # The progress lines (stderr is a file: one line per step) are kept:
+    # they say how far a run that does not finish got.
+    log = CACHE / "runs" / f"{label}.stderr"
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "w") as err:
+        try:
+            p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=err, text=True, timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            took = time.perf_counter() - start
+            last = log.read_text().strip().splitlines()[-1:] or ["(no progress line)"]
+            print(f"{label:9} did not finish in {took:.0f} s (load {load} -> {uptime()}); last progress line: {last[0]}", flush=True)
+            return {"label": label, "command": " ".join(cmd), "wall_s": None, "timeout_s": timeout_s, "load_before": load,
+                    "load_after": uptime(), "last_progress": last[0]}
     took = time.perf_counter() - start
+    p.stderr = log.read_text()
     row: dict[str, Any] = {"label": label, "command": " ".join(cmd), "wall_s": round(took, 2), "load_before": load, "load_after": uptime(),
                            "exit": p.returncode}
     if p.returncode not in (0, 3):
@@ -349,9 +357,9 @@ def main() -> int:
     hpctl = [sys.executable, "-m", "hpctl"]
     rows = []
     if "campaign" in only:
-        rows.append(timed(hpctl + ["diagnose", str(campaign), "--model", "seed", "--json", "-q", "--force", "--out", str(out / "campaign")], "campaign", a.timeout_s))
+        rows.append(timed(hpctl + ["diagnose", str(campaign), "--model", "seed", "--json", "--force", "--out", str(out / "campaign")], "campaign", a.timeout_s))
     if heat is not None:
-        rows.append(timed(hpctl + ["diagnose", str(heat), "--model", "seed", "--json", "-q", "--force", "--out", str(out / "heat")], "heat", a.timeout_s))
+        rows.append(timed(hpctl + ["diagnose", str(heat), "--model", "seed", "--json", "--force", "--out", str(out / "heat")], "heat", a.timeout_s))
     if "fit" in only:
         rows.append(timed(hpctl + ["fit", str(campaign), "--model", "seed", "--json", "-q", "--force", "--out", str(out / "fit")], "fit", a.timeout_s))
     for r in rows:
@@ -359,6 +367,8 @@ def main() -> int:
             print(f"  {r['label']}: {r['error']}")
         elif "verdict" in r:
             print(f"  {r['label']}: {r['verdict']} found={r['found']} rms/noise {r.get('rms_ratio_before')} -> {r.get('rms_ratio_after')}")
+        elif "rms_ratio" in r:
+            print(f"  {r['label']}: rms/noise {r['rms_ratio']:.3g}")
     result: dict[str, Any] = {"timings": rows, "foreign_rig_version": code_version(), "cores": os.cpu_count()}
     if "parallel" in only:
         result["parallel"] = parallel_ratio(campaign)
