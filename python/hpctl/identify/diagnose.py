@@ -459,8 +459,16 @@ def diagnose(
     depend on it)."""
     clock = _Clock(progress or (lambda _m: None), max_rounds)
     n_workers = workers or default_workers()
-    with ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose") as pool:
+    pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
+    try:
         return _diagnose(records, start_effects, candidates, max_rounds, clock, pool)
+    except BaseException:
+        # Ctrl-C or an error: the fits not started yet are dropped (the
+        # ones running finish; a thread cannot be stopped from outside).
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    finally:
+        pool.shutdown(wait=True)
 
 
 def _diagnose(
