@@ -104,21 +104,38 @@ def records(name: str, effect: str, seed: int, tests: tuple[Test, ...]) -> Path:
 def timed(cmd: list[str], label: str, timeout_s: float) -> dict[str, Any]:
     load = uptime()
     start = time.perf_counter()
-    # The progress lines (stderr is a file: one line per step) are kept:
-    # they say how far a run that does not finish got.
+    # The progress lines are kept with the time each came (stderr is a
+    # pipe: one line per step): they say how far a run that does not
+    # finish got, and how long each round took.
     log = CACHE / "runs" / f"{label}.stderr"
     log.parent.mkdir(parents=True, exist_ok=True)
-    with open(log, "w") as err:
+    out_path = log.with_suffix(".stdout")
+    with open(log, "w") as err_file, open(out_path, "w") as out_file:
+        proc = subprocess.Popen(cmd, stdout=out_file, stderr=subprocess.PIPE, text=True)
+        err_lines: list[str] = []
+
+        def pump() -> None:
+            assert proc.stderr is not None
+            for line in proc.stderr:
+                err_lines.append(line)
+                err_file.write(f"{time.perf_counter() - start:8.1f} s  {line}")
+                err_file.flush()
+
+        reader = threading.Thread(target=pump, daemon=True)
+        reader.start()
         try:
-            p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=err, text=True, timeout=timeout_s)
+            proc.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
             took = time.perf_counter() - start
             last = log.read_text().strip().splitlines()[-1:] or ["(no progress line)"]
             print(f"{label:9} did not finish in {took:.0f} s (load {load} -> {uptime()}); last progress line: {last[0]}", flush=True)
             return {"label": label, "command": " ".join(cmd), "wall_s": None, "timeout_s": timeout_s, "load_before": load,
                     "load_after": uptime(), "last_progress": last[0]}
+        reader.join()
     took = time.perf_counter() - start
-    p.stderr = log.read_text()
+    p = subprocess.CompletedProcess(cmd, proc.returncode, out_path.read_text(), "".join(err_lines))
     row: dict[str, Any] = {"label": label, "command": " ".join(cmd), "wall_s": round(took, 2), "load_before": load, "load_after": uptime(),
                            "exit": p.returncode}
     if p.returncode not in (0, 3):
