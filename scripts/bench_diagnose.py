@@ -143,8 +143,8 @@ def timed(cmd: list[str], label: str, timeout_s: float) -> dict[str, Any]:
     else:
         try:
             doc = json.loads(p.stdout)
-            row["verdict"] = doc.get("verdict")
-            row["found"] = doc.get("found")
+            if "verdict" in doc:
+                row["verdict"], row["found"] = doc["verdict"], doc.get("found")
             for k in ("error_before", "error_after"):
                 if k in doc:
                     row[k.replace("error_", "rms_ratio_")] = doc[k]["rms_ratio"]
