@@ -212,7 +212,7 @@ def phase_counters() -> Iterator[Phases]:
     restore = []
 
     def fit_phase(args: tuple[Any, ...], kwargs: dict[str, Any]) -> str:
-        if ph.stack and ph.stack[-1] == "cross-validation":
+        if kwargs.get("fold") is not None:  # a fold's fit (in its own thread)
             return "cross-validation"
         return "fit (with input noise)" if kwargs.get("input_noise", True) else "candidates (screening fits)"
 
@@ -270,7 +270,7 @@ def breakdown(campaign: Path) -> dict[str, Any]:
         diag = dg.diagnose(recs, start_effects, progress=say)
         total = time.perf_counter() - t0
     print(f"breakdown (in this process, load {load} -> {uptime()}): diagnosis {total:.1f} s, verdict {diag.verdict}, found {diag.found}")
-    print(f"  baseline: one run of the {len(datasets)} campaign records at the declared model {run_s * 1e3:.0f} ms; preparing them {prep_s:.2f} s")
+    print(f"  baseline: one run of the {len(datasets)} records at the declared model {run_s * 1e3:.0f} ms; preparing them {prep_s:.2f} s")
     print(f"  {'phase':32} {'thread-s':>8} {'share':>6} {'calls':>6} {'model runs':>11} {'x baseline':>11}")
     for k in sorted(ph.time_s, key=lambda k: -ph.time_s[k]):
         runs = ph.runs.get(k, 0)
