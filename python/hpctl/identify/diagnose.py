@@ -393,6 +393,8 @@ def _try_all(
 ) -> list[Candidate]:
     """Screening fits of every addition in ``adds``, in ``pool``, ranked by
     score; a progress line as each completes."""
+    if not adds:
+        return []
     start = time.perf_counter()
     futures = {pool.submit(_try, datasets, current, effects, add): i for i, add in enumerate(adds)}
     out: list[Candidate | None] = [None] * len(adds)
