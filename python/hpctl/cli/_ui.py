@@ -218,6 +218,7 @@ class _Status:
     """A spinner with a changing message, for work without a known total."""
 
     def __init__(self, rep: Reporter, message: str) -> None:
+        self._console = rep.err
         self._status = None if rep.quiet else rep.err.status(message)
 
     def __enter__(self) -> _Status:
@@ -230,8 +231,13 @@ class _Status:
             self._status.__exit__(None, None, None)
 
     def update(self, message: str) -> None:
-        if self._status is not None:
-            self._status.update(message)
+        if self._status is None:
+            return
+        self._status.update(message)
+        if not self._console.is_terminal:
+            # No spinner where stderr is a file or a pipe (a log, CI):
+            # each update as a line, so that progress is seen there too.
+            self._console.print(Text(message), highlight=False, soft_wrap=True)
 
 
 def status(rep: Reporter, message: str) -> _Status:

@@ -13,7 +13,10 @@ it never forces an effect onto the data.
 from __future__ import annotations
 
 import math
+import os
+import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -309,28 +312,108 @@ class Diagnosis:
         return self.rounds[0].before if self.rounds else self.final
 
 
-def cross_validation(datasets: Sequence[Dataset], effects: Sequence[str], start: dict[str, float]) -> float:
+def cross_validation(
+    datasets: Sequence[Dataset], effects: Sequence[str], start: dict[str, float], pool: Executor | None = None
+) -> float:
     """Two-fold cross-validation: fit on alternate blocks of every record,
     predict the other blocks; the sum of the prediction RSS (noise units).
+    The two folds' fits run in ``pool`` if given.
 
     Blocks within records rather than whole records, because some effects
     show in one record only (valve switching, a long hold, a heat run):
     held out whole, that record could not be predicted by a fit that never
     saw the effect, whatever the effect's merit."""
-    total = 0.0
     fit_damper = uses_damper(datasets)
-    for train, test in ((0, 1), (1, 0)):
+
+    def fold(train: int) -> float:
         r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False)
-        rss, _ = predict(r, datasets, fold=test)
-        total += rss
-    return total
+        return predict(r, datasets, fold=1 - train)[0]
+
+    if pool is None:
+        return fold(0) + fold(1)
+    return sum(f.result() for f in [pool.submit(fold, 0), pool.submit(fold, 1)])
 
 
 Progress = Callable[[str], None]
 
+#: Screening fits (and cross-validation's folds) running at once. Each
+#: fit's simulations run in Rust with the GIL released, on all cores; but a
+#: fit also has serial stretches (the optimiser's linear algebra, the
+#: residuals in numpy, one long record simulated alone while the shorter
+#: ones are done), which another candidate's fit fills. Two per core is
+#: enough for that; more only adds memory.
+WORKERS_PER_CORE = 2
 
-def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], say: Progress) -> Candidate:
-    say(f"trying {'+'.join(add)}")
+
+def default_workers() -> int:
+    return max(1, WORKERS_PER_CORE * (os.cpu_count() or 1))
+
+
+def _fmt_s(s: float) -> str:
+    s = max(0.0, s)
+    return f"{s:.0f} s" if s < 90 else f"{s / 60:.0f} min {s % 60:02.0f} s" if s < 3600 else f"{s / 3600:.1f} h"
+
+
+class _Clock:
+    """Progress lines that say the round, the candidate and an estimate of
+    the time left in the round: the screening fits still to do, plus
+    cross-validation and the accepted model's fit (about
+    :data:`ACCEPT_FITS` screening fits), at the rate fits have completed
+    so far in this diagnosis (wall time per fit, which counts the fits
+    running in parallel). How many rounds follow depends on what is found,
+    so the estimate is for the round."""
+
+    #: Cross-validation (four half-data fits, the declared model's two
+    #: shared by the round's candidates) and the accepted model's fit with
+    #: the input noise (about twice a screening fit), in screening fits.
+    ACCEPT_FITS = 5.0
+
+    def __init__(self, say: Progress, max_rounds: int) -> None:
+        self.say = say
+        self.max_rounds = max_rounds
+        self.round = 0
+        self.fits = 0
+        self.fit_wall_s = 0.0  # wall time of the batches of screening fits
+        self.first_fit_s: float | None = None
+
+    def per_fit_s(self) -> float | None:
+        if self.fits:
+            return self.fit_wall_s / self.fits
+        return self.first_fit_s
+
+    def tell(self, what: str, fits_left: float) -> None:
+        per = self.per_fit_s()
+        eta = "" if per is None else f"; about {_fmt_s(per * fits_left)} left in this round"
+        self.say(f"round {self.round}/{self.max_rounds}: {what}{eta}")
+
+
+def _try_all(
+    datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], adds: Sequence[tuple[str, ...]], clock: _Clock,
+    pool: Executor, kind: str = "candidate",
+) -> list[Candidate]:
+    """Screening fits of every addition in ``adds``, in ``pool``, ranked by
+    score; a progress line as each completes."""
+    if not adds:
+        return []
+    start = time.perf_counter()
+    futures = {pool.submit(_try, datasets, current, effects, add): i for i, add in enumerate(adds)}
+    out: list[Candidate | None] = [None] * len(adds)
+    done = 0
+    clock.tell(f"{kind}s 1-{len(adds)} of {len(adds)} started ({', '.join('+'.join(a) for a in adds)})", len(adds) + clock.ACCEPT_FITS)
+    for f in as_completed(futures):
+        c = f.result()
+        out[futures[f]] = c
+        done += 1
+        clock.fits += 1
+        clock.fit_wall_s += time.perf_counter() - start
+        start = time.perf_counter()
+        clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}", len(adds) - done + clock.ACCEPT_FITS)
+    ranked = [c for c in out if c is not None]
+    ranked.sort(key=lambda c: c.score, reverse=True)
+    return ranked
+
+
+def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...]) -> Candidate:
     # A screening fit: its errors are not the verdict's (the accepted one
     # is fitted again with the input noise carried through).
     trial = fit(datasets, effects + add, initial=current.values, input_noise=False)
@@ -339,16 +422,24 @@ def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ..
     return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess)
 
 
-def _accept(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], say: Progress) -> Candidate | None:
+def _accept(
+    datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], clock: _Clock, pool: Executor
+) -> Candidate | None:
     """The best-ranked candidate that the evidence supports, if any."""
+    cv_before: float | None = None  # the declared model's: the same for every candidate
     for c in ranked[:3]:
         if c.delta_bic <= BIC_STRONG:
             break
         if c.explained < EXPLAINED_SHARE:
             continue
-        say(f"cross-validating {c.effect}")
-        c.cv_before = cross_validation(datasets, effects, current.values)
-        c.cv_after = cross_validation(datasets, effects + c.effects, c.result.values)
+        clock.tell(f"cross-validating {c.effect}", clock.ACCEPT_FITS)
+        if cv_before is None:
+            before = pool.submit(cross_validation, datasets, effects, current.values)
+            cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool)
+            cv_before = before.result()
+        else:
+            cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool)
+        c.cv_before, c.cv_after = cv_before, cv_after
         if c.cv_improves is not False:
             return c
     return None
@@ -361,26 +452,51 @@ def diagnose(
     candidates: Sequence[str] | None = None,
     max_rounds: int = 6,
     progress: Progress | None = None,
+    workers: int | None = None,
 ) -> Diagnosis:
-    """Runs the diagnosis loop from the declared model ``start_effects``."""
-    say = progress or (lambda _m: None)
+    """Runs the diagnosis loop from the declared model ``start_effects``.
+    ``progress`` gets a line per step (the round, the candidate, an
+    estimate of the time left in the round); ``workers`` screening fits
+    run at once (default :func:`default_workers`; the result does not
+    depend on it)."""
+    clock = _Clock(progress or (lambda _m: None), max_rounds)
+    n_workers = workers or default_workers()
+    pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
+    try:
+        return _diagnose(records, start_effects, candidates, max_rounds, clock, pool)
+    except BaseException:
+        # Ctrl-C or an error: the fits not started yet are dropped (the
+        # ones running finish; a thread cannot be stopped from outside).
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    finally:
+        pool.shutdown(wait=True)
+
+
+def _diagnose(
+    records: Sequence[RigRecord], start_effects: Sequence[str], candidates: Sequence[str] | None, max_rounds: int, clock: _Clock,
+    pool: Executor,
+) -> Diagnosis:
     datasets = prepare(records)
-    pool = [e for e in (candidates or LIBRARY) if e in LIBRARY]
+    pool_effects = [e for e in (candidates or LIBRARY) if e in LIBRARY]
     effects = tuple(e for e in LIBRARY if e in start_effects)
-    say(f"fitting the declared model ({', '.join(effects) or 'classical polytropic ideal gas'})")
+    clock.say(f"fitting the declared model ({', '.join(effects) or 'classical polytropic ideal gas'})")
+    t0 = time.perf_counter()
     current = fit(datasets, effects)
+    # A fit with the input noise is about two screening fits.
+    clock.first_fit_s = (time.perf_counter() - t0) / 2
     rounds: list[Round] = []
     found: list[str] = []
-    for _ in range(max_rounds):
+    for r in range(max_rounds):
+        clock.round = r + 1
         analysis = analyse(current)
         if not analysis.structured:
             rounds.append(Round(current, analysis, [], None))
             break
         shows = traits(datasets)
-        pool_now = [e for e in pool if e not in effects and LIBRARY[e].applies(shows)]
-        tried = [_try(datasets, current, effects, (e,), say) for e in pool_now]
-        tried.sort(key=lambda c: c.score, reverse=True)
-        accepted = _accept(datasets, current, effects, tried, say)
+        pool_now = [e for e in pool_effects if e not in effects and LIBRARY[e].applies(shows)]
+        tried = _try_all(datasets, current, effects, [(e,) for e in pool_now], clock, pool)
+        accepted = _accept(datasets, current, effects, tried, clock, pool)
         if accepted is None and len(tried) >= 2:
             # Some effects only help together: the classical polytropic
             # exponent stands in for the real gas's stiffness, so heat
@@ -389,17 +505,17 @@ def diagnose(
             # So every pair, then (a member may look bad alone).
             singles = [c.effects[0] for c in tried]
             pairs = [(a, b) for i, a in enumerate(singles) for b in singles[i + 1:]]
-            tried_pairs = [_try(datasets, current, effects, pair, say) for pair in pairs]
-            tried_pairs.sort(key=lambda c: c.score, reverse=True)
-            accepted = _accept(datasets, current, effects, tried_pairs, say)
+            tried_pairs = _try_all(datasets, current, effects, pairs, clock, pool, kind="pair")
+            accepted = _accept(datasets, current, effects, tried_pairs, clock, pool)
             tried += tried_pairs
         judgement = None
         if accepted is not None:
             # Honest errors (and the input noise's bias taken out) for the
             # model that goes on: the screening fit left them out.
+            clock.tell(f"fitting the model with {accepted.effect} (with the input noise)", 2.0)
             accepted.result = fit(datasets, effects + accepted.effects, initial=accepted.result.values)
             judgement = judge(accepted.result)
-            say(f"added {accepted.effect}: {judgement.describe(1)}")
+            clock.say(f"round {clock.round}/{max_rounds}: added {accepted.effect}: {judgement.describe(1)}")
         rounds.append(Round(current, analysis, tried, accepted, judgement))
         if accepted is None:
             break
