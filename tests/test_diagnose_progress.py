@@ -9,27 +9,12 @@ import json
 import re
 from pathlib import Path
 
-import pytest
-from click.testing import CliRunner
 
-from hpctl.cli import main
 from hpctl.data.records import read_record
 from hpctl.identify.diagnose import diagnose
+from tests.test_calibrate_cli import hpctl, leaky_rig  # noqa: F401  (the CLI runner and the leaky rig's records, one definition)
 
 CANDIDATE_LINE = re.compile(r"^round 1/1: candidate (\d+)/(\d+) \((\w+)\) fitted, BIC change \S+; about (\d+) s left in this round$")
-
-
-def hpctl(*args: str) -> tuple[int, str, str]:
-    r = CliRunner().invoke(main, list(args))
-    return r.exit_code, r.stdout, r.stderr
-
-
-@pytest.fixture(scope="module")
-def leaky_rig(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("rig")
-    code, _, err = hpctl("rig", "--out", str(out), "--effect", "leakage", "--set", "leak_time_constant_s=40000", "--seed", "3", "--quiet")
-    assert code == 0, err
-    return out
 
 
 def test_progress_lines_carry_the_round_the_candidate_and_the_time_left(leaky_rig: Path, tmp_path: Path) -> None:
