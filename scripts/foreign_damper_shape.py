@@ -74,8 +74,9 @@ def main() -> None:
             damper = {k: round(v, 3) for k, v in r.values.items() if k.startswith("damper")}
             friction = {k: f"{v:.4g} +- {r.stderr[k]:.2g} (truth {g.truth['hpctl_params'].get(k, g.truth.get('foreign_params', {}).get(k))})"
                         for k, v in r.values.items() if k.startswith("friction")}
+            thermal = {k: f"{r.values[k]:.4g} +- {r.stderr[k]:.2g}" for k in ("tau_s", "tau_cv_exponent") if k in r.values}
             print(f"seed {seed} {'flexible' if shape else 'gain    '}: hpctl RMS/noise {r.rms_ratio:.2f}, true {true_ratio(r, g.truth):.2f}, "
-                  f"worst {worst(r)}, {dt:.0f} s, {len(r.model.params)} params; {friction} {damper}", flush=True)
+                  f"worst {worst(r)}, {dt:.0f} s, {len(r.model.params)} params; {thermal} {friction} {damper}", flush=True)
             names = [d.name for d in r.datasets]
             if "sine_0.03hz" in names:
                 i = names.index("sine_0.03hz")

@@ -18,6 +18,7 @@ from hpctl._effect_params import OilComplianceDict as OilComplianceDict
 from hpctl._effect_params import OilNodeDict as OilNodeDict
 from hpctl._effect_params import SensorDict as SensorDict
 from hpctl._effect_params import ValveLagDict as ValveLagDict
+from hpctl._effect_params import WallConductanceDict as WallConductanceDict
 
 
 class DamperCurveDict(TypedDict):

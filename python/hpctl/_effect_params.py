@@ -102,6 +102,22 @@ class Sensor:
 
 
 @dataclass(frozen=True)
+class WallConductance:
+    """Gas-wall heat transfer through a wall conductance `h A` that does not
+    follow the gas's heat capacity: the thermal time constant `tau = m c_v /
+    (h A)` moves with `m c_v` as `tau_s (m c_v / (m c_v)_static)^n` instead
+    of staying at `tau_s` (`c_v` of real nitrogen rises 2-3 % from 15 to 30
+    MPa; `m` falls with a leak). `n = 0` is the seed's constant time
+    constant, `n = 1` a constant conductance. Acts only with a finite time
+    constant.
+    """
+
+    #: The exponent `n` of `m c_v` in the time constant (1 = constant `h A`).
+    #: Valid: [-10, 10] (``tau_cv_exponent``).
+    cv_exponent: float = 1.0
+
+
+@dataclass(frozen=True)
 class Effects:
     """Optional model terms; ``None`` means the effect is absent."""
 
@@ -111,6 +127,7 @@ class Effects:
     leakage: Leakage | None = None
     valve_lag: ValveLag | None = None
     sensor: Sensor | None = None
+    wall_conductance: WallConductance | None = None
 
 
 #: Each effect's parameter class by its key in :class:`Effects`.
@@ -121,6 +138,7 @@ EFFECT_TYPES: dict[str, type] = {
     "leakage": Leakage,
     "valve_lag": ValveLag,
     "sensor": Sensor,
+    "wall_conductance": WallConductance,
 }
 
 
@@ -161,6 +179,10 @@ class SensorDict(TypedDict):
     time_constant_s: float
 
 
+class WallConductanceDict(TypedDict):
+    cv_exponent: float
+
+
 class EffectsDict(TypedDict, total=False):
     friction: FrictionDict
     oil_compliance: OilComplianceDict
@@ -168,3 +190,4 @@ class EffectsDict(TypedDict, total=False):
     leakage: LeakageDict
     valve_lag: ValveLagDict
     sensor: SensorDict
+    wall_conductance: WallConductanceDict

@@ -2,7 +2,8 @@
 //!
 //! `dT/dt = (T_w - T)/tau - (T/c_v) (dp/dT)_v dv/dt`, with `v` the specific
 //! volume. `tau` is the thermal time constant `m c_v / (h A_w)`, taken
-//! constant as the seed found it fits well. The two limits are separate
+//! constant as the seed found it fits well (or moving with `m c_v` at a
+//! fixed wall conductance, [`crate::unit::WallConductance`]). The two limits are separate
 //! variants so that they hold exactly rather than through a huge or tiny
 //! number: isothermal pins the gas to the wall temperature, adiabatic drops
 //! the heat term (the real-gas isentrope).
@@ -51,6 +52,24 @@ impl HeatTransfer {
     /// The classical polytropic model with exponent `n` in [1, 2].
     pub fn polytropic(n: f64) -> Result<Self> {
         check_range("polytropic_exponent", n, 1.0, 2.0).map(HeatTransfer::Polytropic)
+    }
+
+    /// The same heat transfer with its time constant multiplied by
+    /// `factor` (a time constant that moves with the gas's state, see
+    /// [`crate::unit::WallConductance`]); the limits and the polytropic law
+    /// have none to scale and are returned as they are.
+    ///
+    /// ```
+    /// use hp_core::thermal::HeatTransfer;
+    /// assert_eq!(HeatTransfer::TimeConstant(2.0).with_tau_factor(1.5), HeatTransfer::TimeConstant(3.0));
+    /// assert_eq!(HeatTransfer::Adiabatic.with_tau_factor(1.5), HeatTransfer::Adiabatic);
+    /// ```
+    #[inline]
+    pub fn with_tau_factor(self, factor: f64) -> Self {
+        match self {
+            HeatTransfer::TimeConstant(tau) => HeatTransfer::TimeConstant(tau * factor),
+            other => other,
+        }
     }
 
     /// The time constant in seconds (`0` or `+inf` for the limits; NaN for

@@ -116,6 +116,20 @@ effect_params! {
 }
 
 effect_params! {
+    /// Gas-wall heat transfer through a wall conductance `h A` that does not
+    /// follow the gas's heat capacity: the thermal time constant
+    /// `tau = m c_v / (h A)` moves with `m c_v` as
+    /// `tau_s (m c_v / (m c_v)_static)^n` instead of staying at `tau_s`
+    /// (`c_v` of real nitrogen rises 2-3 % from 15 to 30 MPa; `m` falls
+    /// with a leak). `n = 0` is the seed's constant time constant, `n = 1`
+    /// a constant conductance. Acts only with a finite time constant.
+    WallConductance = "wall_conductance" {
+        /// The exponent `n` of `m c_v` in the time constant (1 = constant `h A`).
+        cv_exponent: [Range::new("tau_cv_exponent", -10.0, 10.0), default 1.0],
+    }
+}
+
+effect_params! {
     /// Imperfect transducers on the measured force and pressures.
     Sensor = "sensor" {
         /// Offset added to the measured strut force, N.
@@ -141,6 +155,7 @@ pub struct Effects {
     pub leakage: Option<Leakage>,
     pub valve_lag: Option<ValveLag>,
     pub sensor: Option<Sensor>,
+    pub wall_conductance: Option<WallConductance>,
 }
 
 impl Effects {
@@ -154,6 +169,7 @@ impl Effects {
         v.visit(&mut self.leakage)?;
         v.visit(&mut self.valve_lag)?;
         v.visit(&mut self.sensor)?;
+        v.visit(&mut self.wall_conductance)?;
         Ok(())
     }
 
@@ -416,6 +432,9 @@ pub struct Unit {
     small_mass_kg: f64,
     large_mass_kg: f64,
     valve6_coefficient: f64,
+    /// `c_v` of the gas at the static state, J/(kg K): the reference of a
+    /// time constant that moves with the heat capacity ([`WallConductance`]).
+    static_cv_j_per_kg_k: f64,
 }
 
 impl Unit {
@@ -454,6 +473,7 @@ impl Unit {
             small_mass_kg: rho * p.small_acc_volume_m3,
             large_mass_kg: rho * p.large_acc_volume_m3,
             valve6_coefficient: p.valve6.coefficient(p.oil_density_kg_m3),
+            static_cv_j_per_kg_k: p.gas.props(rho, p.static_temperature_k).cv_j_per_kg_k,
         })
     }
 
@@ -702,7 +722,10 @@ impl Unit {
         };
         let props_s = gas(rho_s, t_s);
         let lagging_sensor = matches!(e.sensor, Some(s) if s.time_constant_s > 0.0);
-        let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor;
+        // A time constant that moves with L's heat capacity needs L's c_v
+        // whenever L's temperature relaxes.
+        let conductance = e.wall_conductance.filter(|_| needs.rates && matches!(p.heat, HeatTransfer::TimeConstant(_)));
+        let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor || conductance.is_some();
         let props_l = if large_needed { gas(rho_l, t_l) } else { UNUSED_PROPS };
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
@@ -747,8 +770,20 @@ impl Unit {
             rate.m_small_kg = -state.m_small_kg / l.time_constant_s;
             rate.m_large_kg = -state.m_large_kg / l.time_constant_s;
         }
+        let (heat_s, heat_l) = match conductance {
+            Some(w) => {
+                let factor = |m_kg: f64, m0_kg: f64, props: &GasProps| {
+                    libm::pow(m_kg * props.cv_j_per_kg_k / (m0_kg * self.static_cv_j_per_kg_k), w.cv_exponent)
+                };
+                (
+                    p.heat.with_tau_factor(factor(state.m_small_kg, self.small_mass_kg, &props_s)),
+                    p.heat.with_tau_factor(factor(state.m_large_kg, self.large_mass_kg, &props_l)),
+                )
+            }
+            None => (p.heat, p.heat),
+        };
         rate.t_gas_k = temperature_rate_k_s(
-            p.heat,
+            heat_s,
             &props_s,
             t_s,
             t_wall,
@@ -758,7 +793,7 @@ impl Unit {
             rate.m_small_kg,
         );
         rate.t_gas2_k = temperature_rate_k_s(
-            p.heat,
+            heat_l,
             &props_l,
             t_l,
             t_wall,

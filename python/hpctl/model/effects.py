@@ -38,7 +38,20 @@ import numpy as np
 
 from hpctl import _core
 from hpctl.errors import ParameterError
-from hpctl.model.unit import DEFAULT_GAS, Damper, DamperCurve, Effects, Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, ValveLag
+from hpctl.model.unit import (
+    DEFAULT_GAS,
+    Damper,
+    DamperCurve,
+    Effects,
+    Friction,
+    Leakage,
+    OilCompliance,
+    OilNode,
+    Sensor,
+    Unit,
+    ValveLag,
+    WallConductance,
+)
 
 #: The core's valid range of every unit parameter (hp_core::ranges).
 CORE_RANGES: Mapping[str, tuple[float, float]] = _core.PARAMETER_RANGES
@@ -168,7 +181,13 @@ OIL_VOLUME_M3 = 1.0e-3
 
 
 def _heat_transfer(u: Unit, p: Mapping[str, float]) -> Unit:
-    return u.replace(tau_s=p["tau_s"], polytropic_exponent=None)
+    # The time constant's dependence on the gas's heat capacity is fitted
+    # only by the flexible model (THERMAL_SHAPE); otherwise it is the seed's
+    # constant time constant.
+    u = u.replace(tau_s=p["tau_s"], polytropic_exponent=None)
+    if "tau_cv_exponent" in p:
+        u = u.with_effects(wall_conductance=WallConductance(p["tau_cv_exponent"]))
+    return u
 
 
 def _real_gas(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -379,10 +398,27 @@ FRICTION_SHAPE: tuple[Param, ...] = (
 )
 
 
+#: The flexible model's heat-transfer parameter (with ``heat_transfer``):
+#: how the thermal time constant moves with the gas's heat capacity m c_v,
+#: tau = tau_s (m c_v / (m c_v)_static)^n (hp-core's `WallConductance`).
+#: The seed takes tau constant (n = 0, the prior's centre); a wall whose
+#: conductance h A does not change with the gas's state gives n = 1. The
+#: difference is small (c_v rises 2-3 % from 15 to 30 MPa) but several
+#: times a good pressure transducer's noise on a 0.3-1 Hz sine: on the
+#: foreign rig (constant h A) the strut-side pressure residual fell from
+#: 6x to 1.6x the noise on such a sine with it (docs/foreign-rig.md).
+THERMAL_SHAPE: tuple[Param, ...] = (
+    Param("tau_cv_exponent", -3.0, 5.0, 0.0, 0.0, (0.0, 1.0), prior_sigma=1.0),
+)
+
+
 def flexible_params(effects: Sequence[str], damper_branches: Sequence[str]) -> list[Param]:
     """The flexible model's extra parameters: the damper characteristic of
-    ``damper_branches`` and, with friction, its smoothing and Stribeck term."""
-    return damper_shape_params(damper_branches) + (list(FRICTION_SHAPE) if "friction" in effects else [])
+    ``damper_branches``; with heat transfer, how its time constant moves
+    with the gas's heat capacity; with friction, its smoothing and Stribeck
+    term."""
+    return (damper_shape_params(damper_branches) + (list(THERMAL_SHAPE) if "heat_transfer" in effects else [])
+            + (list(FRICTION_SHAPE) if "friction" in effects else []))
 
 
 MODELS: dict[str, tuple[str, ...]] = {
@@ -399,7 +435,7 @@ def _check_against_core() -> None:
     knee_lo, knee_hi = CORE_RANGES["blowoff_knee"]
     if not knee_lo <= DAMPER_KNEE_BOUNDS[0] <= DAMPER_KNEE_BOUNDS[1] <= knee_hi:
         raise ParameterError(f"damper knee bounds {DAMPER_KNEE_BOUNDS} must nest inside the core's range [{knee_lo:g}, {knee_hi:g}]")
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, *FRICTION_SHAPE]:
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, *THERMAL_SHAPE, *FRICTION_SHAPE]:
         if p.name not in CORE_RANGES:
             raise ParameterError(f"effect parameter {p.name!r} is not a parameter of the core ({', '.join(CORE_RANGES)})")
         lo, hi = CORE_RANGES[p.name]
@@ -414,7 +450,7 @@ _check_against_core()
 
 def param(name: str) -> Param:
     """A parameter of the registry (or a base parameter) by name."""
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES), *FRICTION_SHAPE]:
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES), *THERMAL_SHAPE, *FRICTION_SHAPE]:
         if p.name == name:
             return p
     raise ParameterError(f"unknown parameter {name!r}; expected one of {', '.join(all_param_names())}")

@@ -70,6 +70,7 @@ OilNode = _effect_params.OilNode
 Leakage = _effect_params.Leakage
 ValveLag = _effect_params.ValveLag
 Sensor = _effect_params.Sensor
+WallConductance = _effect_params.WallConductance
 Effects = _effect_params.Effects
 _EFFECT_TYPES = _effect_params.EFFECT_TYPES
 
