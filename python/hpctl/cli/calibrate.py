@@ -151,13 +151,16 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
 @click.option("--model", "model", default="classical", show_default=True, help="Declared starting model. " + MODEL_HELP)
 @click.option("--list-effects", is_flag=True, help="List the effect library and exit.")
 @click.option("--max-rounds", type=click.IntRange(1, 20), default=6, show_default=True)
+@click.option("--flexible", is_flag=True,
+              help="Every fit identifies the damper characteristic, the heat-transfer law and the friction's shape (as fit --flexible) "
+                   "instead of one gain on the assumed curve: for hardware whose damper is not the assumed one; 4-10x slower.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-diagnosis"), show_default=True)
 @force_option
 @strict_option
 @click.option("--quiet", "-q", is_flag=True)
 @click.option("--json", "as_json", is_flag=True, help="Print the conclusion as JSON.")
-def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_rounds: int, out_dir: Path, force: bool, strict: bool,
-                 quiet: bool, as_json: bool) -> None:
+def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_rounds: int, flexible: bool, out_dir: Path, force: bool,
+                 strict: bool, quiet: bool, as_json: bool) -> None:
     """Find what the declared model lacks: fit it, analyse the residual,
     try each effect of the library, keep what the evidence supports,
     repeat; writes report.md (with plots) and diagnosis.json."""
@@ -171,7 +174,7 @@ def diagnose_cmd(records: tuple[Path, ...], model: str, list_effects: bool, max_
         return
     with errors(rep):
         effects = parse_model(model)
-        _run_diagnosis(rep, _records(records), effects, max_rounds, out_dir, as_json, "diagnose", force, strict)
+        _run_diagnosis(rep, _records(records), effects, max_rounds, out_dir, as_json, "diagnose", force, strict, flexible)
 
 @click.command("rig")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("hpctl-rig"), show_default=True)
@@ -242,13 +245,13 @@ def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
 
 
 def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool,
-                   command: str, force: bool, strict: bool) -> None:
+                   command: str, force: bool, strict: bool, flexible: bool = False) -> None:
     from hpctl.identify import diagnose
     from hpctl.report import calibration as report
 
     with output_dir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
         with status(rep, "diagnosing") as spinner:
-            diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update)
+            diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update, flexible=flexible)
         caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
         path = report.diagnosis_report(diag, out, caveats)
         document = with_warnings(diagnose.summary(diag), caveats)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from hpctl.data.records import RigRecord
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, predict
-from hpctl.model.effects import LIBRARY
+from hpctl.model.effects import LIBRARY, flexible_params
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
 # difference above 10 is "very strong" evidence on Kass & Raftery's scale.
@@ -313,7 +313,8 @@ class Diagnosis:
 
 
 def cross_validation(
-    datasets: Sequence[Dataset], effects: Sequence[str], start: dict[str, float], pool: Executor | None = None
+    datasets: Sequence[Dataset], effects: Sequence[str], start: dict[str, float], pool: Executor | None = None,
+    held: Mapping[str, float] | None = None,
 ) -> float:
     """Two-fold cross-validation: fit on alternate blocks of every record,
     predict the other blocks; the sum of the prediction RSS (noise units).
@@ -326,7 +327,7 @@ def cross_validation(
     fit_damper = uses_damper(datasets)
 
     def fold(train: int) -> float:
-        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False)
+        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False, held=held)
         return predict(r, datasets, fold=1 - train)[0]
 
     if pool is None:
@@ -416,7 +417,7 @@ def _try_all(
 def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...]) -> Candidate:
     # A screening fit: its errors are not the verdict's (the accepted one
     # is fitted again with the input noise carried through).
-    trial = fit(datasets, effects + add, initial=current.values, input_noise=False)
+    trial = fit(datasets, effects + add, initial=current.values, input_noise=False, flexible=current.model.flexible)
     added = len(trial.model.params) - len(current.model.params)
     excess = max(current.rss - current.n, 1e-12)
     return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess)
@@ -434,11 +435,11 @@ def _accept(
             continue
         clock.tell(f"cross-validating {c.effect}", clock.ACCEPT_FITS)
         if cv_before is None:
-            before = pool.submit(cross_validation, datasets, effects, current.values)
-            cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool)
+            before = pool.submit(cross_validation, datasets, effects, current.values, None, shape_values(current))
+            cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool, shape_values(c.result))
             cv_before = before.result()
         else:
-            cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool)
+            cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool, shape_values(c.result))
         c.cv_before, c.cv_after = cv_before, cv_after
         if c.cv_improves is not False:
             return c
@@ -453,17 +454,33 @@ def diagnose(
     max_rounds: int = 6,
     progress: Progress | None = None,
     workers: int | None = None,
+    flexible: bool = False,
 ) -> Diagnosis:
     """Runs the diagnosis loop from the declared model ``start_effects``.
     ``progress`` gets a line per step (the round, the candidate, an
     estimate of the time left in the round); ``workers`` screening fits
     run at once (default :func:`default_workers`; the result does not
-    depend on it)."""
+    depend on it).
+
+    ``flexible``: for hardware whose damper is not the assumed curve. Every
+    fit is the flexible model's (the damper characteristic per valve state
+    and direction, the heat-transfer law, the friction's shape identified
+    with the other parameters; each candidate warm-started from the model
+    it extends), but cross-validation's half-data fits, which hold each
+    model's identified shape and refit the rest. A shape identified once
+    and held while candidates are screened was tried and does not work:
+    on the foreign rig's friction case (seed 5) the characteristic
+    identified without friction had bent to mimic part of it (residual
+    5.6x the noise), and friction added to that curve explained nothing,
+    where friction fitted with the characteristic reached 1.05x. About
+    four to ten times the cost of a fit with one damper gain. Without
+    ``flexible``, one gain on the assumed curve: a damper of another shape
+    stays in the residual, where it can be taken for an effect."""
     clock = _Clock(progress or (lambda _m: None), max_rounds)
     n_workers = workers or default_workers()
     pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
     try:
-        return _diagnose(records, start_effects, candidates, max_rounds, clock, pool)
+        return _diagnose(records, start_effects, candidates, max_rounds, clock, pool, flexible)
     except BaseException:
         # Ctrl-C or an error: the fits not started yet are dropped (the
         # ones running finish; a thread cannot be stopped from outside).
@@ -475,14 +492,15 @@ def diagnose(
 
 def _diagnose(
     records: Sequence[RigRecord], start_effects: Sequence[str], candidates: Sequence[str] | None, max_rounds: int, clock: _Clock,
-    pool: Executor,
+    pool: Executor, flexible: bool = False,
 ) -> Diagnosis:
     datasets = prepare(records)
     pool_effects = [e for e in (candidates or LIBRARY) if e in LIBRARY]
     effects = tuple(e for e in LIBRARY if e in start_effects)
-    clock.say(f"fitting the declared model ({', '.join(effects) or 'classical polytropic ideal gas'})")
+    declared = ', '.join(effects) or 'classical polytropic ideal gas'
+    clock.say(f"fitting the declared model ({declared}{', the damper characteristic identified' if flexible else ''})")
     t0 = time.perf_counter()
-    current = fit(datasets, effects)
+    current = fit(datasets, effects, flexible=flexible)
     # A fit with the input noise is about two screening fits.
     clock.first_fit_s = (time.perf_counter() - t0) / 2
     rounds: list[Round] = []
@@ -513,7 +531,7 @@ def _diagnose(
             # Honest errors (and the input noise's bias taken out) for the
             # model that goes on: the screening fit left them out.
             clock.tell(f"fitting the model with {accepted.effect} (with the input noise)", 2.0)
-            accepted.result = fit(datasets, effects + accepted.effects, initial=accepted.result.values)
+            accepted.result = fit(datasets, effects + accepted.effects, initial=accepted.result.values, flexible=flexible)
             judgement = judge(accepted.result)
             clock.say(f"round {clock.round}/{max_rounds}: added {accepted.effect}: {judgement.describe(1)}")
         rounds.append(Round(current, analysis, tried, accepted, judgement))
@@ -531,6 +549,16 @@ def _diagnose(
     else:
         verdict = "nothing_left"
     return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found, final_judgement)
+
+
+def shape_values(result: FitResult) -> dict[str, float]:
+    """The flexible model's shape parameters of ``result`` (none for a
+    model with the assumed shape): what cross-validation holds."""
+    m = result.model
+    if not m.flexible:
+        return {}
+    names = {p.name for p in flexible_params(m.effects, m.damper_branches if m.fit_damper else ())}
+    return {k: v for k, v in result.values.items() if k in names}
 
 
 @dataclass(frozen=True)
@@ -592,6 +620,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "structure_remains": final.structure_remains,
         "remaining_structure": final.to_json(),
         "start_model": list(diag.start_effects),
+        "flexible": diag.final.model.flexible,
         "effects": steps,
         "final_model": list(diag.final.model.effects),
         "final_params": diag.final.values,

@@ -50,6 +50,11 @@ class Model:
     flexible: bool = False
     #: The damper branches the records exercise (flexible model only).
     damper_branches: tuple[str, ...] = ()
+    #: Values of the flexible model's shape parameters held fixed (not
+    #: fitted): a characteristic identified once, then kept while other
+    #: parameters are fitted (:func:`hpctl.identify.diagnose.diagnose`'s
+    #: flexible mode). Empty: the nominal shape.
+    held: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def params(self) -> list[Param]:
@@ -61,10 +66,11 @@ class Model:
         return ps
 
     def unit_for(self, d: Dataset, values: Mapping[str, float]) -> Unit:
+        values = {**self.held, **values}
         base = d.base.replace(static_pressure_pa=d.base.static_pressure_pa * values.get("charge_scale", 1.0))
         if "damper_gain" in values:
             base = base.replace(damper=base.damper.scaled(values["damper_gain"]))
-        if self.flexible:
+        if self.flexible or self.held:
             base = base.replace(damper=shaped_damper(base.damper, values))
         return build_unit(base, self.in_unit, values)
 
@@ -221,6 +227,7 @@ def fit(
     fold: int | None = None,
     flexible: bool = False,
     input_noise: bool = True,
+    held: Mapping[str, float] | None = None,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -234,9 +241,16 @@ def fit(
     effect out of the estimate (:func:`_input_noise_residuals`); this costs
     about twice the fit. Without, the errors assume independent residuals
     and leave the input's coloured part out (too small by up to 10-15 %):
-    for screening fits whose errors nobody reads."""
+    for screening fits whose errors nobody reads.
+
+    ``held``: values of the flexible model's shape parameters kept fixed
+    (a damper characteristic and heat-transfer law identified before, see
+    :attr:`Model.held`); a parameter the model fits is never held."""
     model = Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper,
                   flexible, damper_branches(datasets) if flexible else ())
+    if held:
+        fitted = {p.name for p in model.params}
+        model.held = {k: v for k, v in held.items() if k not in fitted}
     params = model.params
     # Priors (regularisation toward the nominal values) as extra residual
     # rows, so that the Jacobian and the covariance include them.

@@ -199,6 +199,9 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         lines.append("The residual of the declared model is indistinguishable from the measurement noise: nothing is left to explain.")
     else:
         lines.append("Structured residual remains that no effect in the library explains (see the residual analysis below).")
+    if final.model.flexible:
+        lines += ["", "Every model was fitted flexibly: the damper characteristic per valve state and direction, the heat-transfer law "
+                  "and the friction's shape identified from the data (`--flexible`), not one gain on the assumed curve."]
     j = diag.judgement
     if j is not None:
         lines += ["", f"What is left: {j.describe(0)}."]
