@@ -87,6 +87,24 @@ class Param:
     #: ``typical``, in the fit's own coordinate (decades for ``log``
     #: parameters, the value itself otherwise); None = no prior.
     prior_sigma: float | None = None
+    #: The value at which the effect does nothing (a bound, where the model
+    #: with the effect is the model without it), or None. A diagnosis
+    #: starts a candidate there when a start at ``initial`` ends worse than
+    #: the model it extends (:meth:`null_start`).
+    null: float | None = None
+
+    def null_start(self) -> float | None:
+        """:attr:`null`, or where it is a bound, a start next to it, 1 %
+        of the fit range toward :attr:`typical` (a start on a bound can
+        stall the trust region's first step)."""
+        if self.null is None:
+            return None
+        if self.lower < self.null < self.upper:
+            return self.null
+        lo, hi = self.x_bounds()
+        x0, xt = self.to_x(self.null), self.to_x(self.typical)
+        x = x0 + 0.01 * (hi - lo) * (1.0 if xt >= x0 else -1.0)
+        return self.from_x(min(max(x, lo), hi))
 
     def to_x(self, value: float) -> float:
         return math.log10(value) if self.log else value / self.scale
@@ -280,42 +298,42 @@ LIBRARY: dict[str, Effect] = {
                "large compressions / high pressure"),
         Effect(
             "friction", "seal friction: Coulomb plus viscous",
-            (Param("friction_coulomb_n", 0.0, 5000.0, 200.0, 400.0, (150.0, 1500.0), random_log=True),
-             Param("friction_viscous_n_s_per_m", 0.0, 20000.0, 100.0, 300.0, (0.0, 1000.0))),
+            (Param("friction_coulomb_n", 0.0, 5000.0, 200.0, 400.0, (150.0, 1500.0), random_log=True, null=0.0),
+             Param("friction_viscous_n_s_per_m", 0.0, 20000.0, 100.0, 300.0, (0.0, 1000.0), null=0.0)),
             _friction, "any motion; independent of frequency",
         ),
         Effect(
             "oil_compliance", "oil compressibility and hose compliance between strut and damper",
-            (Param("oil_bulk_modulus_pa", 2e7, 3e9, 1e9, 3e8, (1.5e8, 8e8), log=True),), _oil_compliance,
+            (Param("oil_bulk_modulus_pa", 2e7, 3e9, 1e9, 3e8, (1.5e8, 8e8), log=True, null=3e9),), _oil_compliance,
             "fast motion through the damper", tests=("fast",),
             applies=lambda t: t.damper_works and t.longest_damper_on_s > 0, max_step_s=_compliance_step,
         ),
         Effect(
             "heat_buildup", "damper heat warming the oil and, slowly, the gas (lumped oil node)",
-            (Param("oil_heat_capacity_j_per_k", 1e3, 1e6, 2e4, 2e4, (1.2e4, 3e4), log=True),
+            (Param("oil_heat_capacity_j_per_k", 1e3, 1e6, 2e4, 2e4, (1.2e4, 3e4), log=True, null=1e6),
              Param("wall_to_oil_tau_s", 100.0, 1e5, 5000.0, 5000.0, (2500.0, 8000.0), log=True)),
             _heat_buildup, "long runs with the damper working", tests=("heat",),
             applies=lambda t: t.longest_damper_on_s > HEAT_BUILDUP_MIN_S,
         ),
         Effect(
             "leakage", "slow gas loss from the accumulators",
-            (Param("leak_time_constant_s", 1e3, 1e8, 1e6, 5e4, (2e4, 1.5e5), log=True),), _leakage,
+            (Param("leak_time_constant_s", 1e3, 1e8, 1e6, 5e4, (2e4, 1.5e5), log=True, null=1e8),), _leakage,
             "long holds", tests=("hold",), applies=lambda t: t.longest_s > LEAKAGE_MIN_S,
         ),
         Effect(
             "valve_lag", "first-order response of the solenoid valves",
-            (Param("valve_time_constant_s", 2e-3, 1.0, 0.03, 0.03, (0.012, 0.08), log=True),), _valve_lag,
+            (Param("valve_time_constant_s", 2e-3, 1.0, 0.03, 0.03, (0.012, 0.08), log=True, null=2e-3),), _valve_lag,
             "valve switching during motion", tests=("switching",), applies=lambda t: t.switches_valves, max_step_s=_valve_lag_step,
         ),
         Effect(
             "sensor_offset", "offsets of the force and pressure transducers",
-            (Param("sensor_force_offset_n", -1e4, 1e4, 0.0, 150.0, (120.0, 800.0), signed=True),
-             Param("sensor_pressure_offset_pa", -2e6, 2e6, 0.0, 2e4, (-1e5, 1e5))),
+            (Param("sensor_force_offset_n", -1e4, 1e4, 0.0, 150.0, (120.0, 800.0), signed=True, null=0.0),
+             Param("sensor_pressure_offset_pa", -2e6, 2e6, 0.0, 2e4, (-1e5, 1e5), null=0.0)),
             _sensor_offset, "any record",
         ),
         Effect(
             "sensor_lag", "first-order lag of the transducers",
-            (Param("sensor_time_constant_s", 1e-3, 0.5, 0.01, 0.01, (0.004, 0.03), log=True),), _sensor_lag,
+            (Param("sensor_time_constant_s", 1e-3, 0.5, 0.01, 0.01, (0.004, 0.03), log=True, null=1e-3),), _sensor_lag,
             "fast motion", max_step_s=_sensor_lag_step, on_outputs=True,
         ),
     )
