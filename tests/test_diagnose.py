@@ -95,3 +95,28 @@ def test_structure_no_candidate_explains_is_reported_not_forced(seed: int) -> No
     values, records = rig_data(["friction"], rng)
     d = diagnose(records, SEED_MODEL, candidates=[e for e in CANDIDATES if e != "friction"])
     assert d.verdict == "unexplained_structure" and d.found == [], describe(d, seed, values)
+
+
+def test_an_effect_whose_parameters_sit_at_its_null_is_not_accepted() -> None:
+    # The improvement of a candidate whose own parameters are within
+    # NULL_Z standard errors of where the effect does nothing comes from
+    # the other parameters (HPCTL_TEST_SEED=1104332819: the oil-compliance
+    # model had stopped at its evaluation limit, and sensor offsets of
+    # -0.2 +- 0.9 N and 350 +- 370 Pa "explained" 140 % of its excess).
+    from hpctl.identify.diagnose import NULL_Z, Candidate
+    from hpctl.identify.fit import FitResult, Model
+
+    def candidate(values: dict[str, float], stderr: dict[str, float]) -> Candidate:
+        r = FitResult(Model(("heat_transfer", "real_gas", "sensor_offset"), True), values, stderr, 1.0, 1, [], [], [])
+        return Candidate(("sensor_offset",), 2, r, 5000.0, 1.4)
+
+    at_null = candidate({"sensor_force_offset_n": -0.17, "sensor_pressure_offset_pa": 346.0},
+                        {"sensor_force_offset_n": 0.90, "sensor_pressure_offset_pa": 368.0})
+    assert not at_null.shows_itself and at_null.null_z["sensor_offset"] < 1.0
+    shown = candidate({"sensor_force_offset_n": -0.17, "sensor_pressure_offset_pa": 346.0 + NULL_Z * 368.0},
+                      {"sensor_force_offset_n": 0.90, "sensor_pressure_offset_pa": 368.0})
+    assert shown.shows_itself
+    # A parameter on its null bound (a Coulomb friction of 0) is at its null.
+    r = FitResult(Model(("friction",), True), {"friction_coulomb_n": 0.0, "friction_viscous_n_s_per_m": 0.0},
+                  {"friction_coulomb_n": 117.0, "friction_viscous_n_s_per_m": 1298.0}, 1.0, 1, [], [], [])
+    assert not Candidate(("friction",), 2, r, 10.0, 0.1).shows_itself

@@ -154,3 +154,20 @@ def test_controller_enums_carry_the_controllers_values() -> None:
         assert [m.name.lower() for m in sorted(enum, key=int)] == names
     assert {m.name: int(m) for m in Diag} == _core.CTRL_DIAG_FLAGS
     assert {m.name: int(m) for m in InputGroup if m.name != "ALL"} == _core.CTRL_INPUT_GROUPS
+
+
+def test_each_null_is_where_its_effect_does_nothing_and_its_start_is_inside() -> None:
+    # Param.null: the value at which the effect leaves the model as it was
+    # (a diagnosis restarts a candidate next to it); inside the fit bounds,
+    # and the start next to it lies between it and the typical value.
+    from hpctl.model.effects import LIBRARY
+
+    nulls = [p for e in LIBRARY.values() for p in e.params if p.null is not None]
+    assert {p.name for p in nulls} >= {"friction_coulomb_n", "oil_bulk_modulus_pa", "leak_time_constant_s", "valve_time_constant_s",
+                                       "sensor_force_offset_n", "sensor_time_constant_s"}
+    for p in nulls:
+        assert p.lower <= p.null <= p.upper, p.name
+        start = p.null_start()
+        assert start is not None and p.lower <= start <= p.upper, p.name
+        lo, hi = sorted((p.to_x(p.null), p.to_x(p.typical)))
+        assert lo <= p.to_x(start) <= hi, p.name
