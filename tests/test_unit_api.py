@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import hpctl
@@ -71,3 +72,17 @@ def test_flexible_damper_and_stribeck_values_out_of_range_are_named(seed_unit: h
         bad = seed_unit.with_effects(friction=Friction(200.0, stribeck_velocity_m_s=value))
     with pytest.raises(hpctl.ParameterError, match=name):
         bad.check()
+
+
+def test_each_pressure_transducer_has_its_own_offset(seed_unit: hpctl.Unit) -> None:
+    # S's and L's transducers are two instruments with two zero errors
+    # (the foreign rig draws them apart); the force's is a third.
+    from hpctl.model.unit import Sensor
+    from hpctl.sim.run import characterisation_rig, uniform_times
+
+    unit = seed_unit.with_effects(sensor=Sensor(force_offset_n=300.0, pressure_offset_pa=2e4, pressure2_offset_pa=-1.5e4))
+    r = hpctl.run(unit, characterisation_rig(hpctl.Sine(0.01, 0.5)), uniform_times(2.0, 0.01), spring_hard=False, damper_on=True)
+    np.testing.assert_allclose(r["p_gas_pa"] - r["p_gas_true_pa"], 2e4, atol=1e-6)
+    np.testing.assert_allclose(r["p_gas2_pa"] - r["p_gas2_true_pa"], -1.5e4, atol=1e-6)
+    # The older positional form keeps its meaning: force, pressure, lag.
+    assert Sensor(1.0, 2.0, 0.03).time_constant_s == 0.03 and Sensor(1.0, 2.0, 0.03).pressure2_offset_pa == 0.0

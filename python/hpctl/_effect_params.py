@@ -93,12 +93,17 @@ class Sensor:
     #: Offset added to the measured strut force, N. Valid: [-1e+06, 1e+06]
     #: (``sensor_force_offset_n``).
     force_offset_n: float = 0.0
-    #: Offset added to both measured gas pressures, Pa. Valid: [-1e+08, 1e+08]
-    #: (``sensor_pressure_offset_pa``).
+    #: Offset added to the measured gas pressure of S (its own transducer), Pa.
+    #: Valid: [-1e+08, 1e+08] (``sensor_pressure_offset_pa``).
     pressure_offset_pa: float = 0.0
     #: First-order lag of all measured channels ([`crate::lag`]), s (0 = none).
     #: Valid: [0, 10] (``sensor_time_constant_s``).
     time_constant_s: float = 0.0
+    #: Offset added to the measured gas pressure of L (a second transducer,
+    #: with its own zero error), Pa. Declared last so that the older positional
+    #: form (force, pressure, lag) keeps its meaning. Valid: [-1e+08, 1e+08]
+    #: (``sensor_pressure2_offset_pa``).
+    pressure2_offset_pa: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -177,6 +182,7 @@ class SensorDict(TypedDict):
     force_offset_n: float
     pressure_offset_pa: float
     time_constant_s: float
+    pressure2_offset_pa: float
 
 
 class WallConductanceDict(TypedDict):

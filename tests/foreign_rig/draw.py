@@ -218,7 +218,7 @@ def _apply_effect(u: Unit, effect: str | None, rng: np.random.Generator) -> tupl
             return float(rng.choice([-1.0, 1.0]) * rng.uniform(lo, hi))
 
         s = SensorOffsets(force_n=signed(120.0, 800.0), p_gas_pa=signed(2e4, 1e5), p_gas2_pa=signed(2e4, 1e5))
-        hp = {"sensor_force_offset_n": s.force_n, "sensor_pressure_offset_pa": s.p_gas_pa}
+        hp = {"sensor_force_offset_n": s.force_n, "sensor_pressure_offset_pa": s.p_gas_pa, "sensor_pressure2_offset_pa": s.p_gas2_pa}
         fp = {"sensor_pressure_offset_pa": s.p_gas_pa, "sensor_pressure2_offset_pa": s.p_gas2_pa}
         return u.with_effects(sensor_offset=s), hp, fp
     if effect == "sensor_lag":

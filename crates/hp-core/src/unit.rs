@@ -134,10 +134,14 @@ effect_params! {
     Sensor = "sensor" {
         /// Offset added to the measured strut force, N.
         force_offset_n: [Range::new("sensor_force_offset_n", -1e6, 1e6), default 0.0],
-        /// Offset added to both measured gas pressures, Pa.
+        /// Offset added to the measured gas pressure of S (its own transducer), Pa.
         pressure_offset_pa: [Range::new("sensor_pressure_offset_pa", -1e8, 1e8), default 0.0],
         /// First-order lag of all measured channels ([`crate::lag`]), s (0 = none).
         time_constant_s: [lag::TIME_CONSTANT_S, default 0.0],
+        /// Offset added to the measured gas pressure of L (a second transducer,
+        /// with its own zero error), Pa. Declared last so that the older
+        /// positional form (force, pressure, lag) keeps its meaning.
+        pressure2_offset_pa: [Range::new("sensor_pressure2_offset_pa", -1e8, 1e8), default 0.0],
     }
 }
 
@@ -840,10 +844,10 @@ impl Unit {
                 (
                     state.force_sensor_n + s.force_offset_n,
                     state.p_small_sensor_pa + s.pressure_offset_pa,
-                    state.p_large_sensor_pa + s.pressure_offset_pa,
+                    state.p_large_sensor_pa + s.pressure2_offset_pa,
                 )
             }
-            Some(s) => (force + s.force_offset_n, p_s + s.pressure_offset_pa, p_l + s.pressure_offset_pa),
+            Some(s) => (force + s.force_offset_n, p_s + s.pressure_offset_pa, p_l + s.pressure2_offset_pa),
             None => (force, p_s, p_l),
         };
 

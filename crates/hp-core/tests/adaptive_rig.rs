@@ -166,7 +166,7 @@ fn every_effect_agrees_with_rk4() {
         p.effects.oil_node = Some(OilNode { heat_capacity_j_per_k: 2000.0, oil_to_ambient_tau_s: 300.0, wall_to_oil_tau_s: 60.0, wall_to_ambient_tau_s: 600.0 });
         p.effects.leakage = Some(Leakage { time_constant_s: 50.0 });
         p.effects.valve_lag = Some(ValveLag { time_constant_s: 0.02 });
-        p.effects.sensor = Some(Sensor { force_offset_n: 50.0, pressure_offset_pa: 2e4, time_constant_s: 0.01 });
+        p.effects.sensor = Some(Sensor { force_offset_n: 50.0, pressure_offset_pa: 2e4, pressure2_offset_pa: -1.5e4, time_constant_s: 0.01 });
     });
     let kind = RigKind::Characterisation { strut: Motion::Sine { amplitude_m: 0.03, frequency_hz: 1.5, offset_m: 0.0 } };
     let t = times(2.0, 2e-3);

@@ -156,7 +156,7 @@ def drive_case(
     if leak_time_constant_s is not None:
         u = u.with_effects(leakage=Leakage(leak_time_constant_s))
     if pressure_offset_pa:
-        u = u.with_effects(sensor=Sensor(pressure_offset_pa=pressure_offset_pa))
+        u = u.with_effects(sensor=Sensor(pressure_offset_pa=pressure_offset_pa, pressure2_offset_pa=pressure_offset_pa))
     starts = np.cumsum([0.0] + [s.duration_s for s in segments[:-1]])
     case: GasChargeCaseDict = {
         "unit": u.to_dict(),

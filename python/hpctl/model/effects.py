@@ -30,6 +30,7 @@ time constant. Without ``real_gas`` the gas is ideal.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -243,12 +244,13 @@ def _valve_lag(u: Unit, p: Mapping[str, float]) -> Unit:
 
 def _sensor_offset(u: Unit, p: Mapping[str, float]) -> Unit:
     lag = u.effects.sensor.time_constant_s if u.effects.sensor is not None else 0.0
-    return u.with_effects(sensor=Sensor(p["sensor_force_offset_n"], p["sensor_pressure_offset_pa"], lag))
+    return u.with_effects(sensor=Sensor(force_offset_n=p["sensor_force_offset_n"], pressure_offset_pa=p["sensor_pressure_offset_pa"],
+                                        pressure2_offset_pa=p["sensor_pressure2_offset_pa"], time_constant_s=lag))
 
 
 def _sensor_lag(u: Unit, p: Mapping[str, float]) -> Unit:
     s = u.effects.sensor or Sensor()
-    return u.with_effects(sensor=Sensor(s.force_offset_n, s.pressure_offset_pa, p["sensor_time_constant_s"]))
+    return u.with_effects(sensor=dataclasses.replace(s, time_constant_s=p["sensor_time_constant_s"]))
 
 
 # --- the step each effect's dynamics allow --------------------------------
@@ -326,9 +328,10 @@ LIBRARY: dict[str, Effect] = {
             "valve switching during motion", tests=("switching",), applies=lambda t: t.switches_valves, max_step_s=_valve_lag_step,
         ),
         Effect(
-            "sensor_offset", "offsets of the force and pressure transducers",
+            "sensor_offset", "offsets of the force and pressure transducers (each pressure transducer its own)",
             (Param("sensor_force_offset_n", -1e4, 1e4, 0.0, 150.0, (120.0, 800.0), signed=True, null=0.0),
-             Param("sensor_pressure_offset_pa", -2e6, 2e6, 0.0, 2e4, (-1e5, 1e5), null=0.0)),
+             Param("sensor_pressure_offset_pa", -2e6, 2e6, 0.0, 2e4, (-1e5, 1e5), null=0.0),
+             Param("sensor_pressure2_offset_pa", -2e6, 2e6, 0.0, 2e4, (-1e5, 1e5), null=0.0)),
             _sensor_offset, "any record",
         ),
         Effect(
