@@ -1,6 +1,6 @@
 //! Adaptive integration with error control and dense output: an explicit
-//! embedded Runge-Kutta pair and a linearly implicit one for a stiff
-//! rank-one coupling, beside the fixed-step RK4 of [`crate::ode`] (which
+//! embedded Runge-Kutta pair and a linearly implicit one for stiff
+//! low-rank couplings, beside the fixed-step RK4 of [`crate::ode`] (which
 //! the firmware keeps).
 //!
 //! - Dormand-Prince 5(4) (Dormand & Prince 1980; the coefficients and the
@@ -12,11 +12,13 @@
 //!   `TSROSWRA34PW2`): four stages, third order with a second-order
 //!   embedded solution, L-stable, and a W-method, so its order holds for
 //!   any approximation `W` of the Jacobian. The system supplies `W` as a
-//!   rank-one matrix `u v^T` (the one stiff coupling it has, e.g. the
-//!   valve-6 orifice between the accumulators), so each stage solves
-//!   `(I - h gamma u v^T) k = r` by the Sherman-Morrison formula in O(n):
-//!   that mode is integrated implicitly and no longer limits the step, at
-//!   the cost of an explicit method's arithmetic.
+//!   sum of at most [`MAX_RANK`] rank-one matrices `u_j v_j^T` (its stiff
+//!   couplings, each through a fast flow: e.g. the valve-6 orifice between
+//!   the accumulators, the damper pack relieving the compressible oil), so
+//!   each stage solves `(I - h gamma U V^T) k = r` by the Woodbury formula
+//!   (Sherman-Morrison for one term) in O(n): those modes are integrated
+//!   implicitly and no longer limit the step, at the cost of an explicit
+//!   method's arithmetic.
 //!
 //! A step uses ROS34PW2 when the system reports a stiff coupling at its
 //! start, Dormand-Prince otherwise. The states are the first
@@ -41,6 +43,55 @@ pub struct RankOne<const N: usize> {
     pub v: [f64; N],
 }
 
+/// Most rank-one terms of a [`LowRank`] stiff part.
+pub const MAX_RANK: usize = 2;
+
+/// A low-rank approximation `sum_j u_j v_j^T` of the stiff part of a
+/// Jacobian: one [`RankOne`] term per fast internal quantity, at most
+/// [`MAX_RANK`] of them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LowRank<const N: usize> {
+    terms: [RankOne<N>; MAX_RANK],
+    rank: usize,
+}
+
+impl<const N: usize> LowRank<N> {
+    /// No stiff part.
+    pub const NONE: Self = LowRank { terms: [RankOne { u: [0.0; N], v: [0.0; N] }; MAX_RANK], rank: 0 };
+
+    /// Adds a term; false (and nothing added) if there are [`MAX_RANK`] already.
+    pub fn push(&mut self, term: RankOne<N>) -> bool {
+        match self.terms.get_mut(self.rank) {
+            Some(slot) => {
+                *slot = term;
+                self.rank += 1;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The number of terms.
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+
+    /// The terms.
+    pub fn terms(&self) -> &[RankOne<N>] {
+        self.terms.get(..self.rank).unwrap_or(&[])
+    }
+}
+
+impl<const N: usize> From<Option<RankOne<N>>> for LowRank<N> {
+    fn from(term: Option<RankOne<N>>) -> Self {
+        let mut out = LowRank::NONE;
+        if let Some(t) = term {
+            out.push(t);
+        }
+        out
+    }
+}
+
 /// A system for the adaptive integrator.
 pub trait AdaptiveSystem<const N: usize>: OdeSystem<N> {
     /// Number of integrated states: the first `integrated_len()` entries of
@@ -54,9 +105,19 @@ pub trait AdaptiveSystem<const N: usize>: OdeSystem<N> {
     fn abs_tolerance(&self) -> [f64; N];
 
     /// The derivative and, where the system has a stiff coupling, its
-    /// rank-one part of the Jacobian.
+    /// rank-one part of the Jacobian. A system with several stiff
+    /// couplings implements [`AdaptiveSystem::derivatives_with_stiff_part`]
+    /// instead.
     fn derivatives_with_coupling(&self, t_s: f64, y: &[f64; N]) -> Result<([f64; N], Option<RankOne<N>>)> {
         Ok((self.derivatives(t_s, y)?, None))
+    }
+
+    /// The derivative and the stiff part of the Jacobian (what the
+    /// integrator asks for); by default the one coupling of
+    /// [`AdaptiveSystem::derivatives_with_coupling`].
+    fn derivatives_with_stiff_part(&self, t_s: f64, y: &[f64; N]) -> Result<([f64; N], LowRank<N>)> {
+        let (f, coupling) = self.derivatives_with_coupling(t_s, y)?;
+        Ok((f, coupling.into()))
     }
 
     /// Keeps an accepted state within the model's constraints (e.g. a void
@@ -188,8 +249,8 @@ struct Attempt<const N: usize> {
     err: f64,
     y1: [f64; N],
     dense: Dense<N>,
-    /// The derivative and coupling at `y1`, when the method computed them.
-    next: Option<([f64; N], Option<RankOne<N>>)>,
+    /// The derivative and stiff part at `y1`, when the method computed them.
+    next: Option<([f64; N], LowRank<N>)>,
 }
 
 /// `y + h sum(a_j k_j)` over the first `n` entries.
@@ -212,6 +273,38 @@ fn dot<const N: usize>(n: usize, v: &[f64; N], x: &[f64; N]) -> f64 {
     v.iter().zip(x).take(n).map(|(a, b)| a * b).sum()
 }
 
+/// `x -> (I - c U V^T)^-1 x` for the terms `u_j v_j^T` of `W = U V^T`, by
+/// the Woodbury formula `x + c U (I - c V^T U)^-1 V^T x`, the small matrix
+/// inverted by Cramer's rule (for one term the Sherman-Morrison formula
+/// `x + c u (v.x) / (1 - c v.u)`). A singular small matrix gives
+/// non-finite values, which the step's error norm rejects.
+fn woodbury<const N: usize>(n: usize, terms: &[RankOne<N>], c: f64) -> impl Fn([f64; N]) -> [f64; N] + '_ {
+    let term = |j: usize| terms.get(j);
+    // m_jk = delta_jk - c v_j.u_k, for j, k < 2 (the rank is at most MAX_RANK).
+    let m = |j: usize, k: usize| match (term(j), term(k)) {
+        (Some(a), Some(b)) => f64::from(u8::from(j == k)) - c * dot(n, &a.v, &b.u),
+        _ => f64::from(u8::from(j == k)),
+    };
+    let (m00, m01, m10, m11) = (m(0, 0), m(0, 1), m(1, 0), m(1, 1));
+    let det = m00 * m11 - m01 * m10;
+    move |x: [f64; N]| -> [f64; N] {
+        let b = |j: usize| term(j).map_or(0.0, |t| dot(n, &t.v, &x));
+        match terms {
+            [RankOne { u, .. }] => {
+                let s = c * b(0) / m00;
+                combine(n, &x, s, [(1.0, u)])
+            }
+            [RankOne { u: u0, .. }, RankOne { u: u1, .. }] => {
+                let (b0, b1) = (b(0), b(1));
+                let s0 = c * (m11 * b0 - m01 * b1) / det;
+                let s1 = c * (m00 * b1 - m10 * b0) / det;
+                combine(n, &x, 1.0, [(s0, u0), (s1, u1)])
+            }
+            _ => x,
+        }
+    }
+}
+
 /// The adaptive integrator's state: the current point, its derivative, the
 /// proposed next step, and the dense output of the last step.
 #[derive(Debug, Clone)]
@@ -220,7 +313,7 @@ pub struct Integrator<const N: usize> {
     t: f64,
     y: [f64; N],
     f: [f64; N],
-    coupling: Option<RankOne<N>>,
+    stiff: LowRank<N>,
     h: f64,
     control: Control,
     atol: [f64; N],
@@ -238,14 +331,14 @@ const PI_BETA: f64 = 0.04;
 impl<const N: usize> Integrator<N> {
     /// Starts at `(t_s, y)` with a first trial step `h_s`.
     pub fn new<S: AdaptiveSystem<N> + ?Sized>(system: &S, t_s: f64, y: [f64; N], h_s: f64, control: Control) -> Result<Self> {
-        let (f, coupling) = system.derivatives_with_coupling(t_s, &y)?;
+        let (f, stiff) = system.derivatives_with_stiff_part(t_s, &y)?;
         let n = system.integrated_len().min(N);
         Ok(Integrator {
             n,
             t: t_s,
             y,
             f,
-            coupling,
+            stiff,
             // max then min rather than clamp: no panic on a bad bound.
             h: h_s.max(control.min_step_s).min(control.max_dt_s),
             control,
@@ -261,9 +354,9 @@ impl<const N: usize> Integrator<N> {
     /// Restarts at the current point after the system changed
     /// discontinuously (e.g. a valve switched), keeping the step size.
     pub fn restart<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S) -> Result<()> {
-        let (f, coupling) = system.derivatives_with_coupling(self.t, &self.y)?;
+        let (f, stiff) = system.derivatives_with_stiff_part(self.t, &self.y)?;
         self.f = f;
-        self.coupling = coupling;
+        self.stiff = stiff;
         self.stats.evaluations += 1;
         self.t_prev = self.t;
         self.h_prev = 0.0;
@@ -351,7 +444,7 @@ impl<const N: usize> Integrator<N> {
         if !(h > 0.0) {
             return Err(Error::OutOfRange { name: "step end (replayed)", value: t_end_s, min: self.t, max: f64::MAX });
         }
-        let method = if self.coupling.is_some() { Method::Rosenbrock } else { Method::DormandPrince };
+        let method = if self.stiff.rank() > 0 { Method::Rosenbrock } else { Method::DormandPrince };
         let a = match method {
             Method::DormandPrince => self.try_dormand_prince(system, h)?,
             Method::Rosenbrock => self.try_rosenbrock(system, h)?,
@@ -359,11 +452,11 @@ impl<const N: usize> Integrator<N> {
         let mut y1 = a.y1;
         let projected = system.project(t_end_s, &mut y1);
         system.check(t_end_s, &y1)?;
-        let (f1, coupling) = match a.next {
+        let (f1, stiff) = match a.next {
             Some(next) if !projected => next,
             _ => {
                 self.stats.evaluations += 1;
-                system.derivatives_with_coupling(t_end_s, &y1)?
+                system.derivatives_with_stiff_part(t_end_s, &y1)?
             }
         };
         self.t_prev = self.t;
@@ -371,7 +464,7 @@ impl<const N: usize> Integrator<N> {
         self.t = t_end_s;
         self.y = y1;
         self.f = f1;
-        self.coupling = coupling;
+        self.stiff = stiff;
         self.dense = a.dense;
         self.stats.accepted += 1;
         if method == Method::Rosenbrock {
@@ -401,7 +494,7 @@ impl<const N: usize> Integrator<N> {
             // that a replay (Integrator::step_exact) takes the very same one.
             let t1 = if h == remaining { t_end_s } else { self.t + h };
             let h = t1 - self.t;
-            let method = if self.coupling.is_some() { Method::Rosenbrock } else { Method::DormandPrince };
+            let method = if self.stiff.rank() > 0 { Method::Rosenbrock } else { Method::DormandPrince };
             let attempt = match method {
                 Method::DormandPrince => self.try_dormand_prince(system, h),
                 Method::Rosenbrock => self.try_rosenbrock(system, h),
@@ -432,12 +525,12 @@ impl<const N: usize> Integrator<N> {
                         self.stats.rejected += 1;
                         continue;
                     }
-                    let (f1, coupling) = match a.next {
+                    let (f1, stiff) = match a.next {
                         // Dormand-Prince's last stage is the derivative at the new point.
                         Some(next) if !projected => next,
                         _ => {
                             self.stats.evaluations += 1;
-                            match system.derivatives_with_coupling(t1, &y1) {
+                            match system.derivatives_with_stiff_part(t1, &y1) {
                                 Ok(v) => v,
                                 Err(e) => {
                                     last_error = e;
@@ -453,7 +546,7 @@ impl<const N: usize> Integrator<N> {
                     self.t = t1;
                     self.y = y1;
                     self.f = f1;
-                    self.coupling = coupling;
+                    self.stiff = stiff;
                     self.dense = a.dense;
                     self.stats.accepted += 1;
                     if method == Method::Rosenbrock {
@@ -491,7 +584,7 @@ impl<const N: usize> Integrator<N> {
         let k6 = system.derivatives(t + h, &combine(n, &y, h, [(A61, &k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)]))?;
         let y1 = combine(n, &y, h, [(A71, &k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)]);
         self.stats.evaluations += 5;
-        let (k7, coupling) = system.derivatives_with_coupling(t + h, &y1)?;
+        let (k7, stiff) = system.derivatives_with_stiff_part(t + h, &y1)?;
         self.stats.evaluations += 1;
         let zero = [0.0; N];
         let err = combine(n, &zero, h, [(E1, &k1), (E3, &k3), (E4, &k4), (E5, &k5), (E6, &k6), (E7, &k7)]);
@@ -511,27 +604,24 @@ impl<const N: usize> Integrator<N> {
                 }
             }
         }
-        Ok(Attempt { err, y1, dense: Dense::DormandPrince(r), next: Some((k7, coupling)) })
+        Ok(Attempt { err, y1, dense: Dense::DormandPrince(r), next: Some((k7, stiff)) })
     }
 
     /// One ROS34PW2 trial step of size `h`, linearly implicit in the
-    /// rank-one coupling at the step's start.
+    /// stiff part at the step's start.
     fn try_rosenbrock<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, h: f64) -> Result<Attempt<N>> {
         let (n, t, y, f1) = (self.n, self.t, self.y, self.f);
         let zero = [0.0; N];
-        let RankOne { u, v } = self.coupling.unwrap_or(RankOne { u: zero, v: zero });
-        // (I - h gamma u v^T)^-1 r = r + h gamma u (v.r) / (1 - h gamma v.u).
-        let denominator = 1.0 - h * GAMMA * dot(n, &v, &u);
-        let solve = |r: [f64; N]| -> [f64; N] {
-            let s = h * GAMMA * dot(n, &v, &r) / denominator;
-            combine(n, &r, s, [(1.0, &u)])
-        };
+        let terms = self.stiff.terms();
+        let solve = woodbury(n, terms, h * GAMMA);
         // Stage i: (I - h gamma W) k_i = h f(Y_i) + h W sum_j gamma_ij k_j,
-        // W = u v^T, Y_i = y + sum_j alpha_ij k_j.
+        // W = sum_j u_j v_j^T, Y_i = y + sum_j alpha_ij k_j.
         let stage = |f: [f64; N], g: [f64; N]| -> [f64; N] {
-            let s = h * dot(n, &v, &g);
             let mut r = combine(n, &zero, h, [(1.0, &f)]);
-            r = combine(n, &r, s, [(1.0, &u)]);
+            for RankOne { u, v } in terms {
+                let s = h * dot(n, v, &g);
+                r = combine(n, &r, s, [(1.0, u)]);
+            }
             solve(r)
         };
         let k1 = stage(f1, zero);
