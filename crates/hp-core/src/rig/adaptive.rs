@@ -7,7 +7,7 @@
 //! and only the states the unit's effects use are integrated.
 
 use super::{Rig, RigKind, RigSample, RigState, RIG_STATES};
-use crate::adaptive::{AdaptiveSystem, Control, Integrator, LowRank, RankOne, Stats};
+use crate::adaptive::{AdaptiveSystem, Control, Integrator, LowRank, RankOne, Stats, StiffMethod};
 use crate::error::{check_range, Error, Result};
 use crate::ode::OdeSystem;
 use crate::thermal::HeatTransfer;
@@ -268,7 +268,16 @@ pub fn run_adaptive<'a>(
         *a *= settings.rtol;
     }
     let mut system = System { rig, layout: &layout, base, atol };
-    let control = Control::new(settings.rtol, settings.max_dt_s);
+    let mut control = Control::new(settings.rtol, settings.max_dt_s);
+    // With oil compliance the damper's stiff mode is there at every step,
+    // valve 6 open or not, but stiff only against slow motion: on fast
+    // motion Dormand-Prince resolves it at about the steps ROS34PW2's
+    // third order needs at the default tolerance (see StiffMethod::Switching).
+    // Without it only valve 6's exchange is stiff, and ROS34PW2 takes every
+    // step it is in.
+    if rig.unit.params().effects.oil_compliance.is_some() {
+        control.stiff = StiffMethod::Switching;
+    }
     let first_step = settings.max_dt_s.min(1e-4);
     let mut integrator = Integrator::new(&system, 0.0, layout.compress(&base), first_step, control)?;
     let mut stepper = Stepper { steps, cursor: 0 };
