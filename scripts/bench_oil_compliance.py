@@ -176,6 +176,7 @@ def main() -> int:
         return 0
 
     import numpy as np
+
     from bench_diagnose import CAMPAIGN_EFFECT, CAMPAIGN_SEED, CAMPAIGN_TESTS, records
 
     print("python " + " ".join([str(Path(sys.argv[0]))] + sys.argv[1:]))
