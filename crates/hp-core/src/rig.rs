@@ -14,7 +14,7 @@ use crate::gas::table::TabulatedGas;
 use crate::gas::{Gas, Span};
 use crate::motion::Motion;
 use crate::ode::{rk4_step, rk4_step_from, OdeSystem};
-use crate::unit::{Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+use crate::unit::{Linearisation, Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 mod adaptive;
 pub use adaptive::{run_adaptive, Adaptive, SampleDetail, Steps, DEFAULT_RTOL};
@@ -221,7 +221,7 @@ impl<'a> Rig<'a> {
         t_s: f64,
         s: &RigState,
         needs: Needs,
-    ) -> (RigState, StrutMotion, f64, f64, UnitOutputs, Option<Valve6Coupling>) {
+    ) -> (RigState, StrutMotion, f64, f64, UnitOutputs, Linearisation) {
         let (motion, base) = self.strut_motion(t_s, s);
         let (unit_rate, out, coupling) = match &self.gas_table {
             Some(table) => self.unit.evaluate_parts_with(table, &s.unit, motion, self.valves, self.ambient_k, needs),

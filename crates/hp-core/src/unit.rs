@@ -399,15 +399,32 @@ pub struct UnitOutputs {
     pub cavitating: bool,
 }
 
-/// The linearisation of the valve-6 exchange, the unit's one stiff mode
-/// (the orifice equalises S and L within about a millisecond): the state
-/// rate depends on the flow `q6` through `u = d(rate)/d(q6)`, the flow on
-/// the state through `v = d(q6)/d(state)`, so `u v^T` is the stiff part of
-/// the Jacobian (see [`crate::adaptive`]).
+/// The linearisation of a stiff flow: the state rate depends on the flow
+/// `q` through `u = d(rate)/d(q)`, the flow on the state through
+/// `v = d(q)/d(state)`, so `u v^T` is a stiff part of the Jacobian (see
+/// [`crate::adaptive`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Valve6Coupling {
+pub struct FlowCoupling {
     pub u: UnitState,
     pub v: UnitState,
+}
+
+/// The valve-6 exchange linearised: the orifice equalises S and L within
+/// about a millisecond.
+pub type Valve6Coupling = FlowCoupling;
+
+/// The unit's stiff modes linearised, as [`Unit::evaluate_parts`] returns
+/// them when [`Needs::coupling`] asks.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Linearisation {
+    /// The valve-6 exchange (when valve 6 is open).
+    pub valve6: Option<Valve6Coupling>,
+    /// The damper flow with oil compliance (when the strut pressure is a
+    /// state, not pinned at the vapour pressure): the oil spring relaxes
+    /// through the damper pack in `V_oil / (B dq/dp)`, about 0.5-10 ms
+    /// (oil volume `V_oil`, bulk modulus `B`, the pack's `dq/dp`), far
+    /// faster than the motion the steps must follow.
+    pub damper: Option<FlowCoupling>,
 }
 
 /// What [`Unit::evaluate_parts`] must produce besides the state rate and
@@ -418,7 +435,7 @@ pub struct Needs {
     /// the flows are meaningful in the returned outputs, and L's gas is
     /// evaluated only where the rate needs it).
     pub outputs: bool,
-    /// The valve-6 coupling (when valve 6 is open).
+    /// The stiff flows' linearisations ([`Linearisation`]).
     pub coupling: bool,
     /// The state rate (else only the outputs are meaningful, and the gas is
     /// evaluated for its pressure alone: an output sample).
@@ -674,7 +691,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
         needs: Needs,
-    ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
+    ) -> (UnitState, UnitOutputs, Linearisation) {
         self.evaluate_parts_with(&self.params.gas, state, motion, valves, ambient_k, needs)
     }
 
@@ -691,7 +708,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
         needs: Needs,
-    ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
+    ) -> (UnitState, UnitOutputs, Linearisation) {
         let p = &self.params;
         let e = &p.effects;
         let area = p.piston_area_m2;
@@ -739,6 +756,9 @@ impl Unit {
         // Strut pressure and damper flow, with cavitation.
         let displaced_rate = area * motion.vel_m_s; // oil pushed out of the strut volume
         let cavitation_flow = || p.damper.flow_m3_s(p.vapour_pressure_pa - p_s, s5);
+        // With oil compliance and the strut not pinned: `B / V_oil`, the
+        // strut pressure's rate per net oil flow into the strut side.
+        let mut oil_stiffness_pa_per_m3 = None;
         let (p_strut, q_damper, cavitating) = match e.oil_compliance {
             None => {
                 if state.v_void_m3 > 0.0 {
@@ -760,7 +780,9 @@ impl Unit {
                     (p.vapour_pressure_pa, cavitation_flow(), true)
                 } else {
                     let oil_volume = c.oil_volume_m3 - state.v_void_m3.max(0.0);
-                    rate.p_strut_pa = c.bulk_modulus_pa / oil_volume * net;
+                    let stiffness = c.bulk_modulus_pa / oil_volume;
+                    rate.p_strut_pa = stiffness * net;
+                    oil_stiffness_pa_per_m3 = Some(stiffness);
                     (state.p_strut_pa, q, false)
                 }
             }
@@ -872,12 +894,65 @@ impl Unit {
             flow_valve6_m3_s: q6,
             cavitating,
         };
-        let coupling = if needs.coupling && s6 > 0.0 {
+        let valve6 = if needs.coupling && s6 > 0.0 {
             Some(self.valve6_coupling(state, &props_s, &props_l, (t_s, t_l), s6, e.valve_lag.is_some()))
         } else {
             None
         };
-        (rate, outputs, coupling)
+        let damper = match oil_stiffness_pa_per_m3 {
+            Some(stiffness) if needs.coupling => Some(self.damper_coupling(state, &props_s, t_s, q_damper, p_strut - p_s, s5, stiffness)),
+            _ => None,
+        };
+        (rate, outputs, Linearisation { valve6, damper })
+    }
+
+    /// The damper flow with oil compliance linearised (see
+    /// [`Linearisation::damper`]): `q = Q(p_strut - p_S)`, the pack's
+    /// curve inverted, at flow `q_m3_s` and pressure drop `dp_pa`;
+    /// `oil_stiffness_pa_per_m3` is `B / V_oil`.
+    #[allow(clippy::too_many_arguments)]
+    fn damper_coupling(
+        &self,
+        state: &UnitState,
+        props_s: &GasProps,
+        t_s: f64,
+        q_m3_s: f64,
+        dp_pa: f64,
+        s5: f64,
+        oil_stiffness_pa_per_m3: f64,
+    ) -> FlowCoupling {
+        let p = &self.params;
+        // A curve without bleed stands vertical at no flow: no finite
+        // linearisation there, and the error control does without.
+        let slope = 1.0 / p.damper.pressure_drop_slope_pa_s_per_m3(q_m3_s, s5);
+        let slope = if slope.is_finite() { slope } else { 0.0 };
+        let rho_s = state.m_small_kg / state.v_gas_m3;
+        // The flow grows with the strut pressure and falls with S's. The
+        // bypass valve's opening (valve lag) moves the flow too, but the
+        // flow does not move the valve: a one-way coupling that leaves the
+        // stiff mode as it is, so it stays out.
+        let mut v = UnitState {
+            p_strut_pa: slope,
+            v_gas_m3: slope * props_s.dp_drho_pa_m3_per_kg * rho_s / state.v_gas_m3,
+            m_small_kg: -slope * props_s.dp_drho_pa_m3_per_kg / state.v_gas_m3,
+            ..UnitState::default()
+        };
+        if p.heat != HeatTransfer::Isothermal {
+            v.t_gas_k = -slope * props_s.dp_dt_pa_per_k;
+        }
+        // The rate: the flow relieves the strut pressure, fills S (whose
+        // gas it compresses) and dissipates dp q in the pack.
+        let mut u = UnitState {
+            p_strut_pa: -oil_stiffness_pa_per_m3,
+            v_gas_m3: -1.0,
+            t_gas_k: -temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
+            e_damper_j: dp_pa,
+            ..UnitState::default()
+        };
+        if let Some(n) = p.effects.oil_node {
+            u.t_oil_k = dp_pa / n.heat_capacity_j_per_k;
+        }
+        FlowCoupling { u, v }
     }
 
     /// The valve-6 exchange linearised (see [`Valve6Coupling`]).

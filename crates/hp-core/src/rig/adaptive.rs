@@ -1,12 +1,13 @@
 //! Running a rig with error-controlled steps ([`crate::adaptive`]): the
 //! samples come from the integrator's dense output, so the steps follow
 //! the dynamics rather than the output rate; valve switches are hit
-//! exactly (the integration restarts there); the valve-6 exchange is
-//! integrated linearly implicitly, so it does not limit the step; and only
-//! the states the unit's effects use are integrated.
+//! exactly (the integration restarts there); the unit's stiff flows (the
+//! valve-6 exchange, and the damper flow that relieves the compressible
+//! oil) are integrated linearly implicitly, so they do not limit the step;
+//! and only the states the unit's effects use are integrated.
 
 use super::{Rig, RigKind, RigSample, RigState, RIG_STATES};
-use crate::adaptive::{AdaptiveSystem, Control, Integrator, RankOne, Stats};
+use crate::adaptive::{AdaptiveSystem, Control, Integrator, LowRank, RankOne, Stats, StiffMethod};
 use crate::error::{check_range, Error, Result};
 use crate::ode::OdeSystem;
 use crate::thermal::HeatTransfer;
@@ -160,15 +161,17 @@ impl System<'_, '_> {
         RigState::from_array(&self.layout.expand(y, &self.base))
     }
 
-    fn rate(&self, t_s: f64, y: &[f64; RIG_STATES], coupling: bool) -> ([f64; RIG_STATES], Option<RankOne<RIG_STATES>>) {
+    fn rate(&self, t_s: f64, y: &[f64; RIG_STATES], coupling: bool) -> ([f64; RIG_STATES], LowRank<RIG_STATES>) {
         let s = self.state(y);
-        let (rate, _, _, _, _, c) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, rates: true });
+        let (rate, _, _, _, _, lin) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, rates: true });
         let f = self.layout.compress(&rate.to_array());
-        let c = c.map(|c| {
-            let full = |unit: UnitState| RigState { unit, body_disp_m: 0.0, body_vel_m_s: 0.0 }.to_array();
-            RankOne { u: self.layout.compress(&full(c.u)), v: self.layout.compress(&full(c.v)) }
-        });
-        (f, c)
+        let full = |unit: UnitState| RigState { unit, body_disp_m: 0.0, body_vel_m_s: 0.0 }.to_array();
+        let mut stiff = LowRank::NONE;
+        // The unit has two stiff flows, MAX_RANK: both always fit.
+        for c in [lin.valve6, lin.damper].into_iter().flatten() {
+            stiff.push(RankOne { u: self.layout.compress(&full(c.u)), v: self.layout.compress(&full(c.v)) });
+        }
+        (f, stiff)
     }
 }
 
@@ -187,11 +190,7 @@ impl AdaptiveSystem<RIG_STATES> for System<'_, '_> {
         self.atol
     }
 
-    fn derivatives_with_coupling(
-        &self,
-        t_s: f64,
-        y: &[f64; RIG_STATES],
-    ) -> Result<([f64; RIG_STATES], Option<RankOne<RIG_STATES>>)> {
+    fn derivatives_with_stiff_part(&self, t_s: f64, y: &[f64; RIG_STATES]) -> Result<([f64; RIG_STATES], LowRank<RIG_STATES>)> {
         Ok(self.rate(t_s, y, true))
     }
 
@@ -269,7 +268,16 @@ pub fn run_adaptive<'a>(
         *a *= settings.rtol;
     }
     let mut system = System { rig, layout: &layout, base, atol };
-    let control = Control::new(settings.rtol, settings.max_dt_s);
+    let mut control = Control::new(settings.rtol, settings.max_dt_s);
+    // With oil compliance the damper's stiff mode is there at every step,
+    // valve 6 open or not, but stiff only against slow motion: on fast
+    // motion Dormand-Prince resolves it at about the steps ROS34PW2's
+    // third order needs at the default tolerance (see StiffMethod::Switching).
+    // Without it only valve 6's exchange is stiff, and ROS34PW2 takes every
+    // step it is in.
+    if rig.unit.params().effects.oil_compliance.is_some() {
+        control.stiff = StiffMethod::Switching;
+    }
     let first_step = settings.max_dt_s.min(1e-4);
     let mut integrator = Integrator::new(&system, 0.0, layout.compress(&base), first_step, control)?;
     let mut stepper = Stepper { steps, cursor: 0 };
