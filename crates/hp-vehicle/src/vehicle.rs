@@ -783,7 +783,7 @@ impl Dynamics<'_> {
         max_dt_s: f64,
         mut finish: impl FnMut(f64, &mut [f64; VEHICLE_STATES]) -> Result<()>,
     ) -> Result<[f64; VEHICLE_STATES]> {
-        let (n, h) = stepping::steps(t_s, t_end_s, max_dt_s)?;
+        let (n, h) = hp_core::ode::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;
         // Four arrays reused over the steps, nothing returned by value
         // inside the loop.
