@@ -102,6 +102,21 @@ impl DamperCurve {
         }
     }
 
+    /// `d(dp)/dq` of [`DamperCurve::pressure_drop_pa`] at a flow magnitude
+    /// `q_m3_s >= 0`, Pa s/m^3 (the sharp knee's slope from below at the
+    /// knee itself).
+    pub fn pressure_drop_slope_pa_s_per_m3(&self, q_m3_s: f64) -> f64 {
+        if self.blowoff_knee > 0.0 {
+            return self.smooth_pressure_drop_pa(q_m3_s).1;
+        }
+        let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
+        if orifice <= self.blowoff_pa {
+            self.bleed_pa_s_per_m3 + 2.0 * self.orifice_pa_s2_per_m6 * q_m3_s
+        } else {
+            self.blowoff_slope_pa_s_per_m3
+        }
+    }
+
     /// The smooth-knee curve (see the type's description) and its slope
     /// `d(dp)/dq`, at flow `q_m3_s >= 0`.
     fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
@@ -238,6 +253,17 @@ impl Damper {
         let q = libm::fabs(q_m3_s);
         let dp = blend(on.pressure_drop_pa(q), off.pressure_drop_pa(q), bypass_open);
         libm::copysign(dp, q_m3_s)
+    }
+
+    /// `d(dp)/dq` of [`Damper::pressure_drop_pa`], Pa s/m^3.
+    pub fn pressure_drop_slope_pa_s_per_m3(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
+        let (on, off) = if q_m3_s >= 0.0 {
+            (&self.on_compression, &self.off_compression)
+        } else {
+            (&self.on_rebound, &self.off_rebound)
+        };
+        let q = libm::fabs(q_m3_s);
+        blend(on.pressure_drop_slope_pa_s_per_m3(q), off.pressure_drop_slope_pa_s_per_m3(q), bypass_open)
     }
 
     /// Signed flow out of the strut that a signed pressure drop `dp_pa`

@@ -210,7 +210,7 @@ impl<'a> Rig<'a> {
     /// step's result catches; the arithmetic cannot panic).
     #[inline]
     fn rate(&self, t_s: f64, s: &RigState) -> (RigState, StrutMotion, f64, f64, UnitOutputs) {
-        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: true });
+        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, strut: false, rates: true });
         (rate, motion, base, body_acc, out)
     }
 
@@ -235,7 +235,7 @@ impl<'a> Rig<'a> {
             RigKind::Characterisation { .. } => RigState { unit: unit_rate, body_disp_m: 0.0, body_vel_m_s: 0.0 },
             RigKind::Sdof { .. } => RigState { unit: unit_rate, body_disp_m: s.body_vel_m_s, body_vel_m_s: body_acc },
         };
-        (rate, motion, base, body_acc, out, coupling)
+        (rate, motion, base, body_acc, out, coupling.valve6)
     }
 
     fn evaluate(&self, t_s: f64, s: &RigState) -> Result<(RigState, RigSample)> {
@@ -254,7 +254,7 @@ impl<'a> Rig<'a> {
     /// (the gas evaluated for its pressure alone).
     fn sample_outputs(&self, t_s: f64, s: &RigState) -> Result<RigSample> {
         self.check(t_s, s)?;
-        let (_, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: false });
+        let (_, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, strut: false, rates: false });
         Ok(self.sample_from(t_s, s, motion, base, body_acc, out))
     }
 

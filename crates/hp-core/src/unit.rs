@@ -72,6 +72,15 @@ impl Friction {
         let level = self.coulomb_n * (1.0 + (self.stribeck_ratio - 1.0) * libm::exp(-x * x));
         level * libm::tanh(vel_m_s / self.smoothing_velocity_m_s) + self.viscous_n_s_per_m * vel_m_s
     }
+
+    /// `d(force_n)/d(vel_m_s)`, N s/m.
+    pub fn slope_n_s_per_m(&self, vel_m_s: f64) -> f64 {
+        let x = vel_m_s / self.stribeck_velocity_m_s;
+        let peak = self.coulomb_n * (self.stribeck_ratio - 1.0) * libm::exp(-x * x);
+        let level = self.coulomb_n + peak;
+        let th = libm::tanh(vel_m_s / self.smoothing_velocity_m_s);
+        -2.0 * x / self.stribeck_velocity_m_s * peak * th + level * (1.0 - th * th) / self.smoothing_velocity_m_s + self.viscous_n_s_per_m
+    }
 }
 
 effect_params! {
@@ -390,6 +399,38 @@ pub struct Valve6Coupling {
     pub v: UnitState,
 }
 
+/// The strut's linearisation: how the strut force depends on the unit's
+/// state and on the strut's motion, and how the state rate depends on the
+/// strut velocity. Whoever moves the strut (a wheel, a body) closes the
+/// loop through it: the unit's spring (the gas volume the strut
+/// velocity changes, whose pressure is the force) and its damper become a
+/// low-rank part of that system's Jacobian, which a linearly implicit step
+/// can treat implicitly. Given for the incompressible oil while the strut
+/// does not cavitate (else None: the rate does not then depend on the gas
+/// through the force).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StrutCoupling {
+    /// `d(force_true_n)/d(state)`.
+    pub force_per_state: UnitState,
+    /// `d(force_true_n)/d(strut velocity)`, N s/m: damper, friction, end stop.
+    pub force_per_vel_n_s_per_m: f64,
+    /// `d(force_true_n)/d(strut compression)`, N/m: the end stop (the gas
+    /// spring acts through the volume states).
+    pub force_per_disp_n_per_m: f64,
+    /// `d(state rate)/d(strut velocity)`.
+    pub rate_per_vel: UnitState,
+}
+
+/// The linearisations [`Unit::evaluate_parts`] returns when [`Needs`] asks
+/// for them.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Linearisation {
+    /// The valve-6 exchange (when valve 6 is open).
+    pub valve6: Option<Valve6Coupling>,
+    /// The strut (see [`StrutCoupling`]).
+    pub strut: Option<StrutCoupling>,
+}
+
 /// What [`Unit::evaluate_parts`] must produce besides the state rate and
 /// the strut force.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -400,6 +441,8 @@ pub struct Needs {
     pub outputs: bool,
     /// The valve-6 coupling (when valve 6 is open).
     pub coupling: bool,
+    /// The strut's linearisation ([`StrutCoupling`]).
+    pub strut: bool,
     /// The state rate (else only the outputs are meaningful, and the gas is
     /// evaluated for its pressure alone: an output sample).
     pub rates: bool,
@@ -634,7 +677,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
     ) -> (UnitState, UnitOutputs) {
-        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false, rates: true });
+        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false, strut: false, rates: true });
         (rate, outputs)
     }
 
@@ -650,7 +693,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
         needs: Needs,
-    ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
+    ) -> (UnitState, UnitOutputs, Linearisation) {
         self.evaluate_parts_with(&self.params.gas, state, motion, valves, ambient_k, needs)
     }
 
@@ -667,7 +710,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
         needs: Needs,
-    ) -> (UnitState, UnitOutputs, Option<Valve6Coupling>) {
+    ) -> (UnitState, UnitOutputs, Linearisation) {
         let p = &self.params;
         let e = &p.effects;
         let area = p.piston_area_m2;
@@ -833,12 +876,47 @@ impl Unit {
             flow_valve6_m3_s: q6,
             cavitating,
         };
-        let coupling = if needs.coupling && s6 > 0.0 {
+        let valve6 = if needs.coupling && s6 > 0.0 {
             Some(self.valve6_coupling(state, &props_s, &props_l, (t_s, t_l), s6, e.valve_lag.is_some()))
         } else {
             None
         };
-        (rate, outputs, coupling)
+        let strut = if needs.strut && !cavitating && e.oil_compliance.is_none() {
+            Some(self.strut_coupling(state, &props_s, t_s, motion, s5, p_strut - p_s))
+        } else {
+            None
+        };
+        (rate, outputs, Linearisation { valve6, strut })
+    }
+
+    /// The strut linearised (see [`StrutCoupling`]), for the incompressible
+    /// oil while it does not cavitate: the force is `A (p_S + dp(A v) -
+    /// p_0) + friction + end stop`, the gas volume in S falls by `A v`.
+    fn strut_coupling(&self, state: &UnitState, props_s: &GasProps, t_s: f64, motion: StrutMotion, s5: f64, damper_dp_pa: f64) -> StrutCoupling {
+        let p = &self.params;
+        let area = p.piston_area_m2;
+        let q = area * motion.vel_m_s;
+        let dp_dv = area * p.damper.pressure_drop_slope_pa_s_per_m3(q, s5);
+        let slope = props_s.dp_drho_pa_m3_per_kg / state.v_gas_m3;
+        let mut force_per_state = UnitState {
+            v_gas_m3: -area * slope * state.m_small_kg / state.v_gas_m3,
+            m_small_kg: area * slope,
+            ..UnitState::default()
+        };
+        let isothermal = p.heat == HeatTransfer::Isothermal;
+        if !isothermal {
+            force_per_state.t_gas_k = area * props_s.dp_dt_pa_per_k;
+        }
+        let friction = p.effects.friction.map_or(0.0, |f| f.slope_n_s_per_m(motion.vel_m_s));
+        let (k_stop, c_stop) = self.end_stop_slopes(motion);
+        // The damper's power dp q: d/dv = A (dp + q dp'/dq).
+        let rate_per_vel = UnitState {
+            v_gas_m3: -area,
+            t_gas_k: -area * temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
+            e_damper_j: area * damper_dp_pa + q * dp_dv,
+            ..UnitState::default()
+        };
+        StrutCoupling { force_per_state, force_per_vel_n_s_per_m: area * dp_dv + friction + c_stop, force_per_disp_n_per_m: k_stop, rate_per_vel }
     }
 
     /// The valve-6 exchange linearised (see [`Valve6Coupling`]).
@@ -885,6 +963,19 @@ impl Unit {
             u.t_oil_k = dp / n.heat_capacity_j_per_k;
         }
         Valve6Coupling { u, v }
+    }
+
+    /// `d/d(compression)` and `d/d(velocity)` of [`Unit::end_stop_force_n`].
+    fn end_stop_slopes(&self, motion: StrutMotion) -> (f64, f64) {
+        let p = &self.params;
+        let force = self.end_stop_force_n(motion);
+        let engaged = motion.disp_m - p.stroke_compression_m > 0.0 || -p.stroke_extension_m - motion.disp_m > 0.0;
+        // Zero where the damping part would pull the stop back (clamped).
+        if engaged && force != 0.0 {
+            (p.end_stop_stiffness_n_per_m, p.end_stop_damping_n_s_per_m)
+        } else {
+            (0.0, 0.0)
+        }
     }
 
     /// Force of the end stops when the strut is beyond its stroke, N. The

@@ -39,10 +39,11 @@ use hp_core::error::{check_range, Error, Result};
 use hp_core::gas::table::TabulatedGas;
 use hp_core::gas::{EquationOfState, Gas, Span};
 use hp_core::ode::OdeSystem;
-use hp_core::unit::{Unit, UnitParams, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+use hp_core::unit::{Unit, UnitParams, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 use crate::corner::{self, CornerForces, CornerMotion};
 use crate::handling::{self, HandlingAxle, HandlingState};
+use crate::ros2::{BodyInertia, CornerLinearisation, W};
 use crate::stepping;
 use crate::track::Road;
 use crate::tyre::Tyre;
@@ -162,27 +163,33 @@ pub enum Stepping {
     /// method is checked against (and what the vehicles used before).
     Rk4,
     /// ROS2 (Verwer, Spee, Blom & Hundsdorfer 1999, SIAM J. Sci. Comput.
-    /// 20): a two-stage, second-order, L-stable Rosenbrock-W method, with
-    /// each unit's valve-6 exchange (its one stiff mode,
-    /// [`Valve6Coupling`]) treated linearly implicitly, so that the orifice
-    /// does not limit the step; everything else is integrated explicitly
-    /// (Heun's method). Two evaluations a step instead of RK4's four.
+    /// 20): a two-stage, second-order, L-stable Rosenbrock-W method, linearly
+    /// implicit in the fast coupled part of the vehicle (each corner's gas
+    /// volumes and temperatures with valve 6, strut and tyre, the wheel,
+    /// and the body through the strut forces: [`crate::ros2`]), so that
+    /// one step per 1 ms control period follows the wheel hop and valve 6
+    /// does not limit the step; everything else is explicit. Two
+    /// evaluations a step instead of RK4's four.
     #[default]
     Ros2,
 }
 
-/// ROS2's `gamma = 1 + 1/sqrt(2)` (L-stability).
-const ROS2_GAMMA: f64 = 1.0 + core::f64::consts::FRAC_1_SQRT_2;
+/// ROS2's `gamma = 1 - 1/sqrt(2)`, the smaller of the two that make it
+/// L-stable: with the corners and the body in `W` its error constant on
+/// the wheel hop is a quarter of an explicit two-stage method's, where
+/// `1 + 1/sqrt(2)` makes it eight times larger (measured on the 8x8's rough
+/// road: 2.3 um against 46 um from RK4 at 1 ms, BENCHMARKS.md).
+const ROS2_GAMMA: f64 = 1.0 - core::f64::consts::FRAC_1_SQRT_2;
 
-/// The state rate at one instant, with each unit's valve-6 linearisation
-/// (present when valve 6 is open and the stepping is implicit in it).
+/// The state rate at one instant, with each corner's linearisation
+/// (present when the stepping is linearly implicit).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rate {
     pub state: VehicleState,
     couplings: Couplings,
 }
 
-type Couplings = [Option<Valve6Coupling>; MAX_CORNERS];
+type Couplings = [CornerLinearisation; MAX_CORNERS];
 
 /// A validated vehicle with its static equilibrium.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -464,6 +471,15 @@ impl Vehicle {
         self.ambient_k
     }
 
+    /// The body's side of the ROS2 step's `W` ([`crate::ros2`]).
+    fn body_inertia(&self) -> BodyInertia {
+        let b = &self.params.body;
+        BodyInertia {
+            inverse: [1.0 / b.mass_kg, 1.0 / b.pitch_inertia_kg_m2, 1.0 / self.roll_axis_inertia_kg_m2],
+            roll_weight_per_inertia: b.mass_kg * G * self.roll_arm_m / self.roll_axis_inertia_kg_m2,
+        }
+    }
+
     /// Total mass (sprung and unsprung), kg.
     pub fn total_mass_kg(&self) -> f64 {
         self.total_mass_kg
@@ -505,7 +521,7 @@ fn corner_chunks(y: &[f64; VEHICLE_STATES]) -> core::slice::ChunksExact<'_, f64>
 }
 
 /// One corner's [`corner::evaluate`] with its unit's rate written into
-/// `out` and the valve-6 linearisation into `slot` (when wanted), so
+/// `out` and the corner's linearisation into `slot` (when wanted), so
 /// that no large tuple is returned through the gas's two code paths.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -514,7 +530,7 @@ fn corner_into(
     unit: &Unit,
     c: &CornerGeometry,
     outputs: bool,
-    slot: Option<&mut Option<Valve6Coupling>>,
+    slot: Option<&mut CornerLinearisation>,
     unit_state: &UnitState,
     motion: &CornerMotion,
     valves: Valves,
@@ -524,7 +540,11 @@ fn corner_into(
     let (rate, f, coupled) =
         corner::evaluate(unit, gas, outputs, slot.is_some(), &c.tyre, unit_state, motion, c.static_disp_m, c.tyre_static_deflection_m, valves, ambient_k);
     if let Some(s) = slot {
-        *s = coupled;
+        // The tyre's slopes while it pushes (a tyre in the air, or one whose
+        // damping would pull, exerts no force).
+        let pushing = f.tyre_force_n > 0.0;
+        let slope = |x: f64| if pushing { x } else { 0.0 };
+        *s = CornerLinearisation::new(&coupled, slope(c.tyre.stiffness_n_per_m), slope(c.tyre.damping_n_s_per_m));
     }
     *out = rate.to_array();
     f
@@ -726,7 +746,7 @@ impl Dynamics<'_> {
     /// valid region.
     pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        let mut couplings = [None; MAX_CORNERS];
+        let mut couplings = [CornerLinearisation::default(); MAX_CORNERS];
         let y = self.evaluate(t_s, &state.y, Some(sample), self.couplings_wanted(&mut couplings));
         Ok(Rate { state: VehicleState { y }, couplings })
     }
@@ -734,7 +754,7 @@ impl Dynamics<'_> {
     /// The state rate at `(t_s, state)`.
     pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        let mut couplings = [None; MAX_CORNERS];
+        let mut couplings = [CornerLinearisation::default(); MAX_CORNERS];
         let y = self.evaluate(t_s, &state.y, None, self.couplings_wanted(&mut couplings));
         Ok(Rate { state: VehicleState { y }, couplings })
     }
@@ -764,16 +784,14 @@ impl Dynamics<'_> {
     }
 
     /// ROS2 steps ([`Stepping::Ros2`]): per step, with `W = I - gamma h J`
-    /// and `J` the units' valve-6 linearisations at the step's start,
+    /// and `J` the fast coupled part of the Jacobian at the step's start
+    /// ([`crate::ros2`]),
     ///
     /// ```text
     /// W k1 = f(t, y)
     /// W k2 = f(t + h, y + h k1) - 2 k1
     /// y'   = y + h (3/2 k1 + 1/2 k2)
     /// ```
-    ///
-    /// `J` is block diagonal with a rank-one block `u v^T` per unit, so
-    /// `W^-1` is the Sherman-Morrison formula per unit, O(states).
     fn advance_ros2(
         &self,
         t_s: f64,
@@ -785,6 +803,7 @@ impl Dynamics<'_> {
     ) -> Result<[f64; VEHICLE_STATES]> {
         let (n, h) = hp_core::ode::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;
+        let body = self.vehicle.body_inertia();
         // Four arrays reused over the steps, nothing returned by value
         // inside the loop.
         let mut y = *y0;
@@ -797,8 +816,8 @@ impl Dynamics<'_> {
             if k > 0 {
                 self.evaluate_into(t, &y, &mut k1, None, Some(&mut couplings));
             }
-            let w = w_inverse(&couplings, gh);
-            solve_w(&w, &mut k1);
+            let w = W::new(&couplings, self.vehicle.corners(), body, gh);
+            w.solve(&mut k1);
             for ((a, b), c) in y1.iter_mut().zip(&y).zip(&k1) {
                 *a = b + h * c;
             }
@@ -806,46 +825,13 @@ impl Dynamics<'_> {
             for (a, b) in k2.iter_mut().zip(&k1) {
                 *a -= 2.0 * b;
             }
-            solve_w(&w, &mut k2);
+            w.solve(&mut k2);
             for ((a, b), c) in y.iter_mut().zip(&k1).zip(&k2) {
                 *a += h * (1.5 * b + 0.5 * c);
             }
             finish(t + h, &mut y)?;
         }
         Ok(y)
-    }
-}
-
-/// `W^-1 = (I - c J)^-1` for `J` = the units' rank-one valve-6 blocks, by
-/// Sherman-Morrison: `(I - c u v^T)^-1 = I + c u v^T / (1 - c v.u)`, kept
-/// per unit as the vectors `c u / (1 - c v.u)` and `v`. A block whose mode
-/// is not decaying (`v.u >= 0`) is left explicit: a W-method keeps its
-/// order for any `W`, and only a decaying mode needs the implicit treatment.
-type WInverse = [Option<([f64; UNIT_STATES], [f64; UNIT_STATES])>; MAX_CORNERS];
-
-fn w_inverse(couplings: &Couplings, c: f64) -> WInverse {
-    let mut w = [None; MAX_CORNERS];
-    for (out, k) in w.iter_mut().zip(couplings) {
-        let Some(k) = k else { continue };
-        let (u, v) = (k.u.to_array(), k.v.to_array());
-        let vu: f64 = v.iter().zip(&u).map(|(a, b)| a * b).sum();
-        if vu < 0.0 {
-            let scale = c / (1.0 - c * vu);
-            *out = Some((u.map(|x| scale * x), v));
-        }
-    }
-    w
-}
-
-/// `x <- W^-1 x`.
-fn solve_w(w: &WInverse, x: &mut [f64; VEHICLE_STATES]) {
-    let (_, corner_x) = x.split_at_mut(BODY_STATES);
-    for (k, cx) in w.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)) {
-        let (Some((u, v)), Some(xu)) = (k, cx.first_chunk_mut::<UNIT_STATES>()) else { continue };
-        let vx: f64 = v.iter().zip(xu.iter()).map(|(a, b)| a * b).sum();
-        for (a, b) in xu.iter_mut().zip(u) {
-            *a += vx * b;
-        }
     }
 }
 

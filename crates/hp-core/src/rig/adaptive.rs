@@ -162,7 +162,7 @@ impl System<'_, '_> {
 
     fn rate(&self, t_s: f64, y: &[f64; RIG_STATES], coupling: bool) -> ([f64; RIG_STATES], Option<RankOne<RIG_STATES>>) {
         let s = self.state(y);
-        let (rate, _, _, _, _, c) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, rates: true });
+        let (rate, _, _, _, _, c) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, strut: false, rates: true });
         let f = self.layout.compress(&rate.to_array());
         let c = c.map(|c| {
             let full = |unit: UnitState| RigState { unit, body_disp_m: 0.0, body_vel_m_s: 0.0 }.to_array();

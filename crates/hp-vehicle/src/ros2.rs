@@ -1,0 +1,466 @@
+//! The linear algebra of the vehicle's ROS2 step ([`crate::vehicle::Stepping::Ros2`]):
+//! `W = I - gamma h J` for the part of the Jacobian that sets the step's
+//! accuracy at the control period, solved without allocation in O(corners).
+//!
+//! That part is, per corner, the gas volumes and temperatures of S and L
+//! and the wheel (valve 6's exchange, the strut's gas spring and damper,
+//! the tyre), and the body's heave, pitch and roll through the strut
+//! forces. The wheel hop (a 400 kg wheel between the 1.2 MN/m tyre and the
+//! strut: 8.7 Hz, lightly damped with the damper off) is what an explicit
+//! step gets wrong at 1 ms; treating the corners alone implicitly (the body
+//! explicit) leaves most of that error, because the body and the wheels
+//! exchange the same strut forces. Everything else (the unit's other
+//! states, the handling, the road's input) stays explicit: ROS2 is a
+//! W-method, second order for any `W`.
+//!
+//! Solving `W x = r`: each corner's block is the identity less a rank-three
+//! matrix (the Woodbury formula, a 3x3 inverse); the body's three
+//! velocities couple the corners and are solved for first, by the Schur
+//! complement (a 3x3 system).
+
+use hp_core::unit::{Linearisation, UnitState};
+
+use crate::vehicle::{CornerGeometry, BODY_STATES, CORNER_STATES, MAX_CORNERS, VEHICLE_STATES};
+
+/// The states of a corner that the implicit part acts on: the gas
+/// temperatures and volumes of S and L (the first four of the unit's state
+/// array, [`unit_fast`]) and the wheel's displacement and velocity (the last
+/// two of the corner's).
+const FAST: usize = 6;
+type Fast = [f64; FAST];
+const UNIT_FAST: usize = 4;
+
+/// A unit state's fast part, in the order of its state array.
+fn unit_fast(s: &UnitState) -> [f64; UNIT_FAST] {
+    [s.t_gas_k, s.t_gas2_k, s.v_gas_m3, s.v_gas2_m3]
+}
+
+/// The fast states of a corner's part of a state (or rate) array.
+fn gather(cx: &[f64]) -> Fast {
+    let [a, b, c, d] = cx.first_chunk::<UNIT_FAST>().copied().unwrap_or_default();
+    let [z, v] = cx.last_chunk::<2>().copied().unwrap_or_default();
+    [a, b, c, d, z, v]
+}
+
+fn scatter(cx: &mut [f64], x: &Fast) {
+    let [a, b, c, d, z, v] = *x;
+    if let Some(o) = cx.first_chunk_mut::<UNIT_FAST>() {
+        *o = [a, b, c, d];
+    }
+    if let Some(o) = cx.last_chunk_mut::<2>() {
+        *o = [z, v];
+    }
+}
+
+fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `[u, 0, 0]`: a unit vector's fast part on a corner's fast states.
+fn with_wheel(u: [f64; UNIT_FAST], z: f64, v: f64) -> Fast {
+    let [a, b, c, d] = u;
+    [a, b, c, d, z, v]
+}
+
+/// The inverse of a 3x3 matrix (None when singular or not finite).
+fn inverse3(a: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let [[a00, a01, a02], [a10, a11, a12], [a20, a21, a22]] = *a;
+    let c00 = a11 * a22 - a12 * a21;
+    let c01 = a02 * a21 - a01 * a22;
+    let c02 = a01 * a12 - a02 * a11;
+    let det = a00 * c00 + a10 * c01 + a20 * c02;
+    if !(det.abs() > 0.0) || !det.is_finite() {
+        return None;
+    }
+    let inv = [
+        [c00 / det, c01 / det, c02 / det],
+        [(a12 * a20 - a10 * a22) / det, (a00 * a22 - a02 * a20) / det, (a02 * a10 - a00 * a12) / det],
+        [(a10 * a21 - a11 * a20) / det, (a01 * a20 - a00 * a21) / det, (a00 * a11 - a01 * a10) / det],
+    ];
+    inv.iter().flatten().all(|x| x.is_finite()).then_some(inv)
+}
+
+fn mul3(a: &[[f64; 3]; 3], x: &[f64; 3]) -> [f64; 3] {
+    a.map(|row| dot(&row, x))
+}
+
+/// The strut's part of a corner's linearisation, on the fast states.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Strut {
+    /// `d(force)/d(fast unit state)`.
+    force_per_state: [f64; UNIT_FAST],
+    /// `d(fast unit rate)/d(strut velocity)`.
+    rate_per_vel: [f64; UNIT_FAST],
+    /// `d(force)/d(strut velocity)`, N s/m.
+    force_per_vel: f64,
+    /// `d(force)/d(strut compression)`, N/m.
+    force_per_disp: f64,
+}
+
+/// A corner's linearisation at one instant: what the step's `W` needs from
+/// the evaluation at the step's start.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CornerLinearisation {
+    /// Valve 6: `d(fast unit rate)/d(q6)` and `d(q6)/d(fast unit state)`.
+    valve6: Option<([f64; UNIT_FAST], [f64; UNIT_FAST])>,
+    strut: Option<Strut>,
+    /// The tyre's stiffness and damping while in contact (zero in the air).
+    tyre_stiffness_n_per_m: f64,
+    tyre_damping_n_s_per_m: f64,
+}
+
+impl CornerLinearisation {
+    /// From the unit's linearisation and the tyre's slopes.
+    pub fn new(unit: &Linearisation, tyre_stiffness_n_per_m: f64, tyre_damping_n_s_per_m: f64) -> Self {
+        CornerLinearisation {
+            valve6: unit.valve6.map(|k| (unit_fast(&k.u), unit_fast(&k.v))),
+            strut: unit.strut.map(|s| Strut {
+                force_per_state: unit_fast(&s.force_per_state),
+                rate_per_vel: unit_fast(&s.rate_per_vel),
+                force_per_vel: s.force_per_vel_n_s_per_m,
+                force_per_disp: s.force_per_disp_n_per_m,
+            }),
+            tyre_stiffness_n_per_m,
+            tyre_damping_n_s_per_m,
+        }
+    }
+}
+
+/// The body's side of `W`: its inverse inertias in heave, pitch and roll
+/// (about the roll axis), and the roll stiffness its weight takes off
+/// (`m g (h_cg - h_rc) / I_ra`, the one body term of the Jacobian that does
+/// not come through a strut).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyInertia {
+    pub inverse: [f64; 3],
+    pub roll_weight_per_inertia: f64,
+}
+
+/// One corner's part of `W^-1`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct CornerW {
+    /// The corner block `I - c U V^T` has the inverse `I + U m V^T`.
+    u: [Fast; 3],
+    v: [Fast; 3],
+    m: [[f64; 3]; 3],
+    /// The strut force's gradient over the fast states.
+    force: Fast,
+    /// The corner block's inverse applied to `c` times the fast rates'
+    /// derivatives by the body's velocity and displacement at the strut.
+    per_body_vel: Fast,
+    per_body_disp: Fast,
+    /// `d(force)/d(body displacement at the strut)` once the corner's
+    /// response is included.
+    delta: f64,
+    /// Body velocity at the strut per (heave, pitch, roll) rate.
+    lever: [f64; 3],
+}
+
+impl CornerW {
+    /// `x <- (I + U m V^T) x`.
+    fn solve(&self, x: &mut Fast) {
+        let y = mul3(&self.m, &self.v.map(|v| dot(&v, x)));
+        for (u, yj) in self.u.iter().zip(y) {
+            for (a, b) in x.iter_mut().zip(u) {
+                *a += yj * b;
+            }
+        }
+    }
+}
+
+/// `W^-1` for one step (see the module's description).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct W {
+    corners: [CornerW; MAX_CORNERS],
+    count: usize,
+    c: f64,
+    body: BodyInertia,
+    /// The inverse of the body's Schur complement.
+    body_inverse: [[f64; 3]; 3],
+    /// False when a block was singular: then `W = I` (explicit).
+    implicit: bool,
+}
+
+impl W {
+    /// `W = I - c J` for `J` the fast part of the Jacobian from each
+    /// corner's linearisation (`corners` and `geometry` in the same order).
+    pub fn new(corners: &[CornerLinearisation; MAX_CORNERS], geometry: &[CornerGeometry], body: BodyInertia, c: f64) -> Self {
+        let mut w = W {
+            corners: [CornerW::default(); MAX_CORNERS],
+            count: geometry.len().min(MAX_CORNERS),
+            c,
+            body,
+            body_inverse: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            implicit: true,
+        };
+        // The body's Schur complement, I - c M^-1 sum kappa e e^T (and the
+        // weight's roll term, through the roll angle = r + c rate).
+        let mut k = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0 - c * c * body.roll_weight_per_inertia]];
+        for ((out, lin), geo) in w.corners.iter_mut().zip(corners).zip(geometry) {
+            let Some((cw, kappa)) = corner_w(lin, geo, c) else {
+                w.implicit = false;
+                return w;
+            };
+            for ((row, m), e) in k.iter_mut().zip(&body.inverse).zip(&cw.lever) {
+                for (x, f) in row.iter_mut().zip(&cw.lever) {
+                    *x -= c * m * kappa * e * f;
+                }
+            }
+            *out = cw;
+        }
+        match inverse3(&k) {
+            Some(inv) => w.body_inverse = inv,
+            None => w.implicit = false,
+        }
+        w
+    }
+
+    /// `x <- W^-1 x`.
+    pub fn solve(&self, x: &mut [f64; VEHICLE_STATES]) {
+        if !self.implicit {
+            return;
+        }
+        let c = self.c;
+        let (body, corner_x) = x.split_at_mut(BODY_STATES);
+        let Some(b) = body.first_chunk_mut::<6>() else { return };
+        let [r_heave, r_heave_vel, r_pitch, r_pitch_rate, r_roll, r_roll_rate] = *b;
+        let r_pos = [r_heave, r_pitch, r_roll];
+        // Each corner's response to its own right-hand side, and the strut
+        // forces it makes, which drive the body.
+        let mut rhs = [r_heave_vel, r_pitch_rate, r_roll_rate + c * self.body.roll_weight_per_inertia * r_roll];
+        let mut own = [[0.0; FAST]; MAX_CORNERS];
+        for ((cw, cx), p) in self.corners.iter().zip(corner_x.chunks_exact(CORNER_STATES)).zip(&mut own).take(self.count) {
+            *p = gather(cx);
+            cw.solve(p);
+            let force = c * (dot(&cw.force, p) + cw.delta * dot(&cw.lever, &r_pos));
+            for ((r, m), e) in rhs.iter_mut().zip(&self.body.inverse).zip(&cw.lever) {
+                *r += m * e * force;
+            }
+        }
+        let vel = mul3(&self.body_inverse, &rhs);
+        let pos = [r_heave + c * vel[0], r_pitch + c * vel[1], r_roll + c * vel[2]];
+        *b = [pos[0], vel[0], pos[1], vel[1], pos[2], vel[2]];
+        // Each corner's response to the body's motion at its strut.
+        for ((cw, cx), p) in self.corners.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)).zip(&own).take(self.count) {
+            let (body_vel, body_disp) = (dot(&cw.lever, &vel), dot(&cw.lever, &pos));
+            let mut x = *p;
+            for ((a, q), s) in x.iter_mut().zip(&cw.per_body_vel).zip(&cw.per_body_disp) {
+                *a += body_vel * q + body_disp * s;
+            }
+            scatter(cx, &x);
+        }
+    }
+}
+
+/// One corner's block of `W^-1` and the `kappa` its strut adds to the
+/// body's Schur complement (None when the block is singular).
+///
+/// On the fast states `(T_S, T_L, V_S, V_L, z, v)` the corner's Jacobian
+/// is `U V^T` with the columns
+/// - `u6 v6^T`: valve 6's exchange (when open),
+/// - `b e_v^T`: the strut velocity's column (the gas volume and
+///   temperature it changes; `z' = v`),
+/// - `e_v a^T`: the wheel's acceleration row (the tyre and the strut force
+///   over the unsprung mass).
+fn corner_w(lin: &CornerLinearisation, geo: &CornerGeometry, c: f64) -> Option<(CornerW, f64)> {
+    let m_u = geo.unsprung_mass_kg;
+    let strut = lin.strut.unwrap_or_default();
+    let (f_vel, f_disp) = (strut.force_per_vel, strut.force_per_disp);
+    let e_v = with_wheel([0.0; UNIT_FAST], 0.0, 1.0);
+    let (u6, v6) = lin.valve6.unwrap_or_default();
+    let b = with_wheel(strut.rate_per_vel, 1.0, 0.0);
+    let a = with_wheel(
+        strut.force_per_state.map(|f| -f / m_u),
+        -(lin.tyre_stiffness_n_per_m + f_disp) / m_u,
+        -(lin.tyre_damping_n_s_per_m + f_vel) / m_u,
+    );
+    let u = [with_wheel(u6, 0.0, 0.0), b, e_v];
+    let v = [with_wheel(v6, 0.0, 0.0), e_v, a];
+    // (I - c U V^T)^-1 = I + c U (I - c V^T U)^-1 V^T.
+    let [u0, u1, u2] = u;
+    let [v0, v1, v2] = v;
+    let small = [
+        [1.0 - c * dot(&v0, &u0), -c * dot(&v0, &u1), -c * dot(&v0, &u2)],
+        [-c * dot(&v1, &u0), 1.0 - c * dot(&v1, &u1), -c * dot(&v1, &u2)],
+        [-c * dot(&v2, &u0), -c * dot(&v2, &u1), 1.0 - c * dot(&v2, &u2)],
+    ];
+    let m = inverse3(&small)?.map(|row| row.map(|x| c * x));
+    let lever = [1.0, -geo.x_m, geo.y_m];
+    let mut cw = CornerW { u, v, m, force: with_wheel(strut.force_per_state, f_disp, f_vel), per_body_vel: [0.0; FAST], per_body_disp: [0.0; FAST], delta: 0.0, lever };
+    // The body moves the strut's top: the strut velocity falls by the
+    // body's velocity there (the gas and the wheel's force see it), and
+    // the compression by its displacement (the end stops).
+    let mut per_vel = with_wheel(strut.rate_per_vel.map(|r| -c * r), 0.0, c * f_vel / m_u);
+    cw.solve(&mut per_vel);
+    let mut per_disp = with_wheel([0.0; UNIT_FAST], 0.0, c * f_disp / m_u);
+    cw.solve(&mut per_disp);
+    let beta = dot(&cw.force, &per_vel) - f_vel;
+    let delta = dot(&cw.force, &per_disp) - f_disp;
+    cw.per_body_vel = per_vel;
+    cw.per_body_disp = per_disp;
+    cw.delta = delta;
+    // The body's displacement is r + c times its velocity.
+    Some((cw, beta + c * delta))
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    use super::*;
+
+    #[test]
+    fn the_fast_states_are_the_gas_and_the_wheel() {
+        let s = UnitState { t_gas_k: 1.0, t_gas2_k: 2.0, v_gas_m3: 3.0, v_gas2_m3: 4.0, ..UnitState::default() };
+        assert_eq!(unit_fast(&s), [1.0, 2.0, 3.0, 4.0]);
+        let mut corner = [0.0; CORNER_STATES];
+        corner[..18].copy_from_slice(&s.to_array());
+        corner[18] = 5.0;
+        corner[19] = 6.0;
+        assert_eq!(gather(&corner), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let mut back = [0.0; CORNER_STATES];
+        scatter(&mut back, &gather(&corner));
+        assert_eq!(back, corner);
+    }
+
+    /// `I - c J` assembled densely on the body's (heave, pitch, roll) and
+    /// every corner's fast states, independently of the Woodbury and Schur
+    /// steps, solved by Gaussian elimination.
+    fn dense_solve(corners: &[CornerLinearisation; MAX_CORNERS], geometry: &[CornerGeometry], body: BodyInertia, c: f64, x: &mut [f64; VEHICLE_STATES]) {
+        let n = 6 + FAST * geometry.len();
+        let mut j = vec![vec![0.0; n]; n];
+        // Body: positions 0, 2, 4 (heave, pitch, roll), velocities 1, 3, 5.
+        for k in 0..3 {
+            j[2 * k][2 * k + 1] = 1.0;
+        }
+        j[5][4] = body.roll_weight_per_inertia;
+        for (i, (lin, geo)) in corners.iter().zip(geometry).enumerate() {
+            let o = 6 + FAST * i;
+            let m_u = geo.unsprung_mass_kg;
+            let s = lin.strut.unwrap_or_default();
+            let lever = [1.0, -geo.x_m, geo.y_m];
+            // The strut force's gradient: fast states, then body positions and velocities.
+            let mut force = vec![0.0; n];
+            for k in 0..4 {
+                force[o + k] = s.force_per_state[k];
+            }
+            force[o + 4] = s.force_per_disp;
+            force[o + 5] = s.force_per_vel;
+            for k in 0..3 {
+                force[2 * k] -= s.force_per_disp * lever[k];
+                force[2 * k + 1] -= s.force_per_vel * lever[k];
+            }
+            // Strut velocity: the wheel's less the body's at the strut.
+            let mut strut_vel = vec![0.0; n];
+            strut_vel[o + 5] = 1.0;
+            for k in 0..3 {
+                strut_vel[2 * k + 1] = -lever[k];
+            }
+            for col in 0..n {
+                for k in 0..4 {
+                    j[o + k][col] += s.rate_per_vel[k] * strut_vel[col];
+                }
+                j[o + 5][col] -= force[col] / m_u;
+                for k in 0..3 {
+                    j[2 * k + 1][col] += body.inverse[k] * lever[k] * force[col];
+                }
+            }
+            if let Some((u6, v6)) = lin.valve6 {
+                for a in 0..4 {
+                    for b in 0..4 {
+                        j[o + a][o + b] += u6[a] * v6[b];
+                    }
+                }
+            }
+            j[o + 4][o + 5] += 1.0;
+            j[o + 5][o + 4] -= lin.tyre_stiffness_n_per_m / m_u;
+            j[o + 5][o + 5] -= lin.tyre_damping_n_s_per_m / m_u;
+        }
+        // Gather, solve, scatter.
+        let index = |k: usize| -> usize {
+            if k < 6 {
+                k
+            } else {
+                let (i, f) = ((k - 6) / FAST, (k - 6) % FAST);
+                BODY_STATES + i * CORNER_STATES + if f < 4 { f } else { CORNER_STATES - 6 + f }
+            }
+        };
+        let mut m: Vec<Vec<f64>> = (0..n).map(|r| (0..n).map(|col| f64::from(u8::from(r == col)) - c * j[r][col]).collect()).collect();
+        let mut b: Vec<f64> = (0..n).map(|k| x[index(k)]).collect();
+        for col in 0..n {
+            let p = (col..n).max_by(|&a, &bb| m[a][col].abs().total_cmp(&m[bb][col].abs())).unwrap();
+            m.swap(col, p);
+            b.swap(col, p);
+            for r in col + 1..n {
+                let f = m[r][col] / m[col][col];
+                for k in col..n {
+                    m[r][k] -= f * m[col][k];
+                }
+                b[r] -= f * b[col];
+            }
+        }
+        for col in (0..n).rev() {
+            let s: f64 = (col + 1..n).map(|k| m[col][k] * b[k]).sum();
+            b[col] = (b[col] - s) / m[col][col];
+        }
+        for (k, v) in b.iter().enumerate() {
+            x[index(k)] = *v;
+        }
+    }
+
+    #[test]
+    fn the_schur_and_woodbury_solve_is_the_dense_solve() {
+        let vehicle = crate::vehicle::Vehicle::new(crate::presets::armoured_8x8(), 293.15, hp_core::unit::Valves::default()).unwrap();
+        let geometry = vehicle.corners();
+        // Magnitudes like the 8x8's at rest (soft spring): the gas's
+        // slopes, the strut's volume rate, the damper, the tyre.
+        let mut corners = [CornerLinearisation::default(); MAX_CORNERS];
+        for (i, c) in corners.iter_mut().enumerate() {
+            let f = 1.0 + 0.1 * i as f64;
+            *c = CornerLinearisation {
+                valve6: (i % 3 != 2).then_some(([-40.0 * f, 30.0, 1.0, -1.0], [2e-9, -1e-9, -5e-5 * f, 2e-5])),
+                strut: (i != 5).then_some(Strut {
+                    force_per_state: [7e3, 0.0, -8e7 * f, 0.0],
+                    rate_per_vel: [9e3 * f, 0.0, -8e-3, 0.0],
+                    force_per_vel: 1e4 * f,
+                    force_per_disp: if i == 3 { 1e7 } else { 0.0 },
+                }),
+                tyre_stiffness_n_per_m: if i == 6 { 0.0 } else { 1.2e6 },
+                tyre_damping_n_s_per_m: if i == 6 { 0.0 } else { 2e3 },
+            };
+        }
+        let body = BodyInertia { inverse: [1.0 / 24e3, 1.0 / 1.1e5, 1.0 / 4e4], roll_weight_per_inertia: 2.0 };
+        let c = 0.3e-3;
+        let w = W::new(&corners, geometry, body, c);
+        assert!(w.implicit);
+        let mut x = [0.0; VEHICLE_STATES];
+        for (k, v) in x.iter_mut().enumerate() {
+            // Each state's own scale: temperatures, volumes, displacements, velocities.
+            let scale = match (k < BODY_STATES, (k.max(BODY_STATES) - BODY_STATES) % CORNER_STATES) {
+                (true, _) => 0.1,
+                (false, 0 | 1) => 10.0,
+                (false, 2 | 3) => 1e-4,
+                (false, _) => 0.05,
+            };
+            *v = scale * (1.0 + (k as f64 * 0.7).sin());
+        }
+        let mut expected = x;
+        dense_solve(&corners, geometry, body, c, &mut expected);
+        w.solve(&mut x);
+        for (k, (a, b)) in x.iter().zip(&expected).enumerate() {
+            assert!((a - b).abs() <= 1e-10 * b.abs().max(1e-12), "state {k}: {a} against {b}");
+        }
+    }
+
+    #[test]
+    fn inverse3_inverts() {
+        let a = [[4.0, 1.0, -2.0], [0.5, 3.0, 1.0], [-1.0, 2.0, 5.0]];
+        let inv = inverse3(&a).unwrap();
+        for i in 0..3 {
+            for j in 0..3 {
+                let p: f64 = (0..3).map(|k| a[i][k] * inv[k][j]).sum();
+                assert!((p - f64::from(u8::from(i == j))).abs() < 1e-14);
+            }
+        }
+        assert!(inverse3(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]]).is_none());
+    }
+}
