@@ -84,27 +84,24 @@ fn mul3(a: &[[f64; 3]; 3], x: &[f64; 3]) -> [f64; 3] {
     a.map(|row| dot(&row, x))
 }
 
-/// The strut's part of a corner's linearisation, on the fast states.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct Strut {
-    /// `d(force)/d(fast unit state)`.
-    force_per_state: [f64; UNIT_FAST],
-    /// `d(fast unit rate)/d(strut velocity)`.
-    rate_per_vel: [f64; UNIT_FAST],
-    /// `d(force)/d(strut velocity)`, N s/m.
-    force_per_vel: f64,
-    /// `d(force)/d(strut compression)`, N/m.
-    force_per_disp: f64,
-}
-
-/// A corner's linearisation at one instant: what the step's `W` needs from
-/// the evaluation at the step's start.
+/// A corner's linearisation at one instant, on the fast states: what the
+/// step's `W` needs from the evaluation at the step's start. Zero where a
+/// part is absent (valve 6 closed, a cavitating strut, a tyre in the air):
+/// that part is then explicit.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CornerLinearisation {
     /// Valve 6: `d(fast unit rate)/d(q6)` and `d(q6)/d(fast unit state)`.
-    valve6: Option<([f64; UNIT_FAST], [f64; UNIT_FAST])>,
-    strut: Option<Strut>,
-    /// The tyre's stiffness and damping while in contact (zero in the air).
+    valve6_rate: [f64; UNIT_FAST],
+    valve6_flow: [f64; UNIT_FAST],
+    /// `d(strut force)/d(fast unit state)`.
+    force_per_state: [f64; UNIT_FAST],
+    /// `d(fast unit rate)/d(strut velocity)`.
+    rate_per_vel: [f64; UNIT_FAST],
+    /// `d(strut force)/d(strut velocity)`, N s/m.
+    force_per_vel: f64,
+    /// `d(strut force)/d(strut compression)`, N/m.
+    force_per_disp: f64,
+    /// The tyre's stiffness and damping while it pushes.
     tyre_stiffness_n_per_m: f64,
     tyre_damping_n_s_per_m: f64,
 }
@@ -112,17 +109,15 @@ pub struct CornerLinearisation {
 impl CornerLinearisation {
     /// From the unit's linearisation and the tyre's slopes.
     pub fn new(unit: &Linearisation, tyre_stiffness_n_per_m: f64, tyre_damping_n_s_per_m: f64) -> Self {
-        CornerLinearisation {
-            valve6: unit.valve6.map(|k| (unit_fast(&k.u), unit_fast(&k.v))),
-            strut: unit.strut.map(|s| Strut {
-                force_per_state: unit_fast(&s.force_per_state),
-                rate_per_vel: unit_fast(&s.rate_per_vel),
-                force_per_vel: s.force_per_vel_n_s_per_m,
-                force_per_disp: s.force_per_disp_n_per_m,
-            }),
-            tyre_stiffness_n_per_m,
-            tyre_damping_n_s_per_m,
+        let (valve6_rate, valve6_flow) = unit.valve6.map_or(([0.0; UNIT_FAST], [0.0; UNIT_FAST]), |k| (unit_fast(&k.u), unit_fast(&k.v)));
+        let mut lin = CornerLinearisation { valve6_rate, valve6_flow, tyre_stiffness_n_per_m, tyre_damping_n_s_per_m, ..CornerLinearisation::default() };
+        if let Some(s) = unit.strut {
+            lin.force_per_state = unit_fast(&s.force_per_state);
+            lin.rate_per_vel = unit_fast(&s.rate_per_vel);
+            lin.force_per_vel = s.force_per_vel_n_s_per_m;
+            lin.force_per_disp = s.force_per_disp_n_per_m;
         }
+        lin
     }
 }
 
@@ -137,34 +132,51 @@ pub struct BodyInertia {
 }
 
 /// One corner's part of `W^-1`.
+///
+/// On the fast states `(T_S, T_L, V_S, V_L, z, v)` the corner's Jacobian
+/// is `U V^T` with the columns
+/// - `u6 v6^T`: valve 6's exchange (when open),
+/// - `b e_v^T`: the strut velocity's column (the gas volume and
+///   temperature it changes, `rate_per_vel`; and `z' = v`),
+/// - `e_v a^T`: the wheel's acceleration row (the tyre and the strut force
+///   over the unsprung mass),
+///
+/// so the block `I - c U V^T` has the inverse `I + U m V^T` with
+/// `m = c (I - c V^T U)^-1` (Woodbury).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct CornerW {
-    /// The corner block `I - c U V^T` has the inverse `I + U m V^T`.
-    u: [Fast; 3],
-    v: [Fast; 3],
+    u6: [f64; UNIT_FAST],
+    v6: [f64; UNIT_FAST],
+    rate_per_vel: [f64; UNIT_FAST],
+    a: Fast,
     m: [[f64; 3]; 3],
     /// The strut force's gradient over the fast states.
     force: Fast,
-    /// The corner block's inverse applied to `c` times the fast rates'
-    /// derivatives by the body's velocity and displacement at the strut.
+    /// The block's inverse applied to `c` times the fast rates' derivatives
+    /// by the body's velocity and displacement at the strut.
     per_body_vel: Fast,
     per_body_disp: Fast,
-    /// `d(force)/d(body displacement at the strut)` once the corner's
-    /// response is included.
+    /// `d(force)/d(body displacement at the strut)` with the corner's
+    /// response, and what the strut adds to the body's Schur complement.
     delta: f64,
-    /// Body velocity at the strut per (heave, pitch, roll) rate.
+    kappa: f64,
+    /// Body displacement at the strut per heave, pitch and roll.
     lever: [f64; 3],
 }
 
 impl CornerW {
     /// `x <- (I + U m V^T) x`.
+    #[inline]
     fn solve(&self, x: &mut Fast) {
-        let y = mul3(&self.m, &self.v.map(|v| dot(&v, x)));
-        for (u, yj) in self.u.iter().zip(y) {
-            for (a, b) in x.iter_mut().zip(u) {
-                *a += yj * b;
-            }
+        let [x0, x1, x2, x3, z, v] = *x;
+        let [y0, y1, y2] = mul3(&self.m, &[dot(&self.v6, &[x0, x1, x2, x3]), v, dot(&self.a, x)]);
+        let unit = [x0, x1, x2, x3];
+        let mut out = [0.0; UNIT_FAST];
+        for (((o, xi), u6), b) in out.iter_mut().zip(unit).zip(self.u6).zip(self.rate_per_vel) {
+            *o = xi + y0 * u6 + y1 * b;
         }
+        let [o0, o1, o2, o3] = out;
+        *x = [o0, o1, o2, o3, z + y1, v + y2];
     }
 }
 
@@ -185,34 +197,32 @@ impl W {
     /// `W = I - c J` for `J` the fast part of the Jacobian from each
     /// corner's linearisation (`corners` and `geometry` in the same order).
     pub fn new(corners: &[CornerLinearisation; MAX_CORNERS], geometry: &[CornerGeometry], body: BodyInertia, c: f64) -> Self {
-        let mut w = W {
-            corners: [CornerW::default(); MAX_CORNERS],
-            count: geometry.len().min(MAX_CORNERS),
-            c,
-            body,
-            body_inverse: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-            implicit: true,
-        };
+        let count = geometry.len().min(MAX_CORNERS);
+        let mut implicit = true;
+        // Built in place (no zeroed copy of the whole array first).
+        let blocks: [CornerW; MAX_CORNERS] = core::array::from_fn(|i| match (corners.get(i), geometry.get(i)) {
+            (Some(lin), Some(geo)) => corner_w(lin, geo, c).unwrap_or_else(|| {
+                implicit = false;
+                CornerW::default()
+            }),
+            _ => CornerW::default(),
+        });
         // The body's Schur complement, I - c M^-1 sum kappa e e^T (and the
         // weight's roll term, through the roll angle = r + c rate).
         let mut k = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0 - c * c * body.roll_weight_per_inertia]];
-        for ((out, lin), geo) in w.corners.iter_mut().zip(corners).zip(geometry) {
-            let Some((cw, kappa)) = corner_w(lin, geo, c) else {
-                w.implicit = false;
-                return w;
-            };
+        for cw in blocks.iter().take(count) {
             for ((row, m), e) in k.iter_mut().zip(&body.inverse).zip(&cw.lever) {
+                let scale = c * m * cw.kappa * e;
                 for (x, f) in row.iter_mut().zip(&cw.lever) {
-                    *x -= c * m * kappa * e * f;
+                    *x -= scale * f;
                 }
             }
-            *out = cw;
         }
-        match inverse3(&k) {
-            Some(inv) => w.body_inverse = inv,
-            None => w.implicit = false,
-        }
-        w
+        let body_inverse = inverse3(&k).unwrap_or_else(|| {
+            implicit = false;
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        });
+        W { corners: blocks, count, c, body, body_inverse, implicit }
     }
 
     /// `x <- W^-1 x`.
@@ -237,9 +247,10 @@ impl W {
                 *r += m * e * force;
             }
         }
-        let vel = mul3(&self.body_inverse, &rhs);
-        let pos = [r_heave + c * vel[0], r_pitch + c * vel[1], r_roll + c * vel[2]];
-        *b = [pos[0], vel[0], pos[1], vel[1], pos[2], vel[2]];
+        let [v0, v1, v2] = mul3(&self.body_inverse, &rhs);
+        let (vel, pos) = ([v0, v1, v2], [r_heave + c * v0, r_pitch + c * v1, r_roll + c * v2]);
+        let [p0, p1, p2] = pos;
+        *b = [p0, v0, p1, v1, p2, v2];
         // Each corner's response to the body's motion at its strut.
         for ((cw, cx), p) in self.corners.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)).zip(&own).take(self.count) {
             let (body_vel, body_disp) = (dot(&cw.lever, &vel), dot(&cw.lever, &pos));
@@ -252,55 +263,55 @@ impl W {
     }
 }
 
-/// One corner's block of `W^-1` and the `kappa` its strut adds to the
-/// body's Schur complement (None when the block is singular).
-///
-/// On the fast states `(T_S, T_L, V_S, V_L, z, v)` the corner's Jacobian
-/// is `U V^T` with the columns
-/// - `u6 v6^T`: valve 6's exchange (when open),
-/// - `b e_v^T`: the strut velocity's column (the gas volume and
-///   temperature it changes; `z' = v`),
-/// - `e_v a^T`: the wheel's acceleration row (the tyre and the strut force
-///   over the unsprung mass).
-fn corner_w(lin: &CornerLinearisation, geo: &CornerGeometry, c: f64) -> Option<(CornerW, f64)> {
+/// One corner's block of `W^-1` ([`CornerW`]; None when it is singular).
+fn corner_w(lin: &CornerLinearisation, geo: &CornerGeometry, c: f64) -> Option<CornerW> {
     let m_u = geo.unsprung_mass_kg;
-    let strut = lin.strut.unwrap_or_default();
-    let (f_vel, f_disp) = (strut.force_per_vel, strut.force_per_disp);
-    let e_v = with_wheel([0.0; UNIT_FAST], 0.0, 1.0);
-    let (u6, v6) = lin.valve6.unwrap_or_default();
-    let b = with_wheel(strut.rate_per_vel, 1.0, 0.0);
+    let (f_vel, f_disp) = (lin.force_per_vel, lin.force_per_disp);
     let a = with_wheel(
-        strut.force_per_state.map(|f| -f / m_u),
+        lin.force_per_state.map(|f| -f / m_u),
         -(lin.tyre_stiffness_n_per_m + f_disp) / m_u,
         -(lin.tyre_damping_n_s_per_m + f_vel) / m_u,
     );
-    let u = [with_wheel(u6, 0.0, 0.0), b, e_v];
-    let v = [with_wheel(v6, 0.0, 0.0), e_v, a];
-    // (I - c U V^T)^-1 = I + c U (I - c V^T U)^-1 V^T.
-    let [u0, u1, u2] = u;
-    let [v0, v1, v2] = v;
+    // V^T U for U = [u6, b, e_v], V = [v6, e_v, a]: v6 and u6 have no wheel
+    // part, b = (rate_per_vel, 1, 0), e_v = (0, 0, 0, 0, 0, 1).
+    let [.., a_z, a_v] = a;
+    let a_unit = [a[0], a[1], a[2], a[3]];
+    let (u6, v6, b) = (lin.valve6_rate, lin.valve6_flow, lin.rate_per_vel);
     let small = [
-        [1.0 - c * dot(&v0, &u0), -c * dot(&v0, &u1), -c * dot(&v0, &u2)],
-        [-c * dot(&v1, &u0), 1.0 - c * dot(&v1, &u1), -c * dot(&v1, &u2)],
-        [-c * dot(&v2, &u0), -c * dot(&v2, &u1), 1.0 - c * dot(&v2, &u2)],
+        [1.0 - c * dot(&v6, &u6), -c * dot(&v6, &b), 0.0],
+        [0.0, 1.0, -c],
+        [-c * dot(&a_unit, &u6), -c * (dot(&a_unit, &b) + a_z), 1.0 - c * a_v],
     ];
     let m = inverse3(&small)?.map(|row| row.map(|x| c * x));
-    let lever = [1.0, -geo.x_m, geo.y_m];
-    let mut cw = CornerW { u, v, m, force: with_wheel(strut.force_per_state, f_disp, f_vel), per_body_vel: [0.0; FAST], per_body_disp: [0.0; FAST], delta: 0.0, lever };
+    let mut cw = CornerW {
+        u6,
+        v6,
+        rate_per_vel: b,
+        a,
+        m,
+        force: with_wheel(lin.force_per_state, f_disp, f_vel),
+        per_body_vel: [0.0; FAST],
+        per_body_disp: [0.0; FAST],
+        delta: 0.0,
+        kappa: 0.0,
+        lever: [1.0, -geo.x_m, geo.y_m],
+    };
     // The body moves the strut's top: the strut velocity falls by the
     // body's velocity there (the gas and the wheel's force see it), and
     // the compression by its displacement (the end stops).
-    let mut per_vel = with_wheel(strut.rate_per_vel.map(|r| -c * r), 0.0, c * f_vel / m_u);
+    let mut per_vel = with_wheel(b.map(|r| -c * r), 0.0, c * f_vel / m_u);
     cw.solve(&mut per_vel);
-    let mut per_disp = with_wheel([0.0; UNIT_FAST], 0.0, c * f_disp / m_u);
-    cw.solve(&mut per_disp);
     let beta = dot(&cw.force, &per_vel) - f_vel;
-    let delta = dot(&cw.force, &per_disp) - f_disp;
     cw.per_body_vel = per_vel;
-    cw.per_body_disp = per_disp;
-    cw.delta = delta;
+    if f_disp != 0.0 {
+        let mut per_disp = with_wheel([0.0; UNIT_FAST], 0.0, c * f_disp / m_u);
+        cw.solve(&mut per_disp);
+        cw.delta = dot(&cw.force, &per_disp) - f_disp;
+        cw.per_body_disp = per_disp;
+    }
     // The body's displacement is r + c times its velocity.
-    Some((cw, beta + c * delta))
+    cw.kappa = beta + c * cw.delta;
+    Some(cw)
 }
 
 #[cfg(test)]
@@ -336,7 +347,7 @@ mod tests {
         for (i, (lin, geo)) in corners.iter().zip(geometry).enumerate() {
             let o = 6 + FAST * i;
             let m_u = geo.unsprung_mass_kg;
-            let s = lin.strut.unwrap_or_default();
+            let s = lin;
             let lever = [1.0, -geo.x_m, geo.y_m];
             // The strut force's gradient: fast states, then body positions and velocities.
             let mut force = vec![0.0; n];
@@ -364,11 +375,9 @@ mod tests {
                     j[2 * k + 1][col] += body.inverse[k] * lever[k] * force[col];
                 }
             }
-            if let Some((u6, v6)) = lin.valve6 {
-                for a in 0..4 {
-                    for b in 0..4 {
-                        j[o + a][o + b] += u6[a] * v6[b];
-                    }
+            for a in 0..4 {
+                for b in 0..4 {
+                    j[o + a][o + b] += lin.valve6_rate[a] * lin.valve6_flow[b];
                 }
             }
             j[o + 4][o + 5] += 1.0;
@@ -416,14 +425,16 @@ mod tests {
         let mut corners = [CornerLinearisation::default(); MAX_CORNERS];
         for (i, c) in corners.iter_mut().enumerate() {
             let f = 1.0 + 0.1 * i as f64;
+            let open = i % 3 != 2;
+            let strut = i != 5;
+            let on = |x: f64, yes: bool| if yes { x } else { 0.0 };
             *c = CornerLinearisation {
-                valve6: (i % 3 != 2).then_some(([-40.0 * f, 30.0, 1.0, -1.0], [2e-9, -1e-9, -5e-5 * f, 2e-5])),
-                strut: (i != 5).then_some(Strut {
-                    force_per_state: [7e3, 0.0, -8e7 * f, 0.0],
-                    rate_per_vel: [9e3 * f, 0.0, -8e-3, 0.0],
-                    force_per_vel: 1e4 * f,
-                    force_per_disp: if i == 3 { 1e7 } else { 0.0 },
-                }),
+                valve6_rate: [-40.0 * f, 30.0, 1.0, -1.0].map(|x| on(x, open)),
+                valve6_flow: [2e-9, -1e-9, -5e-5 * f, 2e-5].map(|x| on(x, open)),
+                force_per_state: [7e3, 0.0, -8e7 * f, 0.0].map(|x| on(x, strut)),
+                rate_per_vel: [9e3 * f, 0.0, -8e-3, 0.0].map(|x| on(x, strut)),
+                force_per_vel: on(1e4 * f, strut),
+                force_per_disp: if i == 3 { 1e7 } else { 0.0 },
                 tyre_stiffness_n_per_m: if i == 6 { 0.0 } else { 1.2e6 },
                 tyre_damping_n_s_per_m: if i == 6 { 0.0 } else { 2e3 },
             };
