@@ -72,16 +72,23 @@ fn inverse3(a: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
     if !(det.abs() > 0.0) || !det.is_finite() {
         return None;
     }
+    let d = 1.0 / det;
     let inv = [
-        [c00 / det, c01 / det, c02 / det],
-        [(a12 * a20 - a10 * a22) / det, (a00 * a22 - a02 * a20) / det, (a02 * a10 - a00 * a12) / det],
-        [(a10 * a21 - a11 * a20) / det, (a01 * a20 - a00 * a21) / det, (a00 * a11 - a01 * a10) / det],
+        [c00 * d, c01 * d, c02 * d],
+        [(a12 * a20 - a10 * a22) * d, (a00 * a22 - a02 * a20) * d, (a02 * a10 - a00 * a12) * d],
+        [(a10 * a21 - a11 * a20) * d, (a01 * a20 - a00 * a21) * d, (a00 * a11 - a01 * a10) * d],
     ];
     inv.iter().flatten().all(|x| x.is_finite()).then_some(inv)
 }
 
 fn mul3(a: &[[f64; 3]; 3], x: &[f64; 3]) -> [f64; 3] {
     a.map(|row| dot(&row, x))
+}
+
+fn mul3_transposed(a: &[[f64; 3]; 3], x: &[f64; 3]) -> [f64; 3] {
+    let [[a00, a01, a02], [a10, a11, a12], [a20, a21, a22]] = *a;
+    let [x0, x1, x2] = *x;
+    [a00 * x0 + a10 * x1 + a20 * x2, a01 * x0 + a11 * x1 + a21 * x2, a02 * x0 + a12 * x1 + a22 * x2]
 }
 
 /// A corner's linearisation at one instant, on the fast states: what the
@@ -150,12 +157,16 @@ struct CornerW {
     rate_per_vel: [f64; UNIT_FAST],
     a: Fast,
     m: [[f64; 3]; 3],
-    /// The strut force's gradient over the fast states.
+    /// The strut force's gradient over the fast states, times the block's
+    /// inverse (`W_c^-T g`): the force the block's response to a
+    /// right-hand side `r` makes is `force . r`.
     force: Fast,
     /// The block's inverse applied to `c` times the fast rates' derivatives
     /// by the body's velocity and displacement at the strut.
     per_body_vel: Fast,
     per_body_disp: Fast,
+    /// An end stop is engaged (else `per_body_disp` and `delta` are zero).
+    end_stop: bool,
     /// `d(force)/d(body displacement at the strut)` with the corner's
     /// response, and what the strut adds to the body's Schur complement.
     delta: f64,
@@ -235,14 +246,11 @@ impl W {
         let Some(b) = body.first_chunk_mut::<6>() else { return };
         let [r_heave, r_heave_vel, r_pitch, r_pitch_rate, r_roll, r_roll_rate] = *b;
         let r_pos = [r_heave, r_pitch, r_roll];
-        // Each corner's response to its own right-hand side, and the strut
-        // forces it makes, which drive the body.
+        // The strut forces each corner's response to its own right-hand side
+        // makes, which drive the body.
         let mut rhs = [r_heave_vel, r_pitch_rate, r_roll_rate + c * self.body.roll_weight_per_inertia * r_roll];
-        let mut own = [[0.0; FAST]; MAX_CORNERS];
-        for ((cw, cx), p) in self.corners.iter().zip(corner_x.chunks_exact(CORNER_STATES)).zip(&mut own).take(self.count) {
-            *p = gather(cx);
-            cw.solve(p);
-            let force = c * (dot(&cw.force, p) + cw.delta * dot(&cw.lever, &r_pos));
+        for (cw, cx) in self.corners.iter().zip(corner_x.chunks_exact(CORNER_STATES)).take(self.count) {
+            let force = c * (dot(&cw.force, &gather(cx)) + cw.delta * dot(&cw.lever, &r_pos));
             for ((r, m), e) in rhs.iter_mut().zip(&self.body.inverse).zip(&cw.lever) {
                 *r += m * e * force;
             }
@@ -251,12 +259,20 @@ impl W {
         let (vel, pos) = ([v0, v1, v2], [r_heave + c * v0, r_pitch + c * v1, r_roll + c * v2]);
         let [p0, p1, p2] = pos;
         *b = [p0, v0, p1, v1, p2, v2];
-        // Each corner's response to the body's motion at its strut.
-        for ((cw, cx), p) in self.corners.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)).zip(&own).take(self.count) {
-            let (body_vel, body_disp) = (dot(&cw.lever, &vel), dot(&cw.lever, &pos));
-            let mut x = *p;
-            for ((a, q), s) in x.iter_mut().zip(&cw.per_body_vel).zip(&cw.per_body_disp) {
-                *a += body_vel * q + body_disp * s;
+        // Each corner's response to its right-hand side and to the body's
+        // motion at its strut.
+        for (cw, cx) in self.corners.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)).take(self.count) {
+            let mut x = gather(cx);
+            cw.solve(&mut x);
+            let body_vel = dot(&cw.lever, &vel);
+            for (a, q) in x.iter_mut().zip(&cw.per_body_vel) {
+                *a += body_vel * q;
+            }
+            if cw.end_stop {
+                let body_disp = dot(&cw.lever, &pos);
+                for (a, s) in x.iter_mut().zip(&cw.per_body_disp) {
+                    *a += body_disp * s;
+                }
             }
             scatter(cx, &x);
         }
@@ -283,15 +299,17 @@ fn corner_w(lin: &CornerLinearisation, geo: &CornerGeometry, c: f64) -> Option<C
         [-c * dot(&a_unit, &u6), -c * (dot(&a_unit, &b) + a_z), 1.0 - c * a_v],
     ];
     let m = inverse3(&small)?.map(|row| row.map(|x| c * x));
+    let force = with_wheel(lin.force_per_state, f_disp, f_vel);
     let mut cw = CornerW {
         u6,
         v6,
         rate_per_vel: b,
         a,
         m,
-        force: with_wheel(lin.force_per_state, f_disp, f_vel),
+        force,
         per_body_vel: [0.0; FAST],
         per_body_disp: [0.0; FAST],
+        end_stop: f_disp != 0.0,
         delta: 0.0,
         kappa: 0.0,
         lever: [1.0, -geo.x_m, geo.y_m],
@@ -301,16 +319,27 @@ fn corner_w(lin: &CornerLinearisation, geo: &CornerGeometry, c: f64) -> Option<C
     // the compression by its displacement (the end stops).
     let mut per_vel = with_wheel(b.map(|r| -c * r), 0.0, c * f_vel / m_u);
     cw.solve(&mut per_vel);
-    let beta = dot(&cw.force, &per_vel) - f_vel;
+    let beta = dot(&force, &per_vel) - f_vel;
     cw.per_body_vel = per_vel;
-    if f_disp != 0.0 {
+    if cw.end_stop {
         let mut per_disp = with_wheel([0.0; UNIT_FAST], 0.0, c * f_disp / m_u);
         cw.solve(&mut per_disp);
-        cw.delta = dot(&cw.force, &per_disp) - f_disp;
+        cw.delta = dot(&force, &per_disp) - f_disp;
         cw.per_body_disp = per_disp;
     }
     // The body's displacement is r + c times its velocity.
     cw.kappa = beta + c * cw.delta;
+    // W_c^-T g = g + V m^T U^T g, for the solve's first pass.
+    let [g0, g1, g2, g3, g_z, g_v] = force;
+    let g_unit = [g0, g1, g2, g3];
+    let [z0, z1, z2] = mul3_transposed(&m, &[dot(&u6, &g_unit), dot(&b, &g_unit) + g_z, g_v]);
+    let [a0, a1, a2, a3, a_z, a_v] = a;
+    let mut unit = g_unit;
+    for ((f, v), ai) in unit.iter_mut().zip(v6).zip([a0, a1, a2, a3]) {
+        *f += z0 * v + z2 * ai;
+    }
+    let fw = with_wheel(unit, g_z + z2 * a_z, g_v + z1 + z2 * a_v);
+    cw.force = fw;
     Some(cw)
 }
 

@@ -587,7 +587,6 @@ impl Dynamics<'_> {
     ) {
         let v = self.vehicle;
         let b = &v.params.body;
-        rate.fill(0.0);
         let [heave, heave_vel, pitch, pitch_rate, roll, roll_rate, lat_vel, yaw_rate, heading, lateral_pos, distance, ..] = *y;
         let u = self.drive.speed_m_s;
         let steer = self.drive.steer_angle_rad / v.params.steering_ratio;
@@ -602,6 +601,10 @@ impl Dynamics<'_> {
         let a_y = lateral.lat_acc_m_s2;
         let (mut force, mut moment_pitch, mut moment_roll) = (0.0, 0.0, 0.0);
         let (_, corner_rate) = rate.split_at_mut(BODY_STATES);
+        // Every element is written: the used corners' below, the rest zero.
+        for cr in corner_rate.chunks_exact_mut(CORNER_STATES).skip(v.corner_count()) {
+            cr.fill(0.0);
+        }
         let corners = v.corners().iter().zip(&v.units).zip(&self.valves).zip(corner_chunks(y).zip(corner_rate.chunks_exact_mut(CORNER_STATES)));
         for (i, (((c, unit), valves), (cy, cr))) in corners.enumerate() {
             let (unit_state, wheel_disp, wheel_vel) = split_corner(cy);
@@ -707,38 +710,24 @@ impl Dynamics<'_> {
         for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_chunks(y)) {
             unit.check_state(&split_corner(cy).0, t_s)?;
         }
-        // x * 0 is 0 for a finite x, NaN otherwise; four partial sums
-        // (which the compiler vectorises) instead of one chain of 171 adds.
-        // Whole chunks of a known length, so that the loop has no bounds
-        // checks left and becomes a few vector adds.
-        let mut lanes = [0.0; 4];
-        let mut chunks = y.chunks_exact(4);
-        for chunk in chunks.by_ref() {
-            if let Some(c) = chunk.first_chunk::<4>() {
-                for (a, x) in lanes.iter_mut().zip(c) {
-                    *a += x * 0.0;
-                }
-            }
-        }
-        let tail: f64 = chunks.remainder().iter().map(|x| x * 0.0).sum();
-        if lanes.iter().sum::<f64>() + tail == 0.0 {
-            Ok(())
-        } else {
-            let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
-            Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
-        }
+        finite(t_s, y)
     }
 
-    fn project(&self, y: &mut [f64; VEHICLE_STATES]) {
+    /// Projects a step's result onto the units' constraints and checks it
+    /// ([`Unit::project`], [`Dynamics::check`]), each unit's state taken
+    /// out of the array once for both.
+    fn finish(&self, t_s: f64, y: &mut [f64; VEHICLE_STATES]) -> Result<()> {
         let v = self.vehicle;
         let (_, corner_y) = y.split_at_mut(BODY_STATES);
         for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
             if let Some(a) = cy.first_chunk_mut::<UNIT_STATES>() {
                 let mut s = UnitState::from_array(a);
                 unit.project(&mut s, v.ambient_k);
+                unit.check_state(&s, t_s)?;
                 *a = s.to_array();
             }
         }
+        finite(t_s, y)
     }
 
     /// The state rate at `(t_s, state)`, with the observed quantities
@@ -746,17 +735,23 @@ impl Dynamics<'_> {
     /// valid region.
     pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        let mut couplings = [CornerLinearisation::default(); MAX_CORNERS];
-        let y = self.evaluate(t_s, &state.y, Some(sample), self.couplings_wanted(&mut couplings));
-        Ok(Rate { state: VehicleState { y }, couplings })
+        Ok(self.rate_of_checked(t_s, state, Some(sample)))
     }
 
     /// The state rate at `(t_s, state)`.
     pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<Rate> {
         self.check(t_s, &state.y)?;
+        Ok(self.rate_of_checked(t_s, state, None))
+    }
+
+    /// [`Dynamics::rate_and_sample`] (with a sample) or [`Dynamics::rate`]
+    /// for a state already checked: one [`Dynamics::advance`] returned, or
+    /// [`Vehicle::initial_state`] (valid by construction). The drive loop
+    /// would otherwise check every state twice.
+    pub(crate) fn rate_of_checked(&self, t_s: f64, state: &VehicleState, sample: Option<&mut VehicleSample>) -> Rate {
         let mut couplings = [CornerLinearisation::default(); MAX_CORNERS];
-        let y = self.evaluate(t_s, &state.y, None, self.couplings_wanted(&mut couplings));
-        Ok(Rate { state: VehicleState { y }, couplings })
+        let y = self.evaluate(t_s, &state.y, sample, self.couplings_wanted(&mut couplings));
+        Rate { state: VehicleState { y }, couplings }
     }
 
     /// Where to put the valve-6 linearisations, if the stepping uses them.
@@ -772,15 +767,21 @@ impl Dynamics<'_> {
     /// at `t_s` with these inputs and valves (from
     /// [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
     pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &Rate, max_dt_s: f64) -> Result<VehicleState> {
-        let finish = |t: f64, y: &mut [f64; VEHICLE_STATES]| {
-            self.project(y);
-            self.check(t, y)
-        };
-        let y = match self.vehicle.stepping {
-            Stepping::Rk4 => stepping::advance(self, t_s, t_end_s, &state.y, &rate.state.y, max_dt_s, finish)?,
-            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &state.y, rate, max_dt_s, finish)?,
-        };
-        Ok(VehicleState { y })
+        let mut next = *state;
+        self.advance_in_place(t_s, t_end_s, &mut next, rate, max_dt_s)?;
+        Ok(next)
+    }
+
+    /// [`Dynamics::advance`] overwriting `state` (the drive loop's form: no
+    /// state copied in or out). On an error `state` is left part way.
+    pub(crate) fn advance_in_place(&self, t_s: f64, t_end_s: f64, state: &mut VehicleState, rate: &Rate, max_dt_s: f64) -> Result<()> {
+        match self.vehicle.stepping {
+            Stepping::Rk4 => {
+                state.y = stepping::advance(self, t_s, t_end_s, &state.y, &rate.state.y, max_dt_s, |t, y| self.finish(t, y))?;
+                Ok(())
+            }
+            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &mut state.y, rate, max_dt_s),
+        }
     }
 
     /// ROS2 steps ([`Stepping::Ros2`]): per step, with `W = I - gamma h J`
@@ -792,33 +793,27 @@ impl Dynamics<'_> {
     /// W k2 = f(t + h, y + h k1) - 2 k1
     /// y'   = y + h (3/2 k1 + 1/2 k2)
     /// ```
-    fn advance_ros2(
-        &self,
-        t_s: f64,
-        t_end_s: f64,
-        y0: &[f64; VEHICLE_STATES],
-        rate: &Rate,
-        max_dt_s: f64,
-        mut finish: impl FnMut(f64, &mut [f64; VEHICLE_STATES]) -> Result<()>,
-    ) -> Result<[f64; VEHICLE_STATES]> {
+    fn advance_ros2(&self, t_s: f64, t_end_s: f64, y: &mut [f64; VEHICLE_STATES], rate: &Rate, max_dt_s: f64) -> Result<()> {
         let (n, h) = hp_core::ode::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;
         let body = self.vehicle.body_inertia();
-        // Four arrays reused over the steps, nothing returned by value
-        // inside the loop.
-        let mut y = *y0;
+        // Arrays reused over the steps, nothing returned by value inside the
+        // loop; the first step's linearisation is the rate's.
         let mut k1 = rate.state.y;
-        let mut couplings = rate.couplings;
+        let mut later = [CornerLinearisation::default(); MAX_CORNERS];
         let mut y1 = [0.0; VEHICLE_STATES];
         let mut k2 = [0.0; VEHICLE_STATES];
         for k in 0..n {
             let t = t_s + h * k as f64;
-            if k > 0 {
-                self.evaluate_into(t, &y, &mut k1, None, Some(&mut couplings));
-            }
-            let w = W::new(&couplings, self.vehicle.corners(), body, gh);
+            let couplings = if k > 0 {
+                self.evaluate_into(t, y, &mut k1, None, Some(&mut later));
+                &later
+            } else {
+                &rate.couplings
+            };
+            let w = W::new(couplings, self.vehicle.corners(), body, gh);
             w.solve(&mut k1);
-            for ((a, b), c) in y1.iter_mut().zip(&y).zip(&k1) {
+            for ((a, b), c) in y1.iter_mut().zip(y.iter()).zip(&k1) {
                 *a = b + h * c;
             }
             self.evaluate_into(t + h, &y1, &mut k2, None, None);
@@ -829,9 +824,33 @@ impl Dynamics<'_> {
             for ((a, b), c) in y.iter_mut().zip(&k1).zip(&k2) {
                 *a += h * (1.5 * b + 0.5 * c);
             }
-            finish(t + h, &mut y)?;
+            self.finish(t + h, y)?;
         }
-        Ok(y)
+        Ok(())
+    }
+}
+
+/// Fails unless every state is finite.
+fn finite(t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<()> {
+    // x * 0 is 0 for a finite x, NaN otherwise; four partial sums (which
+    // the compiler vectorises) instead of one chain of 171 adds. Whole
+    // chunks of a known length, so that the loop has no bounds checks left
+    // and becomes a few vector adds.
+    let mut lanes = [0.0; 4];
+    let mut chunks = y.chunks_exact(4);
+    for chunk in chunks.by_ref() {
+        if let Some(c) = chunk.first_chunk::<4>() {
+            for (a, x) in lanes.iter_mut().zip(c) {
+                *a += x * 0.0;
+            }
+        }
+    }
+    let tail: f64 = chunks.remainder().iter().map(|x| x * 0.0).sum();
+    if lanes.iter().sum::<f64>() + tail == 0.0 {
+        Ok(())
+    } else {
+        let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
+        Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
     }
 }
 

@@ -213,23 +213,41 @@ fn cubic(b: [f64; 4], r: f64) -> (f64, f64) {
     (b0 + r * (b1 + r * (b2 + r * b3)), b1 + r * (2.0 * b2 + r * 3.0 * b3))
 }
 
+/// The coefficients' rows `a[4 i .. 4 i + 4]` (the `s^i` terms of the four
+/// powers of `r`), so that Horner's rule in `s` runs on all four `r` powers
+/// at once: lane-wise arithmetic on `[f64; 4]` the compiler turns into
+/// vector instructions.
+#[inline(always)]
+fn rows(a: &[f64; 16]) -> [[f64; 4]; 4] {
+    let [a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, a30, a31, a32, a33] = *a;
+    [[a00, a01, a02, a03], [a10, a11, a12, a13], [a20, a21, a22, a23], [a30, a31, a32, a33]]
+}
+
+/// `x + s y` lane by lane.
+#[inline(always)]
+fn axpy(x: [f64; 4], s: f64, y: [f64; 4]) -> [f64; 4] {
+    let [x0, x1, x2, x3] = x;
+    let [y0, y1, y2, y3] = y;
+    [x0 + s * y0, x1 + s * y1, x2 + s * y2, x3 + s * y3]
+}
+
 /// `sum_ij a_ij s^i r^j` for the coefficients `a` of a cell.
 #[inline(always)]
 fn value(a: &[f64; 16], s: f64, r: f64) -> f64 {
-    let [a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, a30, a31, a32, a33] = *a;
-    let b = |c0: f64, c1: f64, c2: f64, c3: f64| c0 + s * (c1 + s * (c2 + s * c3));
-    let (b0, b1, b2, b3) = (b(a00, a10, a20, a30), b(a01, a11, a21, a31), b(a02, a12, a22, a32), b(a03, a13, a23, a33));
-    b0 + r * (b1 + r * (b2 + r * b3))
+    let [a0, a1, a2, a3] = rows(a);
+    let b = axpy(a0, s, axpy(a1, s, axpy(a2, s, a3)));
+    cubic(b, r).0
 }
 
 /// The value and its derivatives in `s` and `r`.
 #[inline(always)]
 fn value_and_slopes(a: &[f64; 16], s: f64, r: f64) -> (f64, f64, f64) {
-    let [a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23, a30, a31, a32, a33] = *a;
-    let b = |c0: f64, c1: f64, c2: f64, c3: f64| (c0 + s * (c1 + s * (c2 + s * c3)), c1 + s * (2.0 * c2 + s * 3.0 * c3));
-    let ((b0, d0), (b1, d1), (b2, d2), (b3, d3)) = (b(a00, a10, a20, a30), b(a01, a11, a21, a31), b(a02, a12, a22, a32), b(a03, a13, a23, a33));
-    let (f, f_r) = cubic([b0, b1, b2, b3], r);
-    let (f_s, _) = cubic([d0, d1, d2, d3], r);
+    let [a0, a1, a2, a3] = rows(a);
+    let b = axpy(a0, s, axpy(a1, s, axpy(a2, s, a3)));
+    // d/ds: a1 + s (2 a2 + s 3 a3).
+    let d = axpy(a1, s, axpy(a2.map(|x| 2.0 * x), s, a3.map(|x| 3.0 * x)));
+    let (f, f_r) = cubic(b, r);
+    let (f_s, _) = cubic(d, r);
     (f, f_s, f_r)
 }
 
