@@ -345,7 +345,9 @@ fn corner_w(lin: &CornerLinearisation, geo: &CornerGeometry, c: f64) -> Option<C
 
 #[cfg(test)]
 mod tests {
-    #![allow(clippy::unwrap_used, clippy::indexing_slicing)]
+    // The dense reference is Gaussian elimination as the textbook writes
+    // it, with index loops.
+    #![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::needless_range_loop, clippy::manual_memcpy)]
     use super::*;
 
     #[test]
