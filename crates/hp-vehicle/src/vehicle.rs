@@ -166,7 +166,7 @@ pub enum Stepping {
     /// 20): a two-stage, second-order, L-stable Rosenbrock-W method, linearly
     /// implicit in the fast coupled part of the vehicle (each corner's gas
     /// volumes and temperatures with valve 6, strut and tyre, the wheel,
-    /// and the body through the strut forces: [`crate::ros2`]), so that
+    /// and the body through the strut forces: `ros2.rs`), so that
     /// one step per 1 ms control period follows the wheel hop and valve 6
     /// does not limit the step; everything else is explicit. Two
     /// evaluations a step instead of RK4's four.
