@@ -3,7 +3,7 @@
 //! the strut's ([`StrutCoupling`]) and valve 6's ([`Valve6Coupling`]),
 //! damper on and off, compression and rebound, below and above the blow-off,
 //! on an end stop, with seal friction.
-#![allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 
 use hp_core::presets;
 use hp_core::unit::{Friction, Linearisation, Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valves, UNIT_STATES};
