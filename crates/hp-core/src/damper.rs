@@ -251,7 +251,7 @@ impl Damper {
             (&self.on_rebound, &self.off_rebound)
         };
         let q = libm::fabs(q_m3_s);
-        let dp = blend(on.pressure_drop_pa(q), off.pressure_drop_pa(q), bypass_open);
+        let dp = blend_curves(on, off, bypass_open, |c| c.pressure_drop_pa(q));
         libm::copysign(dp, q_m3_s)
     }
 
@@ -263,7 +263,7 @@ impl Damper {
             (&self.on_rebound, &self.off_rebound)
         };
         let q = libm::fabs(q_m3_s);
-        blend(on.pressure_drop_slope_pa_s_per_m3(q), off.pressure_drop_slope_pa_s_per_m3(q), bypass_open)
+        blend_curves(on, off, bypass_open, |c| c.pressure_drop_slope_pa_s_per_m3(q))
     }
 
     /// Signed flow out of the strut that a signed pressure drop `dp_pa`
@@ -305,6 +305,20 @@ impl Damper {
 #[inline]
 fn blend(on: f64, off: f64, bypass_open: f64) -> f64 {
     on + (off - on) * bypass_open
+}
+
+/// `f` of the valve-5 closed curve blended with the open one's: with the
+/// valve fully closed or open (always, unless it lags) only that curve is
+/// evaluated, the hot path's common case.
+#[inline]
+fn blend_curves(on: &DamperCurve, off: &DamperCurve, bypass_open: f64, f: impl Fn(&DamperCurve) -> f64) -> f64 {
+    if bypass_open <= 0.0 {
+        f(on)
+    } else if bypass_open >= 1.0 {
+        f(off)
+    } else {
+        blend(f(on), f(off), bypass_open)
+    }
 }
 
 /// A turbulent orifice (valve 6), regularised near zero pressure difference

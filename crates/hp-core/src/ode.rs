@@ -2,7 +2,7 @@
 //!
 //! No allocation: the state is a `[f64; N]`, the caller picks the step.
 
-use crate::error::Result;
+use crate::error::{check_range, Error, Result};
 
 /// A first-order ODE system `dy/dt = f(t, y)` with `N` states.
 pub trait OdeSystem<const N: usize> {
@@ -58,4 +58,41 @@ pub fn rk4_step_from<const N: usize, S: OdeSystem<N> + ?Sized>(
         *o += dt_s / 6.0 * (a + 2.0 * b + 2.0 * c + d);
     }
     Ok(out)
+}
+
+/// Largest number of steps between two instants (output samples, control
+/// periods).
+pub const MAX_SUBSTEPS: f64 = 1.0e7;
+
+/// How much longer than the largest step a step may be, relative: what the
+/// rounding of the instants adds. `(k + 1) dt - k dt` is a few ulps above
+/// `dt` for most `k`, and taking the ceiling of the ratio without this
+/// allowance split such periods into two half steps (96 % of the 8x8's
+/// 1 ms periods: twice the work, and not the step anyone asked for).
+const STEP_ROUNDING: f64 = 1e-9;
+
+/// The number of equal steps from `t_s` to `t_end_s` none of which is
+/// longer than `max_dt_s` (give or take a relative 1e-9, the instants'
+/// rounding), and their length: the one step count every fixed-step
+/// integration between two instants uses (the rigs, the vehicles, the
+/// bindings' plants).
+///
+/// ```
+/// use hp_core::ode::steps;
+/// assert_eq!(steps(0.0, 4e-3, 1e-3).unwrap(), (4, 1e-3));
+/// let (k, dt) = (7.0, 1e-3);
+/// let (n, h) = steps(k * dt, (k + 1.0) * dt, dt).unwrap(); // 0.0010000000000000009 s
+/// assert_eq!(n, 1);
+/// assert!((h - dt).abs() < 1e-15);
+/// assert_eq!(steps(0.0, 1.0001e-3, 1e-3).unwrap().0, 2);
+/// assert!(steps(1.0, 1.0, 1e-3).is_err());
+/// ```
+pub fn steps(t_s: f64, t_end_s: f64, max_dt_s: f64) -> Result<(u64, f64)> {
+    check_range("max_dt_s", max_dt_s, 1e-9, 10.0)?;
+    let span = t_end_s - t_s;
+    let n = libm::ceil(span / max_dt_s * (1.0 - STEP_ROUNDING));
+    if !(1.0..=MAX_SUBSTEPS).contains(&n) {
+        return Err(Error::OutOfRange { name: "t_end_s - t_s", value: span, min: 0.0, max: max_dt_s * MAX_SUBSTEPS });
+    }
+    Ok((n as u64, span / n))
 }

@@ -13,7 +13,7 @@ use crate::error::{check_range, Error, Result};
 use crate::gas::table::TabulatedGas;
 use crate::gas::{Gas, Span};
 use crate::motion::Motion;
-use crate::ode::{rk4_step, rk4_step_from, OdeSystem};
+use crate::ode::{rk4_step, rk4_step_from, steps, OdeSystem};
 use crate::unit::{Linearisation, Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 mod adaptive;
@@ -210,7 +210,7 @@ impl<'a> Rig<'a> {
     /// step's result catches; the arithmetic cannot panic).
     #[inline]
     fn rate(&self, t_s: f64, s: &RigState) -> (RigState, StrutMotion, f64, f64, UnitOutputs) {
-        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: true });
+        let (rate, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, strut: false, rates: true });
         (rate, motion, base, body_acc, out)
     }
 
@@ -254,7 +254,7 @@ impl<'a> Rig<'a> {
     /// (the gas evaluated for its pressure alone).
     fn sample_outputs(&self, t_s: f64, s: &RigState) -> Result<RigSample> {
         self.check(t_s, s)?;
-        let (_, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, rates: false });
+        let (_, motion, base, body_acc, out, _) = self.rate_parts(t_s, s, Needs { outputs: true, coupling: false, strut: false, rates: false });
         Ok(self.sample_from(t_s, s, motion, base, body_acc, out))
     }
 
@@ -325,15 +325,9 @@ impl<'a> Rig<'a> {
     /// most `max_dt_s`; `rate` is the state rate at `t_s` (from
     /// [`Rig::rate_and_sample`], reused as the first stage of the first step).
     pub fn advance(&self, t_s: f64, t_end_s: f64, state: &RigState, rate: &RigState, max_dt_s: f64) -> Result<RigState> {
-        check_range("dt_s", max_dt_s, 1e-9, 10.0)?;
-        let span = t_end_s - t_s;
-        let n = libm::ceil(span / max_dt_s);
-        if !(n <= MAX_SUBSTEPS) {
-            return Err(Error::OutOfRange { name: "dt_s", value: max_dt_s, min: span / MAX_SUBSTEPS, max: 10.0 });
-        }
-        let h = span / n;
+        let (n, h) = steps(t_s, t_end_s, max_dt_s)?;
         let mut next = self.step_from(t_s, state, h, rate)?;
-        for k in 1..(n as u64) {
+        for k in 1..n {
             next = self.step(t_s + h * k as f64, &next, h)?;
         }
         Ok(next)
@@ -347,8 +341,7 @@ impl OdeSystem<RIG_STATES> for Rig<'_> {
     }
 }
 
-/// Largest number of substeps between two output samples.
-pub const MAX_SUBSTEPS: f64 = 1.0e7;
+pub use crate::ode::MAX_SUBSTEPS;
 
 /// Runs `rig` from its initial state through the output times `times_s`
 /// (strictly increasing, starting at or after 0), integrating with steps of

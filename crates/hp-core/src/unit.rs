@@ -72,6 +72,15 @@ impl Friction {
         let level = self.coulomb_n * (1.0 + (self.stribeck_ratio - 1.0) * libm::exp(-x * x));
         level * libm::tanh(vel_m_s / self.smoothing_velocity_m_s) + self.viscous_n_s_per_m * vel_m_s
     }
+
+    /// `d(force_n)/d(vel_m_s)`, N s/m.
+    pub fn slope_n_s_per_m(&self, vel_m_s: f64) -> f64 {
+        let x = vel_m_s / self.stribeck_velocity_m_s;
+        let peak = self.coulomb_n * (self.stribeck_ratio - 1.0) * libm::exp(-x * x);
+        let level = self.coulomb_n + peak;
+        let th = libm::tanh(vel_m_s / self.smoothing_velocity_m_s);
+        -2.0 * x / self.stribeck_velocity_m_s * peak * th + level * (1.0 - th * th) / self.smoothing_velocity_m_s + self.viscous_n_s_per_m
+    }
 }
 
 effect_params! {
@@ -413,8 +422,33 @@ pub struct FlowCoupling {
 /// about a millisecond.
 pub type Valve6Coupling = FlowCoupling;
 
-/// The unit's stiff modes linearised, as [`Unit::evaluate_parts`] returns
-/// them when [`Needs::coupling`] asks.
+/// The strut's linearisation: how the strut force depends on the unit's
+/// state and on the strut's motion, and how the state rate depends on the
+/// strut velocity. Whoever moves the strut (a wheel, a body) closes the
+/// loop through it: the unit's spring (the gas volume the strut
+/// velocity changes, whose pressure is the force) and its damper become a
+/// low-rank part of that system's Jacobian, which a linearly implicit step
+/// can treat implicitly. Given for the incompressible oil while the strut
+/// does not cavitate (else None: the rate does not then depend on the gas
+/// through the force).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StrutCoupling {
+    /// `d(force_true_n)/d(state)`.
+    pub force_per_state: UnitState,
+    /// `d(force_true_n)/d(strut velocity)`, N s/m: damper, friction, end stop.
+    pub force_per_vel_n_s_per_m: f64,
+    /// `d(force_true_n)/d(strut compression)`, N/m: the end stop (the gas
+    /// spring acts through the volume states).
+    pub force_per_disp_n_per_m: f64,
+    /// `d(state rate)/d(strut velocity)`.
+    pub rate_per_vel: UnitState,
+}
+
+/// The unit's linearisations, as [`Unit::evaluate_parts`] returns them
+/// when [`Needs`] asks: the stiff flows ([`Needs::coupling`]) for a
+/// Rosenbrock-W's `W` on the unit's own states (the adaptive rig), the
+/// strut ([`Needs::strut`]) for whoever moves the strut and puts it in its
+/// `W` (the vehicle's ROS2).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Linearisation {
     /// The valve-6 exchange (when valve 6 is open).
@@ -425,6 +459,8 @@ pub struct Linearisation {
     /// (oil volume `V_oil`, bulk modulus `B`, the pack's `dq/dp`), far
     /// faster than the motion the steps must follow.
     pub damper: Option<FlowCoupling>,
+    /// The strut (see [`StrutCoupling`]).
+    pub strut: Option<StrutCoupling>,
 }
 
 /// What [`Unit::evaluate_parts`] must produce besides the state rate and
@@ -435,8 +471,11 @@ pub struct Needs {
     /// the flows are meaningful in the returned outputs, and L's gas is
     /// evaluated only where the rate needs it).
     pub outputs: bool,
-    /// The stiff flows' linearisations ([`Linearisation`]).
+    /// The stiff flows' linearisations ([`Linearisation::valve6`],
+    /// [`Linearisation::damper`]).
     pub coupling: bool,
+    /// The strut's linearisation ([`StrutCoupling`]).
+    pub strut: bool,
     /// The state rate (else only the outputs are meaningful, and the gas is
     /// evaluated for its pressure alone: an output sample).
     pub rates: bool,
@@ -445,6 +484,27 @@ pub struct Needs {
 /// Placeholder properties for a gas whose properties nothing reads:
 /// finite, so that terms multiplied by a zero rate stay zero.
 const UNUSED_PROPS: GasProps = GasProps { p_pa: 0.0, dp_dt_pa_per_k: 0.0, dp_drho_pa_m3_per_kg: 0.0, cv_j_per_kg_k: 1.0 };
+
+/// The gradient of an accumulator's gas pressure `p(m/V, T)` over its
+/// states: `dp/dT`, `dp/dV = -(m/V^2) dp/drho`, `dp/dm = (1/V) dp/drho`.
+/// Every linearisation through a gas pressure (valve 6's flow, the damper
+/// flow with oil compliance, the strut force) takes it from here.
+#[derive(Debug, Clone, Copy)]
+struct PressureGradient {
+    per_t: f64,
+    per_v: f64,
+    per_m: f64,
+}
+
+impl PressureGradient {
+    fn of(heat: HeatTransfer, props: &GasProps, mass_kg: f64, volume_m3: f64) -> Self {
+        let per_m = props.dp_drho_pa_m3_per_kg / volume_m3;
+        // Isothermal gas sits at the wall temperature, whatever its
+        // temperature state holds: the pressure does not depend on it.
+        let per_t = if heat == HeatTransfer::Isothermal { 0.0 } else { props.dp_dt_pa_per_k };
+        PressureGradient { per_t, per_v: -per_m * mass_kg / volume_m3, per_m }
+    }
+}
 
 /// A validated unit with its derived gas masses.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -675,7 +735,7 @@ impl Unit {
         valves: Valves,
         ambient_k: f64,
     ) -> (UnitState, UnitOutputs) {
-        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false, rates: true });
+        let (rate, outputs, _) = self.evaluate_parts(state, motion, valves, ambient_k, Needs { outputs: true, coupling: false, strut: false, rates: true });
         (rate, outputs)
     }
 
@@ -903,7 +963,15 @@ impl Unit {
             Some(stiffness) if needs.coupling => Some(self.damper_coupling(state, &props_s, t_s, q_damper, p_strut - p_s, s5, stiffness)),
             _ => None,
         };
-        (rate, outputs, Linearisation { valve6, damper })
+        // The strut's linearisation assumes the incompressible oil's force
+        // `A (p_S + dp(A v) - p_0)`: with oil compliance the force is the
+        // strut pressure, a state of its own, whose stiff flow is `damper`.
+        let strut = if needs.strut && !cavitating && e.oil_compliance.is_none() {
+            Some(self.strut_coupling(state, &props_s, t_s, motion, s5, p_strut - p_s))
+        } else {
+            None
+        };
+        (rate, outputs, Linearisation { valve6, damper, strut })
     }
 
     /// The damper flow with oil compliance linearised (see
@@ -926,20 +994,18 @@ impl Unit {
         // linearisation there, and the error control does without.
         let slope = 1.0 / p.damper.pressure_drop_slope_pa_s_per_m3(q_m3_s, s5);
         let slope = if slope.is_finite() { slope } else { 0.0 };
-        let rho_s = state.m_small_kg / state.v_gas_m3;
+        let g = PressureGradient::of(p.heat, props_s, state.m_small_kg, state.v_gas_m3);
         // The flow grows with the strut pressure and falls with S's. The
         // bypass valve's opening (valve lag) moves the flow too, but the
         // flow does not move the valve: a one-way coupling that leaves the
         // stiff mode as it is, so it stays out.
-        let mut v = UnitState {
+        let v = UnitState {
             p_strut_pa: slope,
-            v_gas_m3: slope * props_s.dp_drho_pa_m3_per_kg * rho_s / state.v_gas_m3,
-            m_small_kg: -slope * props_s.dp_drho_pa_m3_per_kg / state.v_gas_m3,
+            t_gas_k: -slope * g.per_t,
+            v_gas_m3: -slope * g.per_v,
+            m_small_kg: -slope * g.per_m,
             ..UnitState::default()
         };
-        if p.heat != HeatTransfer::Isothermal {
-            v.t_gas_k = -slope * props_s.dp_dt_pa_per_k;
-        }
         // The rate: the flow relieves the strut pressure, fills S (whose
         // gas it compresses) and dissipates dp q in the pack.
         let mut u = UnitState {
@@ -955,6 +1021,33 @@ impl Unit {
         FlowCoupling { u, v }
     }
 
+    /// The strut linearised (see [`StrutCoupling`]), for the incompressible
+    /// oil while it does not cavitate: the force is `A (p_S + dp(A v) -
+    /// p_0) + friction + end stop`, the gas volume in S falls by `A v`.
+    fn strut_coupling(&self, state: &UnitState, props_s: &GasProps, t_s: f64, motion: StrutMotion, s5: f64, damper_dp_pa: f64) -> StrutCoupling {
+        let p = &self.params;
+        let area = p.piston_area_m2;
+        let q = area * motion.vel_m_s;
+        let dp_dv = area * p.damper.pressure_drop_slope_pa_s_per_m3(q, s5);
+        let g = PressureGradient::of(p.heat, props_s, state.m_small_kg, state.v_gas_m3);
+        let force_per_state = UnitState {
+            t_gas_k: area * g.per_t,
+            v_gas_m3: area * g.per_v,
+            m_small_kg: area * g.per_m,
+            ..UnitState::default()
+        };
+        let friction = p.effects.friction.map_or(0.0, |f| f.slope_n_s_per_m(motion.vel_m_s));
+        let (k_stop, c_stop) = self.end_stop_slopes(motion);
+        // The damper's power dp q: d/dv = A (dp + q dp'/dq).
+        let rate_per_vel = UnitState {
+            v_gas_m3: -area,
+            t_gas_k: -area * temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
+            e_damper_j: area * damper_dp_pa + q * dp_dv,
+            ..UnitState::default()
+        };
+        StrutCoupling { force_per_state, force_per_vel_n_s_per_m: area * dp_dv + friction + c_stop, force_per_disp_n_per_m: k_stop, rate_per_vel }
+    }
+
     /// The valve-6 exchange linearised (see [`Valve6Coupling`]).
     fn valve6_coupling(
         &self,
@@ -967,21 +1060,19 @@ impl Unit {
     ) -> Valve6Coupling {
         let p = &self.params;
         let dp = props_s.p_pa - props_l.p_pa;
-        let (rho_s, rho_l) = (state.m_small_kg / state.v_gas_m3, state.m_large_kg / state.v_gas2_m3);
         // q6 = s6 Q(p_S - p_L).
         let slope = s6 * p.valve6.flow_slope_m3_s_pa(dp, self.valve6_coefficient);
-        let isothermal = p.heat == HeatTransfer::Isothermal;
+        let g_s = PressureGradient::of(p.heat, props_s, state.m_small_kg, state.v_gas_m3);
+        let g_l = PressureGradient::of(p.heat, props_l, state.m_large_kg, state.v_gas2_m3);
         let mut v = UnitState {
-            v_gas_m3: -slope * props_s.dp_drho_pa_m3_per_kg * rho_s / state.v_gas_m3,
-            m_small_kg: slope * props_s.dp_drho_pa_m3_per_kg / state.v_gas_m3,
-            v_gas2_m3: slope * props_l.dp_drho_pa_m3_per_kg * rho_l / state.v_gas2_m3,
-            m_large_kg: -slope * props_l.dp_drho_pa_m3_per_kg / state.v_gas2_m3,
+            t_gas_k: slope * g_s.per_t,
+            v_gas_m3: slope * g_s.per_v,
+            m_small_kg: slope * g_s.per_m,
+            t_gas2_k: -slope * g_l.per_t,
+            v_gas2_m3: -slope * g_l.per_v,
+            m_large_kg: -slope * g_l.per_m,
             ..UnitState::default()
         };
-        if !isothermal {
-            v.t_gas_k = slope * props_s.dp_dt_pa_per_k;
-            v.t_gas2_k = -slope * props_l.dp_dt_pa_per_k;
-        }
         if lagging_valve {
             v.valve6_open_frac = p.valve6.flow_m3_s(dp, self.valve6_coefficient);
         }
@@ -999,6 +1090,19 @@ impl Unit {
             u.t_oil_k = dp / n.heat_capacity_j_per_k;
         }
         Valve6Coupling { u, v }
+    }
+
+    /// `d/d(compression)` and `d/d(velocity)` of [`Unit::end_stop_force_n`].
+    fn end_stop_slopes(&self, motion: StrutMotion) -> (f64, f64) {
+        let p = &self.params;
+        let force = self.end_stop_force_n(motion);
+        let engaged = motion.disp_m - p.stroke_compression_m > 0.0 || -p.stroke_extension_m - motion.disp_m > 0.0;
+        // Zero where the damping part would pull the stop back (clamped).
+        if engaged && force != 0.0 {
+            (p.end_stop_stiffness_n_per_m, p.end_stop_damping_n_s_per_m)
+        } else {
+            (0.0, 0.0)
+        }
     }
 
     /// Force of the end stops when the strut is beyond its stroke, N. The

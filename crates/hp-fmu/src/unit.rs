@@ -265,9 +265,9 @@ impl Model for UnitModel {
         let rig = Rig::resume(&self.unit, RigKind::Characterisation { strut }, self.ambient_k, Self::valves(values), 0.0);
         let (rate, _) = rig.rate_and_sample(time_s, &self.state)?;
         // A master's step that exceeds max_dt_s by rounding only (0.001000000000000112
-        // from summed times) is not split in two: the integration stays the
-        // native run's.
-        self.state = rig.advance(time_s, time_s + step_s, &self.state, &rate, self.max_dt_s * (1.0 + 1e-9))?;
+        // from summed times) is one step, not two (`hp_core::ode::steps`):
+        // the integration stays the native run's.
+        self.state = rig.advance(time_s, time_s + step_s, &self.state, &rate, self.max_dt_s)?;
         Ok(())
     }
 

@@ -3,7 +3,7 @@
 //! the default plant (ROS2 steps, tabulated gas) or the reference one (RK4
 //! steps, the gas evaluated directly).
 //!
-//!     cargo run -p hp-vehicle --release --example drive_8x8 -- [passive|semi] [seconds] [fast|reference]
+//!     cargo run -p hp-vehicle --release --example drive_8x8 -- [passive|semi] [seconds] [fast|reference] [8x8|4x4]
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)]
 use hp_core::unit::Valves;
 use hp_ctrl::{Params, State};
@@ -20,7 +20,7 @@ fn main() {
     let n = (seconds * 12.0 / 0.02) as usize + 2000;
     let h: Vec<f64> = (0..n).map(|k| 0.02 * (0.5 * k as f64 * 0.02).sin() * (k as f64 / 1000.0).min(1.0)).collect();
     let road = Road { left: Track { start_m: -10.0, dx_m: 0.02, height_m: &h }, right: Track { start_m: -10.0, dx_m: 0.02, height_m: &h } };
-    let p = presets::armoured_8x8();
+    let p = if args.get(4).is_some_and(|a| a == "4x4") { presets::armoured_4x4() } else { presets::armoured_8x8() };
     let ctrl = Params::new(presets::controller_config(&p)).unwrap();
     let s = if semi { Suspension::SemiActive(&ctrl) } else { Suspension::Passive(Valves::from_modes(false, true)) };
     let reference = args.get(3).is_some_and(|a| a == "reference");

@@ -8,7 +8,7 @@
 //! wheel's rise relative to the body above it.
 
 use hp_core::gas::EquationOfState;
-use hp_core::unit::{Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valve6Coupling, Valves};
+use hp_core::unit::{Linearisation, Needs, StrutMotion, Unit, UnitOutputs, UnitState, Valves};
 
 use crate::tyre::Tyre;
 
@@ -45,8 +45,11 @@ pub struct CornerForces {
 /// the tyre deflection at static equilibrium. The unit's gas properties
 /// come from `gas` (the unit's own equation of state, or a table of it);
 /// with `outputs` false only the rate, the strut force and the pressures
-/// are computed (see [`Needs`]); with `coupling` the valve-6 exchange's
-/// linearisation is returned when valve 6 is open.
+/// are computed (see [`Needs`]); with `coupling` the unit's linearisations
+/// that the vehicle's ROS2 puts in its `W` are returned: valve 6's exchange
+/// (when open) and the strut's (see [`Linearisation`]). The damper flow's,
+/// there only with oil compliance, is not used: the strut pressure is not
+/// among the states that `W` treats implicitly.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn evaluate(
@@ -61,13 +64,13 @@ pub fn evaluate(
     tyre_static_deflection_m: f64,
     valves: Valves,
     ambient_k: f64,
-) -> (UnitState, CornerForces, Option<Valve6Coupling>) {
+) -> (UnitState, CornerForces, Linearisation) {
     let strut = StrutMotion {
         disp_m: static_disp_m + motion.wheel_disp_m - motion.body_disp_m,
         vel_m_s: motion.wheel_vel_m_s - motion.body_vel_m_s,
     };
-    let (rate, unit_out, linear) = unit.evaluate_parts_with(gas, state, strut, valves, ambient_k, Needs { outputs, coupling, rates: true });
+    let (rate, unit_out, linear) = unit.evaluate_parts_with(gas, state, strut, valves, ambient_k, Needs { outputs, coupling, strut: coupling, rates: true });
     let deflection = tyre_static_deflection_m + motion.road_m - motion.wheel_disp_m;
     let tyre_force = tyre.force_n(deflection, motion.road_vel_m_s - motion.wheel_vel_m_s);
-    (rate, CornerForces { strut, unit: unit_out, tyre_deflection_m: deflection, tyre_force_n: tyre_force }, linear.valve6)
+    (rate, CornerForces { strut, unit: unit_out, tyre_deflection_m: deflection, tyre_force_n: tyre_force }, linear)
 }

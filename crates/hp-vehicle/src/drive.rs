@@ -151,7 +151,8 @@ pub fn run(
         let t_s = index as f64 * dt_s;
         let driver = driver_at(index, t_s);
         let dynamics = vehicle.dynamics(road, driver.drive_inputs(), valves);
-        let rate = dynamics.rate_and_sample(t_s, &x, &mut sample)?;
+        // x is the initial state or one advance checked.
+        let mut rate = dynamics.rate_of_checked(t_s, &x, Some(&mut sample));
         let mut read = [0.0; MAX_CORNERS];
         for (k, (r, c)) in read.iter_mut().zip(sample.corners.iter()).enumerate().take(corners) {
             let t_true = c.forces.unit.t_gas2_k;
@@ -180,15 +181,13 @@ pub fn run(
         if !on_period(&DrivePeriod { index, sample: &sample, inputs: &inputs, outputs: &outputs, valves: &next_valves }) {
             break;
         }
-        let rate = if next_valves == valves {
-            rate
-        } else {
+        if next_valves != valves {
             // The new commands change the flows: the first stage must see them.
             valves = next_valves;
-            vehicle.dynamics(road, driver.drive_inputs(), valves).rate(t_s, &x)?
-        };
+            rate = vehicle.dynamics(road, driver.drive_inputs(), valves).rate_of_checked(t_s, &x, None);
+        }
         let dynamics = vehicle.dynamics(road, driver.drive_inputs(), valves);
-        x = dynamics.advance(t_s, (index + 1) as f64 * dt_s, &x, &rate, max_dt_s)?;
+        dynamics.advance_in_place(t_s, (index + 1) as f64 * dt_s, &mut x, &rate, max_dt_s)?;
     }
     Ok(())
 }

@@ -32,6 +32,7 @@ pub mod gas_table;
 pub mod handling;
 pub mod presets;
 pub mod quarter_car;
+mod ros2;
 mod stepping;
 pub mod track;
 pub mod tyre;

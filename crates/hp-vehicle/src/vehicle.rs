@@ -39,10 +39,11 @@ use hp_core::error::{check_range, Error, Result};
 use hp_core::gas::table::TabulatedGas;
 use hp_core::gas::{EquationOfState, Gas, Span};
 use hp_core::ode::OdeSystem;
-use hp_core::unit::{Unit, UnitParams, UnitState, Valve6Coupling, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
+use hp_core::unit::{Unit, UnitParams, UnitState, Valves, STANDARD_GRAVITY_M_S2, UNIT_STATES};
 
 use crate::corner::{self, CornerForces, CornerMotion};
 use crate::handling::{self, HandlingAxle, HandlingState};
+use crate::ros2::{BodyInertia, CornerLinearisation, W};
 use crate::stepping;
 use crate::track::Road;
 use crate::tyre::Tyre;
@@ -162,27 +163,34 @@ pub enum Stepping {
     /// method is checked against (and what the vehicles used before).
     Rk4,
     /// ROS2 (Verwer, Spee, Blom & Hundsdorfer 1999, SIAM J. Sci. Comput.
-    /// 20): a two-stage, second-order, L-stable Rosenbrock-W method, with
-    /// each unit's valve-6 exchange (its one stiff mode,
-    /// [`Valve6Coupling`]) treated linearly implicitly, so that the orifice
-    /// does not limit the step; everything else is integrated explicitly
-    /// (Heun's method). Two evaluations a step instead of RK4's four.
+    /// 20): a two-stage, second-order, L-stable Rosenbrock-W method, linearly
+    /// implicit in the fast coupled part of the vehicle (each corner's gas
+    /// volumes and temperatures with valve 6, strut and tyre, the wheel,
+    /// and the body through the strut forces: `ros2.rs`), so that
+    /// one step per 1 ms control period follows the wheel hop and valve 6
+    /// does not limit the step; everything else is explicit. Two
+    /// evaluations a step instead of RK4's four.
     #[default]
     Ros2,
 }
 
-/// ROS2's `gamma = 1 + 1/sqrt(2)` (L-stability).
-const ROS2_GAMMA: f64 = 1.0 + core::f64::consts::FRAC_1_SQRT_2;
+/// ROS2's `gamma = 1 - 1/sqrt(2)`, the smaller of the two that make it
+/// L-stable: with the corners and the body in `W` its error constant on
+/// the wheel hop is a quarter of an explicit two-stage method's, where
+/// `1 + 1/sqrt(2)` makes it eight times larger (measured on the 8x8's rough
+/// road, soft spring and damper off, after 1 s: 1.5 um against 46 um from
+/// RK4 at 1 ms with the whole Jacobian in `W`; BENCHMARKS.md).
+const ROS2_GAMMA: f64 = 1.0 - core::f64::consts::FRAC_1_SQRT_2;
 
-/// The state rate at one instant, with each unit's valve-6 linearisation
-/// (present when valve 6 is open and the stepping is implicit in it).
+/// The state rate at one instant, with each corner's linearisation
+/// (present when the stepping is linearly implicit).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rate {
     pub state: VehicleState,
     couplings: Couplings,
 }
 
-type Couplings = [Option<Valve6Coupling>; MAX_CORNERS];
+type Couplings = [CornerLinearisation; MAX_CORNERS];
 
 /// A validated vehicle with its static equilibrium.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -464,6 +472,15 @@ impl Vehicle {
         self.ambient_k
     }
 
+    /// The body's side of the ROS2 step's `W` ([`crate::ros2`]).
+    fn body_inertia(&self) -> BodyInertia {
+        let b = &self.params.body;
+        BodyInertia {
+            inverse: [1.0 / b.mass_kg, 1.0 / b.pitch_inertia_kg_m2, 1.0 / self.roll_axis_inertia_kg_m2],
+            roll_weight_per_inertia: b.mass_kg * G * self.roll_arm_m / self.roll_axis_inertia_kg_m2,
+        }
+    }
+
     /// Total mass (sprung and unsprung), kg.
     pub fn total_mass_kg(&self) -> f64 {
         self.total_mass_kg
@@ -505,7 +522,7 @@ fn corner_chunks(y: &[f64; VEHICLE_STATES]) -> core::slice::ChunksExact<'_, f64>
 }
 
 /// One corner's [`corner::evaluate`] with its unit's rate written into
-/// `out` and the valve-6 linearisation into `slot` (when wanted), so
+/// `out` and the corner's linearisation into `slot` (when wanted), so
 /// that no large tuple is returned through the gas's two code paths.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -514,7 +531,7 @@ fn corner_into(
     unit: &Unit,
     c: &CornerGeometry,
     outputs: bool,
-    slot: Option<&mut Option<Valve6Coupling>>,
+    slot: Option<&mut CornerLinearisation>,
     unit_state: &UnitState,
     motion: &CornerMotion,
     valves: Valves,
@@ -524,7 +541,11 @@ fn corner_into(
     let (rate, f, coupled) =
         corner::evaluate(unit, gas, outputs, slot.is_some(), &c.tyre, unit_state, motion, c.static_disp_m, c.tyre_static_deflection_m, valves, ambient_k);
     if let Some(s) = slot {
-        *s = coupled;
+        // The tyre's slopes while it pushes (a tyre in the air, or one whose
+        // damping would pull, exerts no force).
+        let pushing = f.tyre_force_n > 0.0;
+        let slope = |x: f64| if pushing { x } else { 0.0 };
+        *s = CornerLinearisation::new(&coupled, slope(c.tyre.stiffness_n_per_m), slope(c.tyre.damping_n_s_per_m));
     }
     *out = rate.to_array();
     f
@@ -567,7 +588,6 @@ impl Dynamics<'_> {
     ) {
         let v = self.vehicle;
         let b = &v.params.body;
-        rate.fill(0.0);
         let [heave, heave_vel, pitch, pitch_rate, roll, roll_rate, lat_vel, yaw_rate, heading, lateral_pos, distance, ..] = *y;
         let u = self.drive.speed_m_s;
         let steer = self.drive.steer_angle_rad / v.params.steering_ratio;
@@ -582,6 +602,10 @@ impl Dynamics<'_> {
         let a_y = lateral.lat_acc_m_s2;
         let (mut force, mut moment_pitch, mut moment_roll) = (0.0, 0.0, 0.0);
         let (_, corner_rate) = rate.split_at_mut(BODY_STATES);
+        // Every element is written: the used corners' below, the rest zero.
+        for cr in corner_rate.chunks_exact_mut(CORNER_STATES).skip(v.corner_count()) {
+            cr.fill(0.0);
+        }
         let corners = v.corners().iter().zip(&v.units).zip(&self.valves).zip(corner_chunks(y).zip(corner_rate.chunks_exact_mut(CORNER_STATES)));
         for (i, (((c, unit), valves), (cy, cr))) in corners.enumerate() {
             let (unit_state, wheel_disp, wheel_vel) = split_corner(cy);
@@ -687,38 +711,24 @@ impl Dynamics<'_> {
         for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_chunks(y)) {
             unit.check_state(&split_corner(cy).0, t_s)?;
         }
-        // x * 0 is 0 for a finite x, NaN otherwise; four partial sums
-        // (which the compiler vectorises) instead of one chain of 171 adds.
-        // Whole chunks of a known length, so that the loop has no bounds
-        // checks left and becomes a few vector adds.
-        let mut lanes = [0.0; 4];
-        let mut chunks = y.chunks_exact(4);
-        for chunk in chunks.by_ref() {
-            if let Some(c) = chunk.first_chunk::<4>() {
-                for (a, x) in lanes.iter_mut().zip(c) {
-                    *a += x * 0.0;
-                }
-            }
-        }
-        let tail: f64 = chunks.remainder().iter().map(|x| x * 0.0).sum();
-        if lanes.iter().sum::<f64>() + tail == 0.0 {
-            Ok(())
-        } else {
-            let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
-            Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
-        }
+        finite(t_s, y)
     }
 
-    fn project(&self, y: &mut [f64; VEHICLE_STATES]) {
+    /// Projects a step's result onto the units' constraints and checks it
+    /// ([`Unit::project`], [`Dynamics::check`]), each unit's state taken
+    /// out of the array once for both.
+    fn finish(&self, t_s: f64, y: &mut [f64; VEHICLE_STATES]) -> Result<()> {
         let v = self.vehicle;
         let (_, corner_y) = y.split_at_mut(BODY_STATES);
         for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
             if let Some(a) = cy.first_chunk_mut::<UNIT_STATES>() {
                 let mut s = UnitState::from_array(a);
                 unit.project(&mut s, v.ambient_k);
+                unit.check_state(&s, t_s)?;
                 *a = s.to_array();
             }
         }
+        finite(t_s, y)
     }
 
     /// The state rate at `(t_s, state)`, with the observed quantities
@@ -726,20 +736,26 @@ impl Dynamics<'_> {
     /// valid region.
     pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        let mut couplings = [None; MAX_CORNERS];
-        let y = self.evaluate(t_s, &state.y, Some(sample), self.couplings_wanted(&mut couplings));
-        Ok(Rate { state: VehicleState { y }, couplings })
+        Ok(self.rate_of_checked(t_s, state, Some(sample)))
     }
 
     /// The state rate at `(t_s, state)`.
     pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        let mut couplings = [None; MAX_CORNERS];
-        let y = self.evaluate(t_s, &state.y, None, self.couplings_wanted(&mut couplings));
-        Ok(Rate { state: VehicleState { y }, couplings })
+        Ok(self.rate_of_checked(t_s, state, None))
     }
 
-    /// Where to put the valve-6 linearisations, if the stepping uses them.
+    /// [`Dynamics::rate_and_sample`] (with a sample) or [`Dynamics::rate`]
+    /// for a state already checked: one [`Dynamics::advance`] returned, or
+    /// [`Vehicle::initial_state`] (valid by construction). The drive loop
+    /// would otherwise check every state twice.
+    pub(crate) fn rate_of_checked(&self, t_s: f64, state: &VehicleState, sample: Option<&mut VehicleSample>) -> Rate {
+        let mut couplings = [CornerLinearisation::default(); MAX_CORNERS];
+        let y = self.evaluate(t_s, &state.y, sample, self.couplings_wanted(&mut couplings));
+        Rate { state: VehicleState { y }, couplings }
+    }
+
+    /// Where to put the corners' linearisations, if the stepping uses them.
     fn couplings_wanted<'c>(&self, couplings: &'c mut Couplings) -> Option<&'c mut Couplings> {
         match self.vehicle.stepping {
             Stepping::Ros2 => Some(couplings),
@@ -752,100 +768,90 @@ impl Dynamics<'_> {
     /// at `t_s` with these inputs and valves (from
     /// [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
     pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &Rate, max_dt_s: f64) -> Result<VehicleState> {
-        let finish = |t: f64, y: &mut [f64; VEHICLE_STATES]| {
-            self.project(y);
-            self.check(t, y)
-        };
-        let y = match self.vehicle.stepping {
-            Stepping::Rk4 => stepping::advance(self, t_s, t_end_s, &state.y, &rate.state.y, max_dt_s, finish)?,
-            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &state.y, rate, max_dt_s, finish)?,
-        };
-        Ok(VehicleState { y })
+        let mut next = *state;
+        self.advance_in_place(t_s, t_end_s, &mut next, rate, max_dt_s)?;
+        Ok(next)
+    }
+
+    /// [`Dynamics::advance`] overwriting `state` (the drive loop's form: no
+    /// state copied in or out). On an error `state` is left part way.
+    pub(crate) fn advance_in_place(&self, t_s: f64, t_end_s: f64, state: &mut VehicleState, rate: &Rate, max_dt_s: f64) -> Result<()> {
+        match self.vehicle.stepping {
+            Stepping::Rk4 => {
+                state.y = stepping::advance(self, t_s, t_end_s, &state.y, &rate.state.y, max_dt_s, |t, y| self.finish(t, y))?;
+                Ok(())
+            }
+            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &mut state.y, rate, max_dt_s),
+        }
     }
 
     /// ROS2 steps ([`Stepping::Ros2`]): per step, with `W = I - gamma h J`
-    /// and `J` the units' valve-6 linearisations at the step's start,
+    /// and `J` the fast coupled part of the Jacobian at the step's start
+    /// ([`crate::ros2`]),
     ///
     /// ```text
     /// W k1 = f(t, y)
     /// W k2 = f(t + h, y + h k1) - 2 k1
     /// y'   = y + h (3/2 k1 + 1/2 k2)
     /// ```
-    ///
-    /// `J` is block diagonal with a rank-one block `u v^T` per unit, so
-    /// `W^-1` is the Sherman-Morrison formula per unit, O(states).
-    fn advance_ros2(
-        &self,
-        t_s: f64,
-        t_end_s: f64,
-        y0: &[f64; VEHICLE_STATES],
-        rate: &Rate,
-        max_dt_s: f64,
-        mut finish: impl FnMut(f64, &mut [f64; VEHICLE_STATES]) -> Result<()>,
-    ) -> Result<[f64; VEHICLE_STATES]> {
-        let (n, h) = stepping::steps(t_s, t_end_s, max_dt_s)?;
+    fn advance_ros2(&self, t_s: f64, t_end_s: f64, y: &mut [f64; VEHICLE_STATES], rate: &Rate, max_dt_s: f64) -> Result<()> {
+        let (n, h) = hp_core::ode::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;
-        // Four arrays reused over the steps, nothing returned by value
-        // inside the loop.
-        let mut y = *y0;
+        let body = self.vehicle.body_inertia();
+        // Arrays reused over the steps, nothing returned by value inside the
+        // loop; the first step's linearisation is the rate's.
         let mut k1 = rate.state.y;
-        let mut couplings = rate.couplings;
+        let mut later = [CornerLinearisation::default(); MAX_CORNERS];
         let mut y1 = [0.0; VEHICLE_STATES];
         let mut k2 = [0.0; VEHICLE_STATES];
         for k in 0..n {
             let t = t_s + h * k as f64;
-            if k > 0 {
-                self.evaluate_into(t, &y, &mut k1, None, Some(&mut couplings));
-            }
-            let w = w_inverse(&couplings, gh);
-            solve_w(&w, &mut k1);
-            for ((a, b), c) in y1.iter_mut().zip(&y).zip(&k1) {
+            let couplings = if k > 0 {
+                self.evaluate_into(t, y, &mut k1, None, Some(&mut later));
+                &later
+            } else {
+                &rate.couplings
+            };
+            let w = W::new(couplings, self.vehicle.corners(), body, gh);
+            w.solve(&mut k1);
+            for ((a, b), c) in y1.iter_mut().zip(y.iter()).zip(&k1) {
                 *a = b + h * c;
             }
             self.evaluate_into(t + h, &y1, &mut k2, None, None);
             for (a, b) in k2.iter_mut().zip(&k1) {
                 *a -= 2.0 * b;
             }
-            solve_w(&w, &mut k2);
+            w.solve(&mut k2);
             for ((a, b), c) in y.iter_mut().zip(&k1).zip(&k2) {
                 *a += h * (1.5 * b + 0.5 * c);
             }
-            finish(t + h, &mut y)?;
+            self.finish(t + h, y)?;
         }
-        Ok(y)
+        Ok(())
     }
 }
 
-/// `W^-1 = (I - c J)^-1` for `J` = the units' rank-one valve-6 blocks, by
-/// Sherman-Morrison: `(I - c u v^T)^-1 = I + c u v^T / (1 - c v.u)`, kept
-/// per unit as the vectors `c u / (1 - c v.u)` and `v`. A block whose mode
-/// is not decaying (`v.u >= 0`) is left explicit: a W-method keeps its
-/// order for any `W`, and only a decaying mode needs the implicit treatment.
-type WInverse = [Option<([f64; UNIT_STATES], [f64; UNIT_STATES])>; MAX_CORNERS];
-
-fn w_inverse(couplings: &Couplings, c: f64) -> WInverse {
-    let mut w = [None; MAX_CORNERS];
-    for (out, k) in w.iter_mut().zip(couplings) {
-        let Some(k) = k else { continue };
-        let (u, v) = (k.u.to_array(), k.v.to_array());
-        let vu: f64 = v.iter().zip(&u).map(|(a, b)| a * b).sum();
-        if vu < 0.0 {
-            let scale = c / (1.0 - c * vu);
-            *out = Some((u.map(|x| scale * x), v));
+/// Fails unless every state is finite.
+fn finite(t_s: f64, y: &[f64; VEHICLE_STATES]) -> Result<()> {
+    // x * 0 is 0 for a finite x, NaN otherwise; four partial sums (which
+    // the compiler vectorises) instead of one chain of 171 adds. Whole
+    // chunks of a known length, so that the loop has no bounds checks left
+    // and becomes a few vector adds.
+    let mut lanes = [0.0; 4];
+    let mut chunks = y.chunks_exact(4);
+    for chunk in chunks.by_ref() {
+        if let Some(c) = chunk.first_chunk::<4>() {
+            for (a, x) in lanes.iter_mut().zip(c) {
+                *a += x * 0.0;
+            }
         }
     }
-    w
-}
-
-/// `x <- W^-1 x`.
-fn solve_w(w: &WInverse, x: &mut [f64; VEHICLE_STATES]) {
-    let (_, corner_x) = x.split_at_mut(BODY_STATES);
-    for (k, cx) in w.iter().zip(corner_x.chunks_exact_mut(CORNER_STATES)) {
-        let (Some((u, v)), Some(xu)) = (k, cx.first_chunk_mut::<UNIT_STATES>()) else { continue };
-        let vx: f64 = v.iter().zip(xu.iter()).map(|(a, b)| a * b).sum();
-        for (a, b) in xu.iter_mut().zip(u) {
-            *a += vx * b;
-        }
+    let tail: f64 = chunks.remainder().iter().map(|x| x * 0.0).sum();
+    if lanes.iter().sum::<f64>() + tail == 0.0 {
+        Ok(())
+    } else {
+        let bad = y.iter().copied().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
+        Err(Error::StateOutOfRange { name: "vehicle_state", value: bad, min: f64::MIN, max: f64::MAX, time_s: t_s })
     }
 }
 

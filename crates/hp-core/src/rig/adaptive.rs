@@ -163,7 +163,7 @@ impl System<'_, '_> {
 
     fn rate(&self, t_s: f64, y: &[f64; RIG_STATES], coupling: bool) -> ([f64; RIG_STATES], LowRank<RIG_STATES>) {
         let s = self.state(y);
-        let (rate, _, _, _, _, lin) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, rates: true });
+        let (rate, _, _, _, _, lin) = self.rig.rate_parts(t_s, &s, Needs { outputs: false, coupling, strut: false, rates: true });
         let f = self.layout.compress(&rate.to_array());
         let full = |unit: UnitState| RigState { unit, body_disp_m: 0.0, body_vel_m_s: 0.0 }.to_array();
         let mut stiff = LowRank::NONE;
