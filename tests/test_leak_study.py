@@ -63,14 +63,16 @@ def test_short_study_flags_a_20_percent_loss_and_not_a_healthy_unit(study, tmp_p
     first = gc.first_fault_s(lost)
     assert first is not None and first < 600.0
     assert gc.fault_episodes(lost) == 1
-    # Oil is conserved: the gas volumes are the accumulators' less what
-    # the strut displaced (plus a void if the strut cavitated; below
-    # 1 cm3 on a warm day), the balance the detector relies on.
+    # Oil is conserved: the gas volumes and the strut's void are the
+    # accumulators' volume less what the strut displaced (the balance the
+    # detector relies on, with the void it cannot see), to rounding of
+    # volumes of 1e-3 m^3 (a void filling within a plant step once
+    # destroyed its surplus oil: tens of cm^3 an hour on a cold day).
     unit = gc.seed_unit_with_heat()
     for r in results:
-        gas = np.asarray(r["v_gas_m3"]) + np.asarray(r["v_gas2_m3"])
+        gas = np.asarray(r["v_gas_m3"]) + np.asarray(r["v_gas2_m3"]) + np.asarray(r["v_void_m3"])
         balance = unit.small_acc_volume_m3 + unit.large_acc_volume_m3 - unit.piston_area_m2 * np.asarray(r["disp_m"])
-        assert np.all(np.abs(gas - balance) < 1e-6)
+        assert np.all(np.abs(gas - balance) < 1e-13)
 
     out = tmp_path / "study"
     out.mkdir()
