@@ -30,12 +30,13 @@
 //!
 //! **End stops and voids.** The balance holds whatever carries the body:
 //! on an end stop the oil still leaves the gas `V_S0 + V_L0 - A x`, so
-//! samples taken there count. A cold unit sits on its compression stop for
-//! hours; leaving those samples out would bias its estimate towards a loss
-//! (the temperature sensor's lag makes deep-compression samples read low
-//! and the others high; measured on the leak study's cold day: +0.3
-//! points for a healthy unit) and drop 95 % of the samples of a unit that
-//! lost 10-20 %, the units that sit there most. A vapour void in the strut
+//! samples taken there count. A cold unit sits on or near its compression
+//! stop for hours; leaving out the samples within 10 mm of it would bias
+//! its estimate towards a loss (the temperature sensor's lag makes
+//! deep-compression samples read low and the others high; measured on the
+//! leak study's cold day: +0.3 points for a healthy unit) and drop 95-97 %
+//! of the samples of a unit that lost 10-20 %, the units that sit there
+//! most. A vapour void in the strut
 //! (a rebound faster than the damper can feed) leaves the gas less volume
 //! than the balance says, so a sample then reads *more* gas: it can hide a
 //! loss while the void is open (milliseconds), never fake one.
