@@ -94,8 +94,8 @@ def test_fast_plant_gives_the_reference_plants_decisions(study):
     cold unit 10 % low and a leaking one (40 %/h from 97 %), the detector
     decides the same on both: the same verdict flags every record, the
     same first fault, the charge-ratio estimate within 1e-6 (measured:
-    1.2e-7, two f32 steps at 1.0), the gas pressure within 100 Pa
-    (measured: 25 Pa at -30 C, 0.06 Pa otherwise) of 10-30 MPa."""
+    6e-8, one f32 step at 1.0), the gas pressure within 100 Pa
+    (measured: 11 Pa at -30 C, 0.06 Pa otherwise) of 10-30 MPa."""
     hours = 420.0 / 3600.0  # past the detector's settling (6 min) and confirmation
     specs = [
         {"id": "healthy-hot", "study": "fleet", "day": "hot", "hours": hours, "seed": 7, "p_offset_pa": -0.2e6, "t_offset_k": -1.0,
