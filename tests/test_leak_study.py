@@ -77,6 +77,10 @@ def test_short_study_flags_a_20_percent_loss_and_not_a_healthy_unit(study, tmp_p
     out = tmp_path / "study"
     out.mkdir()
     with (out / "cases.jsonl").open("w") as f:
+        # A line the study wrote before the case's sensors changed: the
+        # later line of the same id replaces it in the report.
+        stale = {**study.summarise(specs[0], healthy), "p_offset_pa": 0.2e6, "fault_episodes": 1}
+        f.write(json.dumps(stale) + "\n")
         for spec, r in zip(specs, results, strict=True):
             f.write(json.dumps(study.summarise(spec, r)) + "\n")
     summary = study.report(out)
