@@ -63,18 +63,24 @@ def test_short_study_flags_a_20_percent_loss_and_not_a_healthy_unit(study, tmp_p
     first = gc.first_fault_s(lost)
     assert first is not None and first < 600.0
     assert gc.fault_episodes(lost) == 1
-    # Oil is conserved: the gas volumes are the accumulators' less what
-    # the strut displaced (plus a void if the strut cavitated; below
-    # 1 cm3 on a warm day), the balance the detector relies on.
+    # Oil is conserved: the gas volumes and the strut's void are the
+    # accumulators' volume less what the strut displaced (the balance the
+    # detector relies on, with the void it cannot see), to rounding of
+    # volumes of 1e-3 m^3 (a void filling within a plant step once
+    # destroyed its surplus oil: tens of cm^3 an hour on a cold day).
     unit = gc.seed_unit_with_heat()
     for r in results:
-        gas = np.asarray(r["v_gas_m3"]) + np.asarray(r["v_gas2_m3"])
+        gas = np.asarray(r["v_gas_m3"]) + np.asarray(r["v_gas2_m3"]) + np.asarray(r["v_void_m3"])
         balance = unit.small_acc_volume_m3 + unit.large_acc_volume_m3 - unit.piston_area_m2 * np.asarray(r["disp_m"])
-        assert np.all(np.abs(gas - balance) < 1e-6)
+        assert np.all(np.abs(gas - balance) < 1e-13)
 
     out = tmp_path / "study"
     out.mkdir()
     with (out / "cases.jsonl").open("w") as f:
+        # A line the study wrote before the case's sensors changed: the
+        # later line of the same id replaces it in the report.
+        stale = {**study.summarise(specs[0], healthy), "p_offset_pa": 0.2e6, "fault_episodes": 1}
+        f.write(json.dumps(stale) + "\n")
         for spec, r in zip(specs, results, strict=True):
             f.write(json.dumps(study.summarise(spec, r)) + "\n")
     summary = study.report(out)
@@ -92,8 +98,8 @@ def test_fast_plant_gives_the_reference_plants_decisions(study):
     cold unit 10 % low and a leaking one (40 %/h from 97 %), the detector
     decides the same on both: the same verdict flags every record, the
     same first fault, the charge-ratio estimate within 1e-6 (measured:
-    1.2e-7, two f32 steps at 1.0), the gas pressure within 100 Pa
-    (measured: 25 Pa at -30 C, 0.06 Pa otherwise) of 10-30 MPa."""
+    6e-8, one f32 step at 1.0), the gas pressure within 100 Pa
+    (measured: 11 Pa at -30 C, 0.06 Pa otherwise) of 10-30 MPa."""
     hours = 420.0 / 3600.0  # past the detector's settling (6 min) and confirmation
     specs = [
         {"id": "healthy-hot", "study": "fleet", "day": "hot", "hours": hours, "seed": 7, "p_offset_pa": -0.2e6, "t_offset_k": -1.0,

@@ -391,6 +391,8 @@ class GasChargeDriveDict(TypedDict):
     p_gas_pa: NDArray[np.float64]
     v_gas_m3: NDArray[np.float64]
     v_gas2_m3: NDArray[np.float64]
+    v_void_m3: NDArray[np.float64]
+    sample_ratio: NDArray[np.float64]
     speed_m_s: NDArray[np.float64]
     sampled: NDArray[np.float64]
     valve6_open: NDArray[np.float64]

@@ -85,6 +85,10 @@ pub struct RigSample {
     /// Gas volumes, m^3.
     pub v_gas_m3: f64,
     pub v_gas2_m3: f64,
+    /// Vapour void in the strut, m^3 (the oil balance: `v_gas_m3 +
+    /// v_gas2_m3 + v_void_m3` is the accumulators' volume less what the
+    /// strut displaced).
+    pub v_void_m3: f64,
     /// Energies dissipated so far, J.
     pub e_damper_j: f64,
     pub e_friction_j: f64,
@@ -270,6 +274,7 @@ impl<'a> Rig<'a> {
             valves: self.valves,
             v_gas_m3: s.unit.v_gas_m3,
             v_gas2_m3: s.unit.v_gas2_m3,
+            v_void_m3: s.unit.v_void_m3,
             e_damper_j: s.unit.e_damper_j,
             e_friction_j: s.unit.e_friction_j,
             e_valve6_j: s.unit.e_valve6_j,

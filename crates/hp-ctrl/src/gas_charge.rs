@@ -28,6 +28,19 @@
 //! matters: between a cold and a hot day nitrogen's compressibility at
 //! 15 MPa changes by a few per cent, as much as the losses to be found.
 //!
+//! **End stops and voids.** The balance holds whatever carries the body:
+//! on an end stop the oil still leaves the gas `V_S0 + V_L0 - A x`, so
+//! samples taken there count. A cold unit sits on or near its compression
+//! stop for hours; leaving out the samples within 10 mm of it would bias
+//! its estimate towards a loss (the temperature sensor's lag makes
+//! deep-compression samples read low and the others high; measured on the
+//! leak study's cold day: +0.3 points for a healthy unit) and drop 95-97 %
+//! of the samples of a unit that lost 10-20 %, the units that sit there
+//! most. A vapour void in the strut
+//! (a rebound faster than the damper can feed) leaves the gas less volume
+//! than the balance says, so a sample then reads *more* gas: it can hide a
+//! loss while the void is open (milliseconds), never fake one.
+//!
 //! **Averaging.** Each sample is exact for the true gas temperature; the
 //! sensor reads it late (about 1 s) and the gas in S cycles hotter and
 //! colder with the road, so single samples scatter by per cents. The
@@ -73,8 +86,11 @@ pub struct GasChargeConfig {
 
 impl Default for GasChargeConfig {
     fn default() -> Self {
-        // Calibrated on the long simulated drives (docs/controller.md, Gas
-        // charge): the healthy estimate stays within about +-1.3 %.
+        // First guesses, kept while the long simulated drives are judged
+        // (docs/controller.md, Gas charge): healthy units read -1.8 to
+        // +1.9 % with their sensors at the tolerance limits, units 5 % low
+        // 3.2-3.6 % at the limits that hide a loss most; the study's rule
+        // (midway) gives a 2.56 % threshold.
         GasChargeConfig {
             tau_s: 300.0,
             settle_s: 300.0,
@@ -325,6 +341,40 @@ mod tests {
         assert!(n > 300, "only {n} samples inside the table");
         // The estimate must resolve losses of 1 %: the table's error is far below.
         assert!(worst < 1.5e-3, "worst error {worst}");
+    }
+
+    /// The volume balance does not care which part carries the body: with
+    /// the strut on its compression end stop, or 10 mm into it, the oil
+    /// still leaves the gas `V_S0 + V_L0 - A x`, and the sample is as
+    /// exact there as anywhere (the study's cold units sit there for
+    /// hours). On the days of the leak study (-30 to +45 C), for charges of
+    /// 80-100 %, the pressures are inside the table and give `k` back; on
+    /// the extension end stop too for 90-100 % (at 80 % they fall below
+    /// the table: no sample).
+    #[test]
+    fn the_sample_holds_on_the_end_stops() {
+        let params = Params::seed_unit().unwrap();
+        let unit = params.config().unit;
+        let p = GasChargeParams::new(&GasChargeConfig::default(), &unit);
+        let gas = unit.gas;
+        let rho0 = gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap();
+        let (m_s, m_l) = (rho0 * unit.small_acc_volume_m3, rho0 * unit.large_acc_volume_m3);
+        // Each end stop with the smallest charge whose pressures are in the table there.
+        let ends = [(unit.stroke_compression_m, 0.8), (unit.stroke_compression_m + 0.01, 0.8), (-unit.stroke_extension_m, 0.9)];
+        for k in [0.8, 0.9, 1.0] {
+            for t_k in [243.15, 268.15, 288.15, 303.15, 318.15] {
+                for (x, _) in ends.iter().filter(|(_, least)| k >= *least) {
+                    // Valve 6 open at rest: S and L at one pressure, the
+                    // volume shared in proportion to the masses.
+                    let v_total = unit.small_acc_volume_m3 + unit.large_acc_volume_m3 - unit.piston_area_m2 * x;
+                    let p_pa = gas.pressure_pa(k * (m_s + m_l) / v_total, t_k);
+                    let got = p.sample_ratio(params.large_table(), p_pa as f32, p_pa as f32, *x as f32, t_k as f32);
+                    assert!(got.is_some(), "no sample at x = {x} m, {t_k} K, k = {k}: {p_pa} Pa");
+                    let got = got.unwrap();
+                    assert!((f64::from(got) - k).abs() < 1.5e-3, "x = {x} m, {t_k} K: {got} against {k}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -56,6 +56,12 @@ struct Record {
     /// `V_S0 + V_L0 - A x` shows a void in the strut).
     v_gas_m3: Vec<f64>,
     v_gas2_m3: Vec<f64>,
+    /// The plant's vapour void in the strut (the oil balance's third
+    /// term: gas volumes plus void are `V_S0 + V_L0 - A x`).
+    v_void_m3: Vec<f64>,
+    /// Mean of the record's samples of the charge ratio (what one period
+    /// gives the detector), NaN if the record had none.
+    sample_ratio: Vec<f64>,
     speed_m_s: Vec<f64>,
     /// Share of the record's periods with a usable sample.
     sampled: Vec<f64>,
@@ -166,6 +172,7 @@ impl Drive {
         let mut state = State::new();
         let mut out = Record::default();
         let (mut segment, mut sampled, mut open, mut safe, mut in_record) = (0usize, 0usize, 0usize, 0usize, 0usize);
+        let mut sample_sum = 0.0_f64;
         let dt_us = (DT_S * 1e6).round() as u32;
         let vehicle_at = |_, t_s: f64| {
             while self.start_s.get(segment + 1).is_some_and(|&next| t_s >= next) {
@@ -178,6 +185,7 @@ impl Drive {
             let sample = gas.corner_sample(params.large_table(), p.inputs, p.outputs.diag);
             let verdict = gas_charge::step(&gas, &mut gas_state, sample, dt_us);
             sampled += usize::from(sample.is_some());
+            sample_sum += sample.map_or(0.0, f64::from);
             open += usize::from(p.outputs.valve6_open);
             safe += usize::from(p.outputs.diag & diag::SAFE_STATE != 0);
             in_record += 1;
@@ -198,11 +206,13 @@ impl Drive {
                 out.p_gas_pa.push(u.p_gas_pa);
                 out.v_gas_m3.push(p.sample.v_gas_m3);
                 out.v_gas2_m3.push(p.sample.v_gas2_m3);
+                out.v_void_m3.push(p.sample.v_void_m3);
+                out.sample_ratio.push(if sampled > 0 { sample_sum / sampled as f64 } else { f64::NAN });
                 out.speed_m_s.push(p.inputs.speed_m_s);
                 out.sampled.push(sampled as f64 / n);
                 out.valve6_open.push(open as f64 / n);
                 out.safe.push(safe as f64 / n);
-                (sampled, open, safe) = (0, 0, 0);
+                (sampled, open, safe, sample_sum) = (0, 0, 0, 0.0);
             }
             true
         };
@@ -233,6 +243,8 @@ fn to_dict<'py>(py: Python<'py>, r: Record) -> PyResult<Bound<'py, PyDict>> {
         ("p_gas_pa", r.p_gas_pa),
         ("v_gas_m3", r.v_gas_m3),
         ("v_gas2_m3", r.v_gas2_m3),
+        ("v_void_m3", r.v_void_m3),
+        ("sample_ratio", r.sample_ratio),
         ("speed_m_s", r.speed_m_s),
         ("sampled", r.sampled),
         ("valve6_open", r.valve6_open),

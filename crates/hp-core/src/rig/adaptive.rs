@@ -383,6 +383,7 @@ fn states_sample(rig: &Rig<'_>, t_s: f64, s: &RigState) -> RigSample {
         valves: rig.valves,
         v_gas_m3: s.unit.v_gas_m3,
         v_gas2_m3: s.unit.v_gas2_m3,
+        v_void_m3: s.unit.v_void_m3,
         e_damper_j: s.unit.e_damper_j,
         e_friction_j: s.unit.e_friction_j,
         e_valve6_j: s.unit.e_valve6_j,
