@@ -16,7 +16,7 @@ use hp_vehicle::drive::{self, Driver, Suspension};
 use hp_vehicle::track::{Road, Track};
 use hp_vehicle::tyre::Tyre;
 use hp_vehicle::vehicle::{
-    Axle, Body, CornerSample, DriveInputs, Seat, Stepping, Vehicle, VehicleParams, VehicleSample, VehicleState, MAX_AXLES, MAX_CORNERS,
+    Axle, Body, CornerSample, DriveInputs, Seat, StepMemory, Stepping, Vehicle, VehicleParams, VehicleSample, VehicleState, MAX_AXLES, MAX_CORNERS,
 };
 use hp_vehicle::presets;
 use numpy::ndarray::Array2;
@@ -508,6 +508,9 @@ pub struct VehiclePlant {
     valves: [Valves; MAX_CORNERS],
     time_s: f64,
     max_dt_s: f64,
+    /// What ROS2 keeps between steps, as in the drive loop (`vehicle_run`),
+    /// so that both step the same plant.
+    memory: StepMemory,
 }
 
 impl VehiclePlant {
@@ -583,7 +586,7 @@ impl VehiclePlant {
             }
             let valves = [initial; MAX_CORNERS];
             let state = vehicle.initial_state(&valves).map_err(to_py)?;
-            Ok(VehiclePlant { vehicle, road: road_spec(road)?, state, drive: DriveInputs::default(), valves, time_s: 0.0, max_dt_s })
+            Ok(VehiclePlant { vehicle, road: road_spec(road)?, state, drive: DriveInputs::default(), valves, time_s: 0.0, max_dt_s, memory: StepMemory::new() })
         })
     }
 
@@ -628,7 +631,8 @@ impl VehiclePlant {
             let road = self.road.road();
             let d = self.vehicle.dynamics(&road, self.drive, self.valves);
             let t = self.time_s;
-            let next = d.rate(t, &self.state).and_then(|rate| d.advance(t, t + dt_s, &self.state, &rate, self.max_dt_s));
+            let memory = &mut self.memory;
+            let next = d.rate_for(t, &self.state, None, memory).and_then(|rate| d.advance_with(t, t + dt_s, &self.state, &rate, self.max_dt_s, memory));
             self.state = next.map_err(to_py)?;
             self.time_s = t + dt_s;
             self.to_dict(py, &self.sample_now().map_err(to_py)?)

@@ -9,7 +9,7 @@
 use hp_core::unit::Valves;
 use hp_vehicle::presets;
 use hp_vehicle::track::{Road, Track};
-use hp_vehicle::vehicle::{DriveInputs, Stepping, Vehicle, VehicleState, BODY_STATES, CORNER_STATES, MAX_CORNERS};
+use hp_vehicle::vehicle::{DriveInputs, StepMemory, Stepping, Vehicle, VehicleState, BODY_STATES, CORNER_STATES, MAX_CORNERS};
 
 /// The test's road: a sum of sines, class D-like amplitudes, 2 cm grid.
 fn rough() -> (Vec<f64>, Vec<f64>) {
@@ -29,13 +29,15 @@ fn rough() -> (Vec<f64>, Vec<f64>) {
 fn run(vehicle: &Vehicle, road: &Road<'_>, valves: Valves, max_dt: f64) -> Vec<VehicleState> {
     let v = [valves; MAX_CORNERS];
     let mut x = vehicle.initial_state(&v).unwrap();
+    // As the drive loop steps: ROS2 keeps its W over a few steps.
+    let mut memory = StepMemory::new();
     (0..1000)
         .map(|k| {
             let t = k as f64 * 1e-3;
             let inputs = DriveInputs { speed_m_s: 12.0, long_acc_m_s2: 0.0, steer_angle_rad: 0.5 * (1.5 * t).sin() };
             let d = vehicle.dynamics(road, inputs, v);
-            let rate = d.rate(t, &x).unwrap();
-            x = d.advance(t, t + 1e-3, &x, &rate, max_dt).unwrap();
+            let rate = d.rate_for(t, &x, None, &memory).unwrap();
+            x = d.advance_with(t, t + 1e-3, &x, &rate, max_dt, &mut memory).unwrap();
             x
         })
         .collect()

@@ -19,7 +19,7 @@ use hp_ctrl::{input_group, step, DriverMode, Inputs, Outputs, Params, State};
 
 use crate::closed_loop::Sensors;
 use crate::track::Road;
-use crate::vehicle::{DriveInputs, Vehicle, VehicleSample, VehicleState, MAX_CORNERS};
+use crate::vehicle::{DriveInputs, Rate, StepMemory, Vehicle, VehicleSample, VehicleState, MAX_CORNERS};
 
 /// What the driver does in one period, and what the bus carries of it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -146,13 +146,17 @@ pub fn run(
     let mut inputs = [Inputs::default(); MAX_CORNERS];
     let mut outputs = [Outputs::default(); MAX_CORNERS];
     let mut sample = VehicleSample::default();
+    // The integrator's storage, reused period after period (ROS2 keeps its
+    // W over a few steps: StepMemory).
+    let mut rate = Rate::default();
+    let mut memory = StepMemory::new();
     let corners = vehicle.corner_count();
     for index in 0..periods {
         let t_s = index as f64 * dt_s;
         let driver = driver_at(index, t_s);
         let dynamics = vehicle.dynamics(road, driver.drive_inputs(), valves);
         // x is the initial state or one advance checked.
-        let mut rate = dynamics.rate_of_checked(t_s, &x, Some(&mut sample));
+        dynamics.rate_into(t_s, &x, Some(&mut sample), memory.rebuilds(&valves), &mut rate);
         let mut read = [0.0; MAX_CORNERS];
         for (k, (r, c)) in read.iter_mut().zip(sample.corners.iter()).enumerate().take(corners) {
             let t_true = c.forces.unit.t_gas2_k;
@@ -184,10 +188,10 @@ pub fn run(
         if next_valves != valves {
             // The new commands change the flows: the first stage must see them.
             valves = next_valves;
-            rate = vehicle.dynamics(road, driver.drive_inputs(), valves).rate_of_checked(t_s, &x, None);
+            vehicle.dynamics(road, driver.drive_inputs(), valves).rate_into(t_s, &x, None, memory.rebuilds(&valves), &mut rate);
         }
         let dynamics = vehicle.dynamics(road, driver.drive_inputs(), valves);
-        dynamics.advance_in_place(t_s, (index + 1) as f64 * dt_s, &mut x, &rate, max_dt_s)?;
+        dynamics.advance_in_place(t_s, (index + 1) as f64 * dt_s, &mut x, &mut rate, max_dt_s, &mut memory)?;
     }
     Ok(())
 }

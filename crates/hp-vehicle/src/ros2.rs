@@ -204,24 +204,49 @@ pub struct W {
     implicit: bool,
 }
 
+impl Default for W {
+    /// The identity (no step has linearised anything yet).
+    fn default() -> Self {
+        W {
+            corners: [CornerW::default(); MAX_CORNERS],
+            count: 0,
+            c: 0.0,
+            body: BodyInertia { inverse: [0.0; 3], roll_weight_per_inertia: 0.0 },
+            body_inverse: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            implicit: false,
+        }
+    }
+}
+
 impl W {
-    /// `W = I - c J` for `J` the fast part of the Jacobian from each
-    /// corner's linearisation (`corners` and `geometry` in the same order).
+    /// A `W` built by [`W::rebuild`] (the tests' form).
+    #[cfg(test)]
     pub fn new(corners: &[CornerLinearisation; MAX_CORNERS], geometry: &[CornerGeometry], body: BodyInertia, c: f64) -> Self {
+        let mut w = W::default();
+        w.rebuild(corners, geometry, body, c);
+        w
+    }
+
+    /// `W = I - c J` for `J` the fast part of the Jacobian from each
+    /// corner's linearisation (`corners` and `geometry` in the same order),
+    /// built in place: the stepper keeps its `W` (4 KB) where it is
+    /// instead of copying a returned one.
+    pub fn rebuild(&mut self, corners: &[CornerLinearisation; MAX_CORNERS], geometry: &[CornerGeometry], body: BodyInertia, c: f64) {
         let count = geometry.len().min(MAX_CORNERS);
         let mut implicit = true;
-        // Built in place (no zeroed copy of the whole array first).
-        let blocks: [CornerW; MAX_CORNERS] = core::array::from_fn(|i| match (corners.get(i), geometry.get(i)) {
-            (Some(lin), Some(geo)) => corner_w(lin, geo, c).unwrap_or_else(|| {
-                implicit = false;
-                CornerW::default()
-            }),
-            _ => CornerW::default(),
-        });
+        for (i, cw) in self.corners.iter_mut().enumerate() {
+            *cw = match (corners.get(i), geometry.get(i)) {
+                (Some(lin), Some(geo)) => corner_w(lin, geo, c).unwrap_or_else(|| {
+                    implicit = false;
+                    CornerW::default()
+                }),
+                _ => CornerW::default(),
+            };
+        }
         // The body's Schur complement, I - c M^-1 sum kappa e e^T (and the
         // weight's roll term, through the roll angle = r + c rate).
         let mut k = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0 - c * c * body.roll_weight_per_inertia]];
-        for cw in blocks.iter().take(count) {
+        for cw in self.corners.iter().take(count) {
             for ((row, m), e) in k.iter_mut().zip(&body.inverse).zip(&cw.lever) {
                 let scale = c * m * cw.kappa * e;
                 for (x, f) in row.iter_mut().zip(&cw.lever) {
@@ -229,11 +254,14 @@ impl W {
                 }
             }
         }
-        let body_inverse = inverse3(&k).unwrap_or_else(|| {
+        self.body_inverse = inverse3(&k).unwrap_or_else(|| {
             implicit = false;
             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
         });
-        W { corners: blocks, count, c, body, body_inverse, implicit }
+        self.count = count;
+        self.c = c;
+        self.body = body;
+        self.implicit = implicit;
     }
 
     /// `x <- W^-1 x`.

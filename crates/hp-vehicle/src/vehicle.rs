@@ -182,12 +182,19 @@ pub enum Stepping {
 /// RK4 at 1 ms with the whole Jacobian in `W`; BENCHMARKS.md).
 const ROS2_GAMMA: f64 = 1.0 - core::f64::consts::FRAC_1_SQRT_2;
 
-/// The state rate at one instant, with each corner's linearisation
-/// (present when the stepping is linearly implicit).
+/// The state rate at one instant, with each corner's linearisation when
+/// it was asked for and the stepping is linearly implicit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rate {
     pub state: VehicleState,
     couplings: Couplings,
+    linearised: bool,
+}
+
+impl Default for Rate {
+    fn default() -> Self {
+        Rate { state: VehicleState { y: [0.0; VEHICLE_STATES] }, couplings: [CornerLinearisation::default(); MAX_CORNERS], linearised: false }
+    }
 }
 
 type Couplings = [CornerLinearisation; MAX_CORNERS];
@@ -736,98 +743,185 @@ impl Dynamics<'_> {
     /// valid region.
     pub fn rate_and_sample(&self, t_s: f64, state: &VehicleState, sample: &mut VehicleSample) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        Ok(self.rate_of_checked(t_s, state, Some(sample)))
+        let mut rate = Rate::default();
+        self.rate_into(t_s, state, Some(sample), true, &mut rate);
+        Ok(rate)
     }
 
     /// The state rate at `(t_s, state)`.
     pub fn rate(&self, t_s: f64, state: &VehicleState) -> Result<Rate> {
         self.check(t_s, &state.y)?;
-        Ok(self.rate_of_checked(t_s, state, None))
+        let mut rate = Rate::default();
+        self.rate_into(t_s, state, None, true, &mut rate);
+        Ok(rate)
     }
 
-    /// [`Dynamics::rate_and_sample`] (with a sample) or [`Dynamics::rate`]
-    /// for a state already checked: one [`Dynamics::advance`] returned, or
+    /// [`Dynamics::rate`] (or, with a sample, [`Dynamics::rate_and_sample`])
+    /// for a step that continues with `memory`: the linearisation that
+    /// ROS2's `W` is built from is computed only when `memory` will build a
+    /// new one ([`StepMemory`]).
+    pub fn rate_for(&self, t_s: f64, state: &VehicleState, sample: Option<&mut VehicleSample>, memory: &StepMemory) -> Result<Rate> {
+        self.check(t_s, &state.y)?;
+        let mut rate = Rate::default();
+        self.rate_into(t_s, state, sample, memory.rebuilds(&self.valves), &mut rate);
+        Ok(rate)
+    }
+
+    /// The rate at `(t_s, state)` written into `rate`, for a state already
+    /// checked: one [`Dynamics::advance`] returned, or
     /// [`Vehicle::initial_state`] (valid by construction). The drive loop
-    /// would otherwise check every state twice.
-    pub(crate) fn rate_of_checked(&self, t_s: f64, state: &VehicleState, sample: Option<&mut VehicleSample>) -> Rate {
-        let mut couplings = [CornerLinearisation::default(); MAX_CORNERS];
-        let y = self.evaluate(t_s, &state.y, sample, self.couplings_wanted(&mut couplings));
-        Rate { state: VehicleState { y }, couplings }
-    }
-
-    /// Where to put the corners' linearisations, if the stepping uses them.
-    fn couplings_wanted<'c>(&self, couplings: &'c mut Couplings) -> Option<&'c mut Couplings> {
-        match self.vehicle.stepping {
-            Stepping::Ros2 => Some(couplings),
-            Stepping::Rk4 => None,
-        }
+    /// would otherwise check every state twice, and copy a returned rate.
+    /// With `linearise` (and ROS2 stepping) each corner's linearisation
+    /// comes with it.
+    pub(crate) fn rate_into(&self, t_s: f64, state: &VehicleState, sample: Option<&mut VehicleSample>, linearise: bool, rate: &mut Rate) {
+        rate.linearised = linearise && self.vehicle.stepping == Stepping::Ros2;
+        let couplings = if rate.linearised { Some(&mut rate.couplings) } else { None };
+        self.evaluate_into(t_s, &state.y, &mut rate.state.y, sample, couplings);
     }
 
     /// Advances from `t_s` to `t_end_s` in equal steps of at most
     /// `max_dt_s` with the vehicle's [`Stepping`]; `rate` is the state rate
     /// at `t_s` with these inputs and valves (from
-    /// [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]).
+    /// [`Dynamics::rate_and_sample`] or [`Dynamics::rate`]). ROS2 builds
+    /// its `W` from `rate`'s linearisation; a run that advances period
+    /// after period keeps it with [`Dynamics::advance_with`].
     pub fn advance(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &Rate, max_dt_s: f64) -> Result<VehicleState> {
         let mut next = *state;
-        self.advance_in_place(t_s, t_end_s, &mut next, rate, max_dt_s)?;
+        let mut rate = *rate;
+        self.advance_in_place(t_s, t_end_s, &mut next, &mut rate, max_dt_s, &mut StepMemory::new())?;
         Ok(next)
     }
 
-    /// [`Dynamics::advance`] overwriting `state` (the drive loop's form: no
-    /// state copied in or out). On an error `state` is left part way.
-    pub(crate) fn advance_in_place(&self, t_s: f64, t_end_s: f64, state: &mut VehicleState, rate: &Rate, max_dt_s: f64) -> Result<()> {
+    /// [`Dynamics::advance`] keeping ROS2's `W` in `memory` from one call
+    /// to the next ([`StepMemory`]); `rate` from [`Dynamics::rate_for`]
+    /// with the same memory (or any rate with a linearisation).
+    pub fn advance_with(&self, t_s: f64, t_end_s: f64, state: &VehicleState, rate: &Rate, max_dt_s: f64, memory: &mut StepMemory) -> Result<VehicleState> {
+        let mut next = *state;
+        let mut rate = *rate;
+        self.advance_in_place(t_s, t_end_s, &mut next, &mut rate, max_dt_s, memory)?;
+        Ok(next)
+    }
+
+    /// [`Dynamics::advance_with`] overwriting `state`, with `rate` as the
+    /// first stage's storage (the drive loop's form: nothing copied in or
+    /// out). On an error `state` is left part way.
+    pub(crate) fn advance_in_place(
+        &self,
+        t_s: f64,
+        t_end_s: f64,
+        state: &mut VehicleState,
+        rate: &mut Rate,
+        max_dt_s: f64,
+        memory: &mut StepMemory,
+    ) -> Result<()> {
         match self.vehicle.stepping {
             Stepping::Rk4 => {
                 state.y = stepping::advance(self, t_s, t_end_s, &state.y, &rate.state.y, max_dt_s, |t, y| self.finish(t, y))?;
                 Ok(())
             }
-            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &mut state.y, rate, max_dt_s),
+            Stepping::Ros2 => self.advance_ros2(t_s, t_end_s, &mut state.y, rate, max_dt_s, memory),
         }
     }
 
     /// ROS2 steps ([`Stepping::Ros2`]): per step, with `W = I - gamma h J`
-    /// and `J` the fast coupled part of the Jacobian at the step's start
-    /// ([`crate::ros2`]),
+    /// and `J` the fast coupled part of the Jacobian ([`crate::ros2`]) at
+    /// the start of the step that built it ([`StepMemory`]),
     ///
     /// ```text
     /// W k1 = f(t, y)
     /// W k2 = f(t + h, y + h k1) - 2 k1
     /// y'   = y + h (3/2 k1 + 1/2 k2)
     /// ```
-    fn advance_ros2(&self, t_s: f64, t_end_s: f64, y: &mut [f64; VEHICLE_STATES], rate: &Rate, max_dt_s: f64) -> Result<()> {
+    ///
+    /// `y` itself holds the second stage's state `y + h k1` (so the result
+    /// is `y + h k1 + h (1/2 k1 + 1/2 k2)`), and `rate` is `k1`'s storage.
+    fn advance_ros2(&self, t_s: f64, t_end_s: f64, y: &mut [f64; VEHICLE_STATES], rate: &mut Rate, max_dt_s: f64, memory: &mut StepMemory) -> Result<()> {
         let (n, h) = hp_core::ode::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;
-        let body = self.vehicle.body_inertia();
-        // Arrays reused over the steps, nothing returned by value inside the
-        // loop; the first step's linearisation is the rate's.
-        let mut k1 = rate.state.y;
-        let mut later = [CornerLinearisation::default(); MAX_CORNERS];
-        let mut y1 = [0.0; VEHICLE_STATES];
-        let mut k2 = [0.0; VEHICLE_STATES];
         for k in 0..n {
             let t = t_s + h * k as f64;
-            let couplings = if k > 0 {
-                self.evaluate_into(t, y, &mut k1, None, Some(&mut later));
-                &later
-            } else {
-                &rate.couplings
-            };
-            let w = W::new(couplings, self.vehicle.corners(), body, gh);
-            w.solve(&mut k1);
-            for ((a, b), c) in y1.iter_mut().zip(y.iter()).zip(&k1) {
-                *a = b + h * c;
+            // A new W needs the linearisation at the step's start: the first
+            // step's comes with the rate if its caller asked for it (else it
+            // is evaluated again, with it), a later step's with its first
+            // stage.
+            let rebuild = memory.rebuilds(&self.valves) || memory.c != gh;
+            if k > 0 || (rebuild && !rate.linearised) {
+                rate.linearised = rebuild;
+                let couplings = if rebuild { Some(&mut rate.couplings) } else { None };
+                self.evaluate_into(t, y, &mut rate.state.y, None, couplings);
             }
-            self.evaluate_into(t + h, &y1, &mut k2, None, None);
-            for (a, b) in k2.iter_mut().zip(&k1) {
+            if rebuild {
+                memory.w.rebuild(&rate.couplings, self.vehicle.corners(), self.vehicle.body_inertia(), gh);
+                memory.valves = Some(self.valves);
+                memory.c = gh;
+                memory.age = 0;
+            }
+            memory.age += 1;
+            let k1 = &mut rate.state.y;
+            memory.w.solve(k1);
+            for (a, b) in y.iter_mut().zip(k1.iter()) {
+                *a += h * b;
+            }
+            let k2 = &mut memory.k2;
+            self.evaluate_into(t + h, y, k2, None, None);
+            for (a, b) in k2.iter_mut().zip(k1.iter()) {
                 *a -= 2.0 * b;
             }
-            w.solve(&mut k2);
-            for ((a, b), c) in y.iter_mut().zip(&k1).zip(&k2) {
-                *a += h * (1.5 * b + 0.5 * c);
+            memory.w.solve(k2);
+            for ((a, b), c) in y.iter_mut().zip(k1.iter()).zip(k2.iter()) {
+                *a += h * (0.5 * b + 0.5 * c);
             }
             self.finish(t + h, y)?;
         }
         Ok(())
+    }
+}
+
+/// Steps one ROS2 `W` serves before it is rebuilt from the linearisation
+/// at a step's start (sooner when a valve switches, which changes the
+/// Jacobian's structure, or the step size changes). ROS2 is a W-method:
+/// second order for any `W`, which only has to keep the stiff part stable
+/// and the wheel hop's error small. Measured on the 8x8's rough road
+/// (`tests/stepping.rs`, um from RK4 at 1 ms after 1 s; soft and hard
+/// spring with the damper on, soft with it off; bound 5 um): rebuilt every
+/// step 0.61 / 0.52 / 1.51, every 2nd 0.64 / 0.52 / 1.53, every 4th 0.64 /
+/// 0.58 / 1.56, every 8th 0.90 / 0.82 / 1.76 (BENCHMARKS.md). Building it
+/// and the linearisation it needs cost about 4.5k instructions, a seventh
+/// of a period.
+const ROS2_W_STEPS: u32 = 4;
+
+/// What ROS2 keeps from one step to the next: its `W^-1`, what it was
+/// built for, and the second stage's storage. One per simulated vehicle,
+/// kept by whoever advances it period after period ([`crate::drive::run`]
+/// keeps one): [`Dynamics::rate_for`] says from it whether the rate must
+/// carry the linearisation, [`Dynamics::advance_with`] updates it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepMemory {
+    w: W,
+    /// The valves `w` was built with (None: no `W` yet), its `gamma h`,
+    /// and the steps it has served.
+    valves: Option<[Valves; MAX_CORNERS]>,
+    c: f64,
+    age: u32,
+    k2: [f64; VEHICLE_STATES],
+}
+
+impl Default for StepMemory {
+    fn default() -> Self {
+        StepMemory { w: W::default(), valves: None, c: 0.0, age: 0, k2: [0.0; VEHICLE_STATES] }
+    }
+}
+
+impl StepMemory {
+    /// Nothing kept yet: the first step builds its `W`.
+    pub fn new() -> Self {
+        StepMemory::default()
+    }
+
+    /// True when the next step with `valves` builds a new `W` (at the same
+    /// step size), so its rate must carry the linearisation.
+    pub fn rebuilds(&self, valves: &[Valves; MAX_CORNERS]) -> bool {
+        self.valves.as_ref() != Some(valves) || self.age >= ROS2_W_STEPS
     }
 }
 
