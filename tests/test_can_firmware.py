@@ -154,24 +154,26 @@ def test_lowering_slope_levelling_and_a_failed_sensor_in_the_loop(firmware, corn
     rest = snaps["rest"]
     assert all(rest.valves[f"CornerSafe_{k}"] == 0 for k in everyone)
 
-    # Lowering on the road (4.4 s at 10 m/s): on the rigid body the corners
+    # Lowering on the road (6.4 s at 10 m/s): on the rigid body the corners
     # lower more slowly than on separate rigs (the tyres and unsprung masses
     # filter the road's pressure differences, and a corner lowered alone
     # sheds load to the others through the body's warp). Every corner has
-    # lowered by at least half the request and none beyond it (tolerance:
-    # ECU's estimate; 1 mm more by the plant's gas state); the corners that
-    # have finished hold it within the tolerance by the ECU's estimate; the
-    # others are still in their lowering step (docs/firmware.md, Known
-    # issues). The plant's held offset is taken at the corner's static load;
-    # the body's warp moves the loads, so it differs from the ECU's estimate
-    # (which follows the corner's load) by up to 6 mm here: a range check.
+    # lowered by at least half the request and none beyond it (tolerance)
+    # by the ECU's estimate; the corners that have finished hold it within
+    # the tolerance by the ECU's estimate; the others are still in their
+    # lowering step (docs/firmware.md, Known issues). The plant's held
+    # offset is taken at the corner's static load; the body's warp moves the
+    # loads (the vehicle has just stopped at the foot of the slope), so it
+    # differs from the ECU's estimate (which follows the corner's load):
+    # measured up to 5.6 mm (8x8) and 4.0 mm (4x4); checked within 6 mm of
+    # the estimate and lowered by at least half the request.
     drive = snaps["drive"]
     assert drive.dm1 == [] and drive.dm1_count >= 4
     for k in everyone:
         status = drive.status[k]
         assert status["CornerSafe"] == 0 and status["GasChargeFault"] == 0
         assert scenario.LOWER_M - scenario.TOLERANCE_M <= status["RideHeight"] <= scenario.LOWER_M / 2, k
-        assert scenario.LOWER_M - scenario.TOLERANCE_M - 0.001 <= drive.held_offset_m[k] <= scenario.LOWER_M / 2, k
+        assert abs(drive.held_offset_m[k] - status["RideHeight"]) <= 0.006 and drive.held_offset_m[k] <= scenario.LOWER_M / 2, k
         assert status["Sequencer"] in (SEQ_LOWERING, SEQ_HOLDING), k
         if status["Sequencer"] == SEQ_HOLDING:
             assert abs(status["RideHeight"] - scenario.LOWER_M) <= scenario.TOLERANCE_M, k
