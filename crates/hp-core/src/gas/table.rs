@@ -272,12 +272,22 @@ impl<E: EquationOfState> TabulatedGas<'_, E> {
         // so it leaves the chain every gas evaluation waits on.
         let x = (rho_kg_m3 - g.rho_min_kg_m3) * (1.0 / g.rho_step_kg_m3);
         let y = (t_k - g.t_min_k) * (1.0 / g.t_step_k);
-        // NaN fails these tests too.
-        if !(x >= 0.0 && y >= 0.0 && x < (g.rho_count - 1) as f64 && y < (g.t_count - 1) as f64) {
+        // NaN fails this test too.
+        if !(x >= 0.0 && y >= 0.0) {
             return None;
         }
-        let (i, j) = (x as usize, y as usize);
-        let cell = self.cells.get(i + j * (g.rho_count - 1))?;
+        // The cell's indices through i64, not usize: x86-64 converts
+        // between f64 and i64 in one instruction each way, between f64 and
+        // usize in about a dozen (two conversions each way per evaluation,
+        // 32 evaluations per 8x8 period). For x >= 0 the truncation is the
+        // floor, and (saturating) i < n - 1 exactly when x < n - 1, so the
+        // cells and the local coordinates are those of the usize form.
+        let (i, j) = (x as i64, y as i64);
+        let (rho_cells, t_cells) = ((g.rho_count as i64).saturating_sub(1), (g.t_count as i64).saturating_sub(1));
+        if i >= rho_cells || j >= t_cells {
+            return None;
+        }
+        let cell = self.cells.get(usize::try_from(i + j * rho_cells).ok()?)?;
         Some((cell, x - i as f64, y - j as f64))
     }
 }
