@@ -665,6 +665,7 @@ impl Unit {
     }
 
     /// Checks that a state is one the model can evaluate.
+    #[inline]
     pub fn check_state(&self, s: &UnitState, time_s: f64) -> Result<()> {
         let (t_min, t_max) = TEMPERATURE_RANGE_K;
         let temperature_ok = |t: f64| t >= t_min && t <= t_max;
@@ -1137,6 +1138,7 @@ impl Unit {
     /// pressure as if gas had leaked. With it the oil volume
     /// `V_S + V_L + A x - V_void` is kept exactly (a linear invariant of
     /// the rates, which RK4 preserves).
+    #[inline]
     pub fn project(&self, s: &mut UnitState, ambient_k: f64) {
         let p = &self.params;
         if s.v_void_m3 < 0.0 {
