@@ -844,7 +844,14 @@ impl Dynamics<'_> {
             // step's comes with the rate if its caller asked for it (else it
             // is evaluated again, with it), a later step's with its first
             // stage.
-            let rebuild = memory.rebuilds(&self.valves) || memory.c != gh;
+            // The step size of a period from `k dt` to `(k + 1) dt` differs
+            // from the last one by a few ulps (more the longer the run: at
+            // 20 s it did so nearly every period and W was rebuilt nearly
+            // every step, 30k instead of 22k instructions per period); a W
+            // built for `gamma h` times (1 + 1e-9) is the W-method's `W`
+            // with its matrix scaled by as much, of the same order. Only a
+            // real change of the step size rebuilds it.
+            let rebuild = memory.rebuilds(&self.valves) || !((memory.c - gh).abs() <= 1e-9 * gh);
             if k > 0 || (rebuild && !rate.linearised) {
                 rate.linearised = rebuild;
                 let couplings = if rebuild { Some(&mut rate.couplings) } else { None };
@@ -879,9 +886,10 @@ impl Dynamics<'_> {
 
 /// Steps one ROS2 `W` serves before it is rebuilt from the linearisation
 /// at a step's start (sooner when a valve switches, which changes the
-/// Jacobian's structure, or the step size changes). ROS2 is a W-method:
-/// second order for any `W`, which only has to keep the stiff part stable
-/// and the wheel hop's error small. Measured on the 8x8's rough road
+/// Jacobian's structure, or the step size changes by more than a relative
+/// 1e-9, not by the ulps in which one 1 ms period's differs from the
+/// next). ROS2 is a W-method: second order for any `W`, which only has to
+/// keep the stiff part stable and the wheel hop's error small. Measured on the 8x8's rough road
 /// (`tests/stepping.rs`, um from RK4 at 1 ms after 1 s; soft and hard
 /// spring with the damper on, soft with it off; bound 5 um): rebuilt every
 /// step 0.61 / 0.52 / 1.51, every 2nd 0.64 / 0.52 / 1.53, every 4th 0.64 /
