@@ -889,14 +889,17 @@ impl Dynamics<'_> {
 /// Jacobian's structure, or the step size changes by more than a relative
 /// 1e-9, not by the ulps in which one 1 ms period's differs from the
 /// next). ROS2 is a W-method: second order for any `W`, which only has to
-/// keep the stiff part stable and the wheel hop's error small. Measured on the 8x8's rough road
-/// (`tests/stepping.rs`, um from RK4 at 1 ms after 1 s; soft and hard
-/// spring with the damper on, soft with it off; bound 5 um): rebuilt every
-/// step 0.61 / 0.52 / 1.51, every 2nd 0.64 / 0.52 / 1.53, every 4th 0.64 /
-/// 0.58 / 1.56, every 8th 0.90 / 0.82 / 1.76 (BENCHMARKS.md). Building it
-/// and the linearisation it needs cost about 4.5k instructions, a seventh
-/// of a period.
-const ROS2_W_STEPS: u32 = 4;
+/// keep the stiff part stable and the wheel hop's error small. Measured on
+/// the 8x8's rough road (`tests/stepping.rs`, um from RK4 at 1 ms after 1
+/// s; soft and hard spring with the damper on, soft with it off; bound 5
+/// um): rebuilt every step 0.61 / 0.52 / 1.51, every 2nd 0.64 / 0.52 /
+/// 1.53, every 4th 0.64 / 0.58 / 1.56, every 8th 0.90 / 0.82 / 1.76, every
+/// 16th 1.10 / 1.00 / 2.17 (BENCHMARKS.md). Building it and the
+/// linearisation it needs cost about 7.4k instructions (8x8 passive: 22.6k
+/// per period with every 4th, 21.7k with every 8th, 21.2k with every
+/// 16th); every 8th takes most of the saving for a third of the error
+/// that every 16th adds.
+const ROS2_W_STEPS: u32 = 8;
 
 /// What ROS2 keeps from one step to the next: its `W^-1`, what it was
 /// built for, and the second stage's storage. One per simulated vehicle,
