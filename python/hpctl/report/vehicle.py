@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from hpctl.report.plots import finish
@@ -43,7 +45,7 @@ def ride_handling_plot(evaluation: Evaluation, path: Path | None = None) -> Figu
         ax.set_ylabel("peak roll in the double lane change [deg]  (flatter ↓)")
         ax.set_title(f"{name}: ride versus handling")
         ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
+        _legend(ax, loc="upper right", fontsize=8)
     return finish(fig, path)
 
 
@@ -64,17 +66,25 @@ def lane_change_plot(results: list[CaseResult], path: Path | None = None) -> Fig
             ax[1].plot(x, tr.signals["lat_acc_m_s2"][m], color="k", lw=1.0, label="lateral acceleration")
             ax[2].step(x, tr.controller["drive_mode"][m].max(axis=1), where="post", color="tab:red", label="semi-active: handling (1) / ride (0)")
     ax[0].set_ylabel("roll [deg]")
-    ax[0].legend(fontsize=8, ncol=2)
+    _legend(ax[0], fontsize=8, ncol=2)
     ax[1].set_ylabel("[m/s²]")
-    ax[1].legend(fontsize=8)
+    _legend(ax[1], fontsize=8)
     ax[2].set_ylabel("mode")
     ax[2].set_xlabel("distance into the lane-change segment [m]")
-    ax[2].legend(fontsize=8)
+    _legend(ax[2], fontsize=8)
     for a in ax:
         a.grid(True, alpha=0.3)
     name = results[0].case.vehicle.name if results else ""
     ax[0].set_title(f"{name}: double lane change (ISO 3888-2 style)")
     return finish(fig, path)
+
+
+def _legend(ax: Axes, **kwargs: Any) -> None:
+    """A legend only where something is labelled: with every case of a
+    setting failed (or no semi-active case) the axes may have none, and
+    matplotlib would warn about an empty legend."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**kwargs)
 
 
 def _f(v: float, scale: float = 1.0, digits: int = 3) -> str:
