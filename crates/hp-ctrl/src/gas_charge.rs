@@ -305,18 +305,25 @@ mod tests {
     use crate::Params;
     use hp_core::gas::EquationOfState;
 
+    /// The seed unit, its detector parameters and its accumulators' gas
+    /// masses at the static state (S, L).
+    fn seed_unit_charged() -> (Params, UnitConfig, GasChargeParams, f64, f64) {
+        let params = Params::seed_unit().unwrap();
+        let unit = params.config().unit;
+        let p = GasChargeParams::new(&GasChargeConfig::default(), &unit);
+        let rho0 = unit.gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap();
+        let (m_s, m_l) = (rho0 * unit.small_acc_volume_m3, rho0 * unit.large_acc_volume_m3);
+        (params, unit, p, m_s, m_l)
+    }
+
     /// The sample ratio against the gas model in double precision: for a
     /// unit holding `m_S0 k`, `m_L0 k` at a random strut position, oil
     /// split and temperature, the pressures from the equation of state give
     /// back `k` within the table's accuracy.
     #[test]
     fn sample_ratio_recovers_the_charge_from_the_equation_of_state() {
-        let params = Params::seed_unit().unwrap();
-        let unit = params.config().unit;
-        let p = GasChargeParams::new(&GasChargeConfig::default(), &unit);
+        let (params, unit, p, m_s, m_l) = seed_unit_charged();
         let gas = unit.gas;
-        let rho0 = gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap();
-        let (m_s, m_l) = (rho0 * unit.small_acc_volume_m3, rho0 * unit.large_acc_volume_m3);
         let mut worst = 0.0_f64;
         let mut n = 0;
         for k in [0.75, 0.8, 0.9, 0.95, 1.0, 1.03] {
@@ -353,12 +360,8 @@ mod tests {
     /// the table: no sample).
     #[test]
     fn the_sample_holds_on_the_end_stops() {
-        let params = Params::seed_unit().unwrap();
-        let unit = params.config().unit;
-        let p = GasChargeParams::new(&GasChargeConfig::default(), &unit);
+        let (params, unit, p, m_s, m_l) = seed_unit_charged();
         let gas = unit.gas;
-        let rho0 = gas.density_kg_m3(unit.static_pressure_pa, unit.static_temperature_k).unwrap();
-        let (m_s, m_l) = (rho0 * unit.small_acc_volume_m3, rho0 * unit.large_acc_volume_m3);
         // Each end stop with the smallest charge whose pressures are in the table there.
         let ends = [(unit.stroke_compression_m, 0.8), (unit.stroke_compression_m + 0.01, 0.8), (-unit.stroke_extension_m, 0.9)];
         for k in [0.8, 0.9, 1.0] {

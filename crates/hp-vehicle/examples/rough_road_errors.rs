@@ -11,19 +11,9 @@ use hp_vehicle::presets;
 use hp_vehicle::track::{Road, Track};
 use hp_vehicle::vehicle::{DriveInputs, StepMemory, Stepping, Vehicle, VehicleState, BODY_STATES, CORNER_STATES, MAX_CORNERS};
 
-/// The test's road: a sum of sines, class D-like amplitudes, 2 cm grid.
-fn rough() -> (Vec<f64>, Vec<f64>) {
-    let track = |phase: f64| -> Vec<f64> {
-        (0..4000)
-            .map(|k| {
-                let x = k as f64 * 0.02;
-                let fade = (x / 5.0).min(1.0);
-                fade * (0.03 * (0.5 * x + phase).sin() + 0.01 * (2.1 * x + 2.0 * phase).sin() + 0.004 * (7.3 * x + phase).sin())
-            })
-            .collect()
-    };
-    (track(0.0), track(1.3))
-}
+#[path = "../tests/common/rough_road.rs"]
+mod rough_road;
+use rough_road::rough;
 
 /// Every period's state over 1 s at 12 m/s with the test's steering.
 fn run(vehicle: &Vehicle, road: &Road<'_>, valves: Valves, max_dt: f64) -> Vec<VehicleState> {
