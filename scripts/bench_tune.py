@@ -5,18 +5,30 @@ on a local Dask cluster of 1 and of 2 single-threaded workers (processes
 started and stopped by id on 127.0.0.1), and with 1 and 2 local threads.
 Prints the times and the speed-ups; a ratio, not a pass/fail.
 
-    python scripts/bench_tune.py [--candidates 48] [--scale 0.2] [--json out.json]
+    python scripts/bench_tune.py [--candidates 48] [--repeats 3] [--scale 0.2] [--json out.json]
 
 48 candidates by default: with the faster vehicle plant 8 or 16 took 1-4 s,
 shorter than the run-to-run noise lets a ratio mean something
 (BENCHMARKS.md, 2026-11-26).
+
+Every worker is warmed before any timing (``Client.run`` scores one
+candidate on each: imports, the gas table, the route and the driver's
+signals it caches). Warming with a map of as many candidates as workers,
+as this script did before 2026-11-26, let Dask put both on one worker, so
+a "two worker" time could include the other worker's cold start. The one-
+and two-worker clusters then run alternately, ``--repeats`` times, so that
+a change of the shared machine's speed during the run falls on both; the
+ratio is reported per repeat, by the median times and by the least times.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -24,9 +36,20 @@ from hpctl.vehicle import route, tuning
 from hpctl.vehicle.cluster import LocalCluster
 
 
+def _timed(run: Callable[[], list[Any]], workers: int) -> float:
+    t = time.perf_counter()
+    scores = run()
+    elapsed = time.perf_counter() - t
+    used = {s.pid for s in scores}
+    if len(used) != workers:
+        print(f"warning: {workers} workers asked for, candidates ran in {len(used)} processes")
+    return elapsed
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--candidates", type=int, default=48)
+    ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--scale", type=float, default=0.2)
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
@@ -36,28 +59,39 @@ def main() -> None:
     bounds = [((np.log10(p.low), np.log10(p.high)) if p.log else (p.low, p.high)) for p in problem.params]
     batch = [[float(rng.uniform(lo, hi)) for lo, hi in bounds] for _ in range(a.candidates)]
     fn = tuning._Score(problem)
-    times: dict[str, float] = {}
-    for workers in (1, 2):
-        with LocalCluster(workers=workers) as cluster:
-            ex = tuning.DaskExecutor(cluster.address)
-            ex.map(fn, batch[:workers])  # warm up: imports and route caches on every worker
-            t = time.perf_counter()
-            ex.map(fn, batch)
-            times[f"dask_{workers}"] = time.perf_counter() - t
+    times: dict[str, list[float]] = {"dask_1": [], "dask_2": [], "threads_1": [], "threads_2": []}
+    with LocalCluster(workers=1) as one, LocalCluster(workers=2) as two:
+        dask = {1: tuning.DaskExecutor(one.address), 2: tuning.DaskExecutor(two.address)}
+        for n, ex in dask.items():
+            warm = ex.client.run(fn, batch[0])  # type: ignore[no-untyped-call]
+            assert len(warm) == n, f"{len(warm)} workers warmed, {n} expected"
+        threads = {1: tuning.LocalExecutor(1), 2: tuning.LocalExecutor(2)}
+        threads[2].map(fn, batch[:2])  # this process's caches (shared by its threads)
+        for _ in range(a.repeats):
+            for n in (1, 2):
+                times[f"dask_{n}"].append(_timed(lambda: dask[n].map(fn, batch), n))
+            for n in (1, 2):
+                times[f"threads_{n}"].append(_timed(lambda: threads[n].map(fn, batch), 1))
+        for ex in dask.values():
             ex.close()
-    for threads in (1, 2):
-        ex2 = tuning.LocalExecutor(threads)
-        ex2.map(fn, batch[:threads])
-        t = time.perf_counter()
-        ex2.map(fn, batch)
-        times[f"threads_{threads}"] = time.perf_counter() - t
-        ex2.close()
+        for t in threads.values():
+            t.close()
+
+    def ratios(kind: str) -> dict[str, Any]:
+        one_s, two_s = times[f"{kind}_1"], times[f"{kind}_2"]
+        return {
+            "per_repeat": [x / y for x, y in zip(one_s, two_s)],
+            "by_median": statistics.median(one_s) / statistics.median(two_s),
+            "by_least": min(one_s) / min(two_s),
+        }
+
     out = {
         "candidates": a.candidates,
+        "repeats": a.repeats,
         "route_scale": a.scale,
         "times_s": times,
-        "speedup_dask_1_to_2": times["dask_1"] / times["dask_2"],
-        "speedup_threads_1_to_2": times["threads_1"] / times["threads_2"],
+        "speedup_dask_1_to_2": ratios("dask"),
+        "speedup_threads_1_to_2": ratios("threads"),
     }
     print(json.dumps(out, indent=2))
     if a.json:

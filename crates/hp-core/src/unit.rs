@@ -669,7 +669,9 @@ impl Unit {
     pub fn check_state(&self, s: &UnitState, time_s: f64) -> Result<()> {
         let (t_min, t_max) = TEMPERATURE_RANGE_K;
         let temperature_ok = |t: f64| t >= t_min && t <= t_max;
-        let volume_ok = |v: f64, m: f64| m > 0.0 && v > m / DENSITY_RANGE_KG_M3.1 && v < 10.0;
+        // `v rho_max > m` rather than `v > m / rho_max`: the same bound
+        // without a division on the hot path (every unit, every step).
+        let volume_ok = |v: f64, m: f64| m > 0.0 && v * DENSITY_RANGE_KG_M3.1 > m && v < 10.0;
         // One cheap test on the hot path; the error is built only on failure.
         let ok = temperature_ok(s.t_gas_k)
             && temperature_ok(s.t_gas2_k)
