@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.signal import coherence, sosfreqz, welch
+from scipy.signal import bilinear, coherence, sosfreqz, tf2sos, welch
 
 from hpctl.control import road
 from hpctl.vehicle import iso2631
@@ -55,6 +55,18 @@ def test_the_digital_filter_follows_the_analogue_weighting_at_1_khz(weighting: i
     f = np.array([b for b in BANDS_HZ if 0.25 <= b <= 16.0])
     _, h = sosfreqz(weighting.sos(1000.0), worN=f, fs=1000.0)
     assert np.all(np.abs(np.abs(h) / weighting.magnitude(f) - 1.0) < 2e-3)
+
+
+def test_the_cached_filter_design_is_the_design_and_a_caller_cannot_change_it() -> None:
+    # The sections are designed once per weighting and rate (a tuning
+    # candidate redesigned them three times): each call gets its own copy,
+    # equal to a fresh bilinear design, whatever an earlier caller did to its.
+    first = iso2631.WK.sos(1000.0)
+    first[:] = 0.0
+    again = iso2631.WK.sos(1000.0)
+    fresh = np.vstack([tf2sos(*bilinear(b, a, fs=1000.0)) for b, a in iso2631.WK.analogue()])
+    assert np.array_equal(again, fresh) and again.flags.writeable
+    assert not np.array_equal(iso2631.WK.sos(500.0), again)
 
 
 def test_a_weighted_sine_has_the_tabulated_rms_and_its_vdv() -> None:
