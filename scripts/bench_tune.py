@@ -70,7 +70,7 @@ def main() -> None:
     with LocalCluster(workers=1) as one, LocalCluster(workers=2) as two:
         dask = {1: tuning.DaskExecutor(one.address), 2: tuning.DaskExecutor(two.address)}
         for n, ex in dask.items():
-            warm = ex.client.run(fn, batch[0])  # type: ignore[no-untyped-call]
+            warm = ex.client.run(fn, batch[0])
             assert len(warm) == n, f"{len(warm)} workers warmed, {n} expected"
         threads = {1: tuning.LocalExecutor(1), 2: tuning.LocalExecutor(2)}
         threads[2].map(fn, batch[:2])  # this process's caches (shared by its threads)
