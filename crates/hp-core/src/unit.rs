@@ -518,6 +518,16 @@ pub struct Unit {
     static_cv_j_per_kg_k: f64,
 }
 
+/// A gas volume the model can evaluate holding `m` kg: positive mass,
+/// density below the range's top, under 10 m^3. `v rho_max > m` rather
+/// than `v > m / rho_max`: the same bound without a division on the hot
+/// path (every unit, every step); [`Unit::check_state`] and the error it
+/// builds share it, so the error always names the variable that failed.
+#[inline(always)]
+fn volume_ok(v: f64, m: f64) -> bool {
+    m > 0.0 && v * DENSITY_RANGE_KG_M3.1 > m && v < 10.0
+}
+
 impl Unit {
     /// Checks every parameter and derives the gas masses from the static
     /// state. Errors name the parameter, its value and the valid range.
@@ -669,9 +679,6 @@ impl Unit {
     pub fn check_state(&self, s: &UnitState, time_s: f64) -> Result<()> {
         let (t_min, t_max) = TEMPERATURE_RANGE_K;
         let temperature_ok = |t: f64| t >= t_min && t <= t_max;
-        // `v rho_max > m` rather than `v > m / rho_max`: the same bound
-        // without a division on the hot path (every unit, every step).
-        let volume_ok = |v: f64, m: f64| m > 0.0 && v * DENSITY_RANGE_KG_M3.1 > m && v < 10.0;
         // One cheap test on the hot path; the error is built only on failure.
         let ok = temperature_ok(s.t_gas_k)
             && temperature_ok(s.t_gas2_k)
@@ -706,9 +713,8 @@ impl Unit {
             ("v_gas_m3", s.v_gas_m3, s.m_small_kg),
             ("v_gas2_m3", s.v_gas2_m3, s.m_large_kg),
         ] {
-            let min_v = m / DENSITY_RANGE_KG_M3.1;
-            if !(v > min_v && v < 10.0 && m > 0.0) {
-                return bad(name, v, min_v, 10.0);
+            if !volume_ok(v, m) {
+                return bad(name, v, m / DENSITY_RANGE_KG_M3.1, 10.0);
             }
         }
         for (name, x) in [
