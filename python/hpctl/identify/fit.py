@@ -246,8 +246,7 @@ def fit(
     ``held``: values of the flexible model's shape parameters kept fixed
     (a damper characteristic and heat-transfer law identified before, see
     :attr:`Model.held`); a parameter the model fits is never held."""
-    model = Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper,
-                  flexible, damper_branches(datasets) if flexible else ())
+    model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
     if held:
         fitted = {p.name for p in model.params}
         model.held = {k: v for k, v in held.items() if k not in fitted}
@@ -255,8 +254,7 @@ def fit(
     # Priors (regularisation toward the nominal values) as extra residual
     # rows, so that the Jacobian and the covariance include them.
     prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in enumerate(params) if p.prior_sigma is not None]
-    start = dict(initial or {})
-    x0 = np.array([p.to_x(min(max(start.get(p.name, p.initial), p.lower), p.upper)) for p in params])
+    x0 = _start_x(params, initial or {})
     lo = np.array([p.x_bounds()[0] for p in params])
     hi = np.array([p.x_bounds()[1] for p in params])
     # Residuals and the adaptive steps that produced them, per x: the
@@ -343,6 +341,28 @@ def fit(
     rss = float(r @ r)
     stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], rss, _output_share(datasets, fold), draws)
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
+
+
+def model_for(datasets: Sequence[Dataset], effects: Sequence[str], *, fit_damper: bool | None = None, flexible: bool = False) -> Model:
+    """The model :func:`fit` fits to ``datasets`` with ``effects``."""
+    return Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper,
+                 flexible, damper_branches(datasets) if flexible else ())
+
+
+def _start_x(params: Sequence[Param], initial: Mapping[str, float]) -> FloatArray:
+    """Where :func:`fit` starts: ``initial`` where given, else each
+    parameter's own start, inside the bounds."""
+    return np.array([p.to_x(min(max(initial.get(p.name, p.initial), p.lower), p.upper)) for p in params])
+
+
+def rss_at(datasets: Sequence[Dataset], effects: Sequence[str], initial: Mapping[str, float], *, flexible: bool = False) -> float:
+    """The residual sum of squares (noise units, priors left out, as
+    :attr:`FitResult.rss`) of the model :func:`fit` would fit, at the point
+    it would start from with ``initial``: one run of the records."""
+    model = model_for(datasets, effects, flexible=flexible)
+    sims = simulate_all(model, datasets, [values_from_x(model.params, _start_x(model.params, initial))])[0]
+    r = residual_vector(datasets, sims)
+    return float(r @ r)
 
 
 def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:
