@@ -177,7 +177,8 @@ impl Column<'_> {
     /// density. The real gas's curvature leaves that guess a few nodes off
     /// at most, so the walk reads fewer nodes than a bisection of the 20
     /// intervals (measured on the 8x8's controllers: 145 instead of 176
-    /// instructions per lookup), with no data-dependent branch pattern.
+    /// instructions per lookup; cachegrind's model counts fewer
+    /// mispredictions too, 881 against 1,009 per simulated second).
     fn interval(&self, p_pa: f32, p_first: f32, p_last: f32) -> usize {
         let last = TABLE_DENSITIES - 1;
         let guess = (p_pa - p_first) / (p_last - p_first) * last as f32;
