@@ -93,8 +93,13 @@ def test_structure_no_candidate_explains_is_reported_not_forced(seed: int) -> No
     # be unexplained structure, not some other effect forced onto the data.
     rng = np.random.default_rng(seed)
     values, records = rig_data(["friction"], rng)
-    d = diagnose(records, SEED_MODEL, candidates=[e for e in CANDIDATES if e != "friction"])
+    lines: list[str] = []
+    d = diagnose(records, SEED_MODEL, candidates=[e for e in CANDIDATES if e != "friction"], progress=lines.append)
     assert d.verdict == "unexplained_structure" and d.found == [], describe(d, seed, values)
+    # With the seed's laws declared every candidate is nested: no pairs
+    # (pairs_to_try), so the round ends after the single candidates.
+    assert len(d.rounds) == 1 and all(len(c.effects) == 1 for c in d.rounds[0].candidates), describe(d, seed, values)
+    assert not any("pair" in line for line in lines), lines
 
 
 def test_an_effect_whose_parameters_sit_at_its_null_is_not_accepted() -> None:

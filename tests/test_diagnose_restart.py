@@ -79,3 +79,18 @@ def test_a_screening_fit_restarts_only_from_a_better_start(effect: str, restarts
         assert c.result.rss <= current.rss * (1 + 1e-6), f"seed={seed}: {c.result.rss} against {current.rss}"
     else:
         assert c.result.rss == 1.5 * current.rss
+
+
+def test_pairs_are_tried_only_with_a_member_that_replaces_a_law() -> None:
+    # Which effects replace a law of the model (not nested): the gas's two.
+    assert {n for n, e in LIBRARY.items() if not e.nested} == {"heat_transfer", "real_gas"}
+    singles = list(LIBRARY)
+    pairs = dg.pairs_to_try(singles)
+    assert ("heat_transfer", "real_gas") in pairs
+    assert all(not (LIBRARY[a].nested and LIBRARY[b].nested) for a, b in pairs)
+    # Every pair with a law-replacing member is there, once, in order.
+    expected = [(a, b) for i, a in enumerate(singles) for b in singles[i + 1:] if not LIBRARY[a].nested or not LIBRARY[b].nested]
+    assert pairs == expected and len(pairs) == len(set(pairs))
+    # With the seed's laws declared, none of the candidates left pairs up.
+    assert dg.pairs_to_try([e for e in LIBRARY if e not in ("heat_transfer", "real_gas")]) == []
+    assert dg.pairs_to_try(["friction"]) == [] and dg.pairs_to_try([]) == []

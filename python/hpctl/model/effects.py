@@ -177,6 +177,17 @@ class Effect:
     #: ``apply`` still puts it into the unit, for the virtual rig's truth.
     on_outputs: bool = False
 
+    @property
+    def nested(self) -> bool:
+        """Whether the model with this effect contains the model without
+        it: some of its parameters have a :attr:`Param.null`, where it does
+        nothing. Heat transfer (instead of the polytropic law) and the real
+        gas (instead of the ideal one) replace a law of the model: not
+        nested. Oil compliance's null is the stiffest oil the core allows,
+        not incompressible oil (a caveat BENCHMARKS.md measures), but the
+        effect is an addition to the model, not a replacement: nested."""
+        return any(p.null is not None for p in self.params)
+
 
     def to_json(self) -> dict[str, object]:
         """What ``hpctl diagnose --list-effects --json`` prints."""
@@ -184,6 +195,7 @@ class Effect:
             "description": self.description,
             "revealed_by": self.revealed_by,
             "tests": list(self.tests),
+            "nested": self.nested,
             "params": [
                 {"name": p.name, "lower": p.lower, "upper": p.upper, "initial": p.initial, "typical": p.typical,
                  "random": list(p.random), "log": p.log, "core_range": list(CORE_RANGES[p.name])}
