@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from hpctl.data.records import RigRecord
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, predict, rss_at
-from hpctl.model.effects import LIBRARY, flexible_params
+from hpctl.model.effects import LIBRARY, Param, flexible_params
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
 # difference above 10 is "very strong" evidence on Kass & Raftery's scale.
@@ -450,10 +450,55 @@ def _try_all(
     return ranked
 
 
+#: How near its null bound an effect's parameter counts as at its null, in
+#: its fit range (:meth:`~hpctl.model.effects.Param.x_bounds`): oil
+#: compliance at 2.985 GPa of its 3 GPa bound, a Coulomb friction at 5 N, a
+#: leak's time constant within 1.2 % of its 1e8 s.
+AT_NULL = 1e-3
+
+
+def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[str, float], float], bool] | None:
+    """The stop test for a screening fit adding the effects ``add`` to a
+    model with residual sum of squares ``rss`` (:func:`fit`'s ``stop``):
+    true where every parameter of ``add`` whose null is one of its bounds
+    sits within :data:`AT_NULL` of it and the fit is no better than that
+    model. The data push the effect to where it does (nearly) nothing and
+    it has bought nothing: what a fit could still gain from there would be
+    the other parameters', which :attr:`Candidate.shows_itself` does not
+    credit to the effect. None (never stop) unless every effect of ``add``
+    is nested with its null on a bound.
+
+    The optimiser otherwise crawls along the bound (its iterates stay
+    strictly inside: 2.99997e9, 2.9999999997e9, ... Pa): oil compliance,
+    whose null is no null (3 GPa still moves the gas pressure by 10-60 x
+    the noise), reached its bound in 5 of 20 evaluations of the bundled
+    campaign's round 2 (9 of its 36 s) and spent the other 15 and 8
+    Jacobians there, ending 3.3 x worse than the model it extends
+    (BENCHMARKS.md)."""
+    def bound_nulls(effect: str) -> list[tuple[Param, float]]:
+        return [(p, p.null) for p in LIBRARY[effect].params if p.null is not None and p.null in (p.lower, p.upper)]
+
+    if not add or not all(bound_nulls(e) for e in add):
+        return None
+    nulls = [pn for e in add for pn in bound_nulls(e)]
+
+    def stop(values: Mapping[str, float], trial_rss: float) -> bool:
+        if trial_rss < rss:
+            return False
+        for p, null in nulls:
+            lo, hi = p.x_bounds()
+            if abs(p.to_x(values[p.name]) - p.to_x(null)) > AT_NULL * (hi - lo):
+                return False
+        return True
+
+    return stop
+
+
 def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...]) -> Candidate:
     # A screening fit: its errors are not the verdict's (the accepted one
     # is fitted again with the input noise carried through).
-    trial = fit(datasets, effects + add, initial=current.values, input_noise=False, flexible=current.model.flexible)
+    stop = at_null_and_no_better(add, current.rss)
+    trial = fit(datasets, effects + add, initial=current.values, input_noise=False, flexible=current.model.flexible, stop=stop)
     if trial.rss > current.rss:
         # A model with an effect more can always fit as well as the model
         # it extends: worse means the optimiser did not get back from the
@@ -478,7 +523,7 @@ def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ..
         # better than the first fit (friction on the foreign rig, above:
         # the data have it, so a little of it is no worse).
         if nulls and rss_at(datasets, effects + add, start, flexible=current.model.flexible) < trial.rss:
-            again = fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible)
+            again = fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop)
             if again.rss < trial.rss:
                 trial = again
     added = len(trial.model.params) - len(current.model.params)

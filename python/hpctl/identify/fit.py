@@ -228,6 +228,7 @@ def fit(
     flexible: bool = False,
     input_noise: bool = True,
     held: Mapping[str, float] | None = None,
+    stop: Callable[[Mapping[str, float], float], bool] | None = None,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -245,7 +246,13 @@ def fit(
 
     ``held``: values of the flexible model's shape parameters kept fixed
     (a damper characteristic and heat-transfer law identified before, see
-    :attr:`Model.held`); a parameter the model fits is never held."""
+    :attr:`Model.held`); a parameter the model fits is never held.
+
+    ``stop``: asked after every iteration of the optimiser with the values
+    there and their residual sum of squares (noise units, priors left out,
+    as :attr:`FitResult.rss`); True ends the fit at that iterate, the
+    message saying so (:func:`hpctl.identify.diagnose.at_null_and_no_better`
+    for screening fits)."""
     model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
     if held:
         fitted = {p.name for p in model.params}
@@ -298,9 +305,20 @@ def fit(
             jm = np.vstack([jm, rows])
         return jm
 
+    def callback(x: FloatArray) -> None:
+        # The iterate's residuals are cached: the optimiser evaluated it.
+        if stop is not None:
+            r = evaluate(x)[0]
+            if stop(values_from_x(params, x), float(r @ r)):
+                raise StopIteration
+
     if params:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=1e-8)
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=1e-8,
+                            callback=callback if stop is not None else None)
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
+        if sol.status == -2:
+            # scipy's own message for a callback's StopIteration says nothing of why.
+            message = "stopped by the caller's test (stop)"
     else:
         x, success, message, jmat = x0, True, "nothing to fit", np.zeros((0, 0))
     values = values_from_x(params, x)
