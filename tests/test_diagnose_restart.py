@@ -9,6 +9,7 @@ Virtual-rig records without any undeclared effect, drawn anew on each run
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import secrets
 from collections.abc import Sequence
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 
 from hpctl.identify import diagnose as dg
+from hpctl.identify import fit as fit_module
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import Dataset, prepare
 from hpctl.identify.fit import FitResult, fit, rss_at
@@ -94,3 +96,54 @@ def test_pairs_are_tried_only_with_a_member_that_replaces_a_law() -> None:
     # With the seed's laws declared, none of the candidates left pairs up.
     assert dg.pairs_to_try([e for e in LIBRARY if e not in ("heat_transfer", "real_gas")]) == []
     assert dg.pairs_to_try(["friction"]) == [] and dg.pairs_to_try([]) == []
+
+
+def test_the_stop_test_asks_for_every_bound_null_and_no_gain() -> None:
+    rss = 1000.0
+    # Effects with no null on a bound (or replacing a law) never stop.
+    for add in [(), ("sensor_offset",), ("heat_transfer",), ("real_gas",), ("heat_transfer", "oil_compliance")]:
+        assert dg.at_null_and_no_better(add, rss) is None, add
+    oil = dg.at_null_and_no_better(("oil_compliance",), rss)
+    assert oil is not None
+    near = 3e9 * 10 ** (-0.5 * dg.AT_NULL * math.log10(3e9 / 2e7))  # half the tolerance inside
+    far = 3e9 * 10 ** (-2.0 * dg.AT_NULL * math.log10(3e9 / 2e7))
+    assert oil({"oil_bulk_modulus_pa": near}, rss) and oil({"oil_bulk_modulus_pa": 3e9}, 2 * rss)
+    assert not oil({"oil_bulk_modulus_pa": far}, 2 * rss)
+    assert not oil({"oil_bulk_modulus_pa": near}, 0.999 * rss)  # it bought something: go on
+    # Friction is at its null only with both its terms there.
+    friction = dg.at_null_and_no_better(("friction",), rss)
+    assert friction is not None
+    assert friction({"friction_coulomb_n": 1.0, "friction_viscous_n_s_per_m": 5.0}, rss)
+    assert not friction({"friction_coulomb_n": 1.0, "friction_viscous_n_s_per_m": 500.0}, rss)
+    assert not friction({"friction_coulomb_n": 50.0, "friction_viscous_n_s_per_m": 0.0}, rss)
+    # A pair stops only with both members at their nulls.
+    pair = dg.at_null_and_no_better(("friction", "leakage"), rss)
+    assert pair is not None
+    assert not pair({"friction_coulomb_n": 0.0, "friction_viscous_n_s_per_m": 0.0, "leak_time_constant_s": 1e5}, rss)
+    assert pair({"friction_coulomb_n": 0.0, "friction_viscous_n_s_per_m": 0.0, "leak_time_constant_s": 1e8}, rss)
+
+
+def test_oil_compliances_screening_fit_on_data_without_it_stops_at_its_null(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    datasets, current = complete_model_data(seed)
+    runs: list[int] = []
+    simulate = fit_module.simulate_all
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        runs.append(1)
+        return simulate(*args, **kwargs)
+
+    monkeypatch.setattr(fit_module, "simulate_all", counted)
+    c = dg._try(datasets, current, SEED_MODEL, ("oil_compliance",))
+    stopped = len(runs)
+    # Stopped where the data pushed it: at its stiffest, worse than the
+    # model it extends, so never accepted (as without the stop).
+    assert c.result.message == "stopped by the caller's test (stop)", f"seed={seed}: {c.result.message}"
+    p = LIBRARY["oil_compliance"].params[0]
+    lo, hi = p.x_bounds()
+    assert abs(p.to_x(c.result.values[p.name]) - hi) <= dg.AT_NULL * (hi - lo), f"seed={seed}: {c.result.values}"
+    assert c.result.rss > current.rss and c.delta_bic < 0, f"seed={seed}"
+    # Without the stop the same fit runs on along the bound and ends no
+    # better than the model it extends either.
+    runs.clear()
+    full = fit(datasets, SEED_MODEL + ("oil_compliance",), initial=current.values, input_noise=False)
+    assert full.rss > current.rss and len(runs) > stopped, f"seed={seed}: {len(runs)} runs against {stopped}"
