@@ -229,6 +229,7 @@ def fit(
     input_noise: bool = True,
     held: Mapping[str, float] | None = None,
     stop: Callable[[Mapping[str, float], float], bool] | None = None,
+    ftol: float = 1e-8,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -252,7 +253,13 @@ def fit(
     there and their residual sum of squares (noise units, priors left out,
     as :attr:`FitResult.rss`); True ends the fit at that iterate, the
     message saying so (:func:`hpctl.identify.diagnose.at_null_and_no_better`
-    for screening fits)."""
+    for screening fits).
+
+    ``ftol``: the fit ends when an iteration lowers the cost by less than
+    this share of it (SciPy's ``ftol``): 1e-8 resolves the estimate far
+    below its standard errors; a screening fit, which only has to rank
+    models by their BIC, uses a coarser one
+    (:data:`hpctl.identify.diagnose.SCREENING_BIC_STEP`)."""
     model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
     if held:
         fitted = {p.name for p in model.params}
@@ -313,7 +320,7 @@ def fit(
                 raise StopIteration
 
     if params:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=1e-8,
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=ftol,
                             callback=callback if stop is not None else None)
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
         if sol.status == -2:
