@@ -11,7 +11,7 @@ own noise estimate and against the true noise (truth.json), the fitted
 parameters against the truth, and the wall time. Writes baseline.json and
 baseline.md into --out. Runs one case at a time (the machine is shared).
 
-    python scripts/foreign_rig_baseline.py --out /tmp/foreign-baseline [--effects none,friction] [--seeds 1,2]
+    python scripts/foreign_rig_baseline.py --out /tmp/foreign-baseline [--effects none,friction] [--seeds 1,2] [--no-fit] [--flexible]
 """
 
 from __future__ import annotations
@@ -78,7 +78,9 @@ def main() -> int:
     ap.add_argument("--program", default="effect")
     ap.add_argument("--timeout-s", type=float, default=900.0)
     ap.add_argument("--no-fit", action="store_true", help="skip the fit with the right effect declared")
+    ap.add_argument("--flexible", action="store_true", help="diagnose and fit with --flexible (the damper characteristic identified)")
     a = ap.parse_args()
+    flexible = ["--flexible"] if a.flexible else []
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / "baseline.json"
@@ -99,7 +101,7 @@ def main() -> int:
                                    "generation_s": truth["generation_s"] if g is not None else gen_s, "truth": truth["hpctl_params"],
                                    "noise_sigma": {k: v["sigma"] for k, v in truth["noise"].items() if isinstance(v, dict)}}
             print(f"== {effect} seed {seed}: {len(truth['records'])} records, {rec_s:.0f} s of rig data, generated in {row['generation_s']:.1f} s", flush=True)
-            d, took, err = run(["hpctl", "diagnose", str(case_dir / "records"), "--model", "seed", "--json", "-q", "--out", str(case_dir / "diagnose")], a.timeout_s)
+            d, took, err = run(["hpctl", "diagnose", str(case_dir / "records"), "--model", "seed", "--json", "-q", "--out", str(case_dir / "diagnose")] + flexible, a.timeout_s)
             row["diagnose_s"] = round(took, 1)
             if d is None:
                 row["diagnose_error"] = err
@@ -117,7 +119,7 @@ def main() -> int:
                 row["diagnose_other_params"] = {k: v for k, v in d["final_params"].items() if k in ("charge_scale", "damper_gain", "polytropic_exponent")}
             print(f"   diagnose: {took:.0f} s {row.get('verdict', err)} found={row.get('found')} rms {row.get('rms_ratio_before')} -> {row.get('rms_ratio_after')}", flush=True)
             if not a.no_fit and eff in LIBRARY_EFFECTS:
-                f, took, err = run(["hpctl", "fit", str(case_dir / "records"), "--model", f"seed,{eff}", "--json", "-q", "--out", str(case_dir / "fit")], a.timeout_s)
+                f, took, err = run(["hpctl", "fit", str(case_dir / "records"), "--model", f"seed,{eff}", "--json", "-q", "--out", str(case_dir / "fit")] + flexible, a.timeout_s)
                 row["fit_s"] = round(took, 1)
                 if f is None:
                     row["fit_error"] = err
