@@ -320,7 +320,7 @@ def fit(
                 raise StopIteration
 
     if params:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=ftol,
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=max_nfev, xtol=1e-8, ftol=ftol,
                             callback=callback if stop is not None else None)
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
         if sol.status == -2:
