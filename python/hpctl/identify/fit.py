@@ -320,6 +320,13 @@ def fit(
                 raise StopIteration
 
     if params:
+        # x_scale="jac": each variable scaled by its Jacobian column. With
+        # unit scales a flexible fit whose knees sat on their bound (the
+        # model it extends had put them there) crawled: every step was cut
+        # short where it met that bound, 60 evaluations of about 20 in the
+        # residual sum of squares each, ending worse than where it began
+        # (foreign rig, friction seed 1: 1.78 x the noise against 1.51 x
+        # without friction); scaled, 28 evaluations to 0.88 x.
         sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=max_nfev, xtol=1e-8, ftol=ftol,
                             callback=callback if stop is not None else None)
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
