@@ -252,3 +252,24 @@ def test_standard_errors_cover_the_truth_in_randomised_runs(coverage_runs: tuple
     print(context)
     assert inside >= least, context
     assert lo <= float(np.mean(z**2)) <= hi, context
+
+
+def test_a_flexible_fit_beside_its_bounds_does_not_crawl() -> None:
+    # A regression test on one fixed draw (the randomised tests above and
+    # the diagnosis tests cover the rest): the foreign rig's friction case,
+    # seed 1, its five-sine sweep. The flexible model without friction puts
+    # a damper knee on its bound; friction added to that model, with unit
+    # variable scales, crawled: every step cut short where it met the bound,
+    # 60 evaluations gaining about 20 in the residual sum of squares each,
+    # ending at 1.78x the noise where the model without friction had 1.51x.
+    # Scaled by the Jacobian's columns (fit's x_scale="jac"): 0.88x in 28.
+    from hpctl.identify.diagnose import screening_ftol
+
+    g = generate("friction", 1)
+    datasets = prepare([read_record(p) for p in g.records])
+    seed_model = ("heat_transfer", "real_gas")
+    base = fit(datasets, seed_model, input_noise=False, flexible=True)
+    with_friction = fit(datasets, seed_model + ("friction",), initial=base.values, input_noise=False, flexible=True,
+                        ftol=screening_ftol(base.n))
+    assert with_friction.success, with_friction.message
+    assert with_friction.rss < base.rss and with_friction.rms_ratio < 1.1, (base.rms_ratio, with_friction.rms_ratio)
