@@ -492,21 +492,17 @@ def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[s
     campaign's round 2 (9 of its 36 s) and spent the other 15 and 8
     Jacobians there, ending 3.3 x worse than the model it extends
     (BENCHMARKS.md)."""
-    def bound_nulls(effect: str) -> list[tuple[Param, float]]:
-        return [(p, p.null) for p in LIBRARY[effect].params if p.null is not None and p.null in (p.lower, p.upper)]
-
-    if not add or not all(bound_nulls(e) for e in add):
+    per_effect = [[(p, n) for p in LIBRARY[e].params if (n := p.null) is not None and n in (p.lower, p.upper)] for e in add]
+    if not per_effect or not all(per_effect):
         return None
-    nulls = [pn for e in add for pn in bound_nulls(e)]
+    nulls = [pn for pns in per_effect for pn in pns]
+
+    def at_null(p: Param, null: float, value: float) -> bool:
+        lo, hi = p.x_bounds()
+        return abs(p.to_x(value) - p.to_x(null)) <= AT_NULL * (hi - lo)
 
     def stop(values: Mapping[str, float], trial_rss: float) -> bool:
-        if trial_rss < rss:
-            return False
-        for p, null in nulls:
-            lo, hi = p.x_bounds()
-            if abs(p.to_x(values[p.name]) - p.to_x(null)) > AT_NULL * (hi - lo):
-                return False
-        return True
+        return trial_rss >= rss and all(at_null(p, null, values[p.name]) for p, null in nulls)
 
     return stop
 

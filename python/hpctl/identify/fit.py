@@ -313,11 +313,11 @@ def fit(
         return jm
 
     def callback(x: FloatArray) -> None:
-        # The iterate's residuals are cached: the optimiser evaluated it.
-        if stop is not None:
-            r = evaluate(x)[0]
-            if stop(values_from_x(params, x), float(r @ r)):
-                raise StopIteration
+        # Passed only with a ``stop``. The iterate's residuals are cached:
+        # the optimiser evaluated it.
+        r = evaluate(x)[0]
+        if stop is not None and stop(values_from_x(params, x), float(r @ r)):
+            raise StopIteration
 
     if params:
         # x_scale="jac": each variable scaled by its Jacobian column. With
