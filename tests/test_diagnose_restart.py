@@ -147,3 +147,13 @@ def test_oil_compliances_screening_fit_on_data_without_it_stops_at_its_null(seed
     runs.clear()
     full = fit(datasets, SEED_MODEL + ("oil_compliance",), initial=current.values, input_noise=False)
     assert full.rss > current.rss and len(runs) > stopped, f"seed={seed}: {len(runs)} runs against {stopped}"
+
+
+@pytest.mark.parametrize("ftol", [0.0, -1e-6, 1.0, float("nan"), float("inf")])
+def test_a_fit_refuses_a_tolerance_outside_its_range(ftol: float) -> None:
+    from hpctl.errors import ParameterError
+
+    datasets, _ = complete_model_data(1)
+    with pytest.raises(ParameterError, match="ftol") as e:
+        fit(datasets, SEED_MODEL, input_noise=False, ftol=ftol)
+    assert isinstance(e.value, ValueError)

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from hpctl import _core
-from hpctl.errors import HpctlError, SimulationError
+from hpctl.errors import HpctlError, SimulationError, bad_argument
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
 from hpctl.model.effects import (
     CHARGE,
@@ -260,6 +260,8 @@ def fit(
     below its standard errors; a screening fit, which only has to rank
     models by their BIC, uses a coarser one
     (:data:`hpctl.identify.diagnose.SCREENING_BIC_STEP`)."""
+    if not 1e-15 <= ftol < 1.0:  # also refuses NaN
+        raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
     model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
     if held:
         fitted = {p.name for p in model.params}
