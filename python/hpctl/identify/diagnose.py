@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, prepare, traits, uses_damper
-from hpctl.identify.fit import FitResult, fit, predict, rss_at
+from hpctl.identify.fit import FitResult, fit, residual_vector, rss_at
 from hpctl.model.effects import LIBRARY, Param, flexible_params
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
@@ -361,10 +361,15 @@ def cross_validation(
     held out whole, that record could not be predicted by a fit that never
     saw the effect, whatever the effect's merit."""
     fit_damper = uses_damper(datasets)
+    n_fold = sum(len(d.times_s) * len(d.targets) for d in datasets) // 2  # the residuals a fold's fit sees, about
 
     def fold(train: int) -> float:
-        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False, held=held)
-        return predict(r, datasets, fold=1 - train)[0]
+        # Read only for its prediction: no errors, the screening's tolerance.
+        r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False, held=held, jacobian=SCREENING_JACOBIAN,
+                errors=False, ftol=screening_ftol(n_fold))
+        # The fit ran every record whole: the other fold's residuals are in its runs.
+        rest = residual_vector(datasets, r.sims, fold=1 - train)
+        return float(rest @ rest)
 
     if pool is None:
         return fold(0) + fold(1)
@@ -461,6 +466,14 @@ def _try_all(
 SCREENING_BIC_STEP = 0.1
 
 
+#: How screening fits and cross-validation's folds get their Jacobian
+#: (:func:`~hpctl.identify.fit.fit`'s ``jacobian``): their optimum only
+#: ranks models, so Broyden's updates between finite differences (about
+#: one run per iteration instead of one per parameter; BENCHMARKS.md). The
+#: accepted model is fitted again with finite differences throughout.
+SCREENING_JACOBIAN = "broyden"
+
+
 def screening_ftol(n: int) -> float:
     """SciPy's ``ftol`` for a screening fit on ``n`` residuals (never
     finer than :func:`fit`'s own)."""
@@ -512,7 +525,8 @@ def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ..
     # is fitted again with the input noise carried through).
     stop = at_null_and_no_better(add, current.rss)
     ftol = screening_ftol(current.n)
-    trial = fit(datasets, effects + add, initial=current.values, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol)
+    trial = fit(datasets, effects + add, initial=current.values, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol,
+                jacobian=SCREENING_JACOBIAN)
     if trial.rss > current.rss:
         # A model with an effect more can always fit as well as the model
         # it extends: worse means the optimiser did not get back from the
@@ -537,7 +551,8 @@ def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ..
         # better than the first fit (friction on the foreign rig, above:
         # the data have it, so a little of it is no worse).
         if nulls and rss_at(datasets, effects + add, start, flexible=current.model.flexible) < trial.rss:
-            again = fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol)
+            again = fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol,
+                        jacobian=SCREENING_JACOBIAN)
             if again.rss < trial.rss:
                 trial = again
     added = len(trial.model.params) - len(current.model.params)

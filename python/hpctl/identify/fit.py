@@ -230,6 +230,8 @@ def fit(
     held: Mapping[str, float] | None = None,
     stop: Callable[[Mapping[str, float], float], bool] | None = None,
     ftol: float = 1e-8,
+    jacobian: str = "finite_difference",
+    errors: bool = True,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -259,9 +261,25 @@ def fit(
     this share of it (SciPy's ``ftol``): 1e-8 resolves the estimate far
     below its standard errors; a screening fit, which only has to rank
     models by their BIC, uses a coarser one
-    (:data:`hpctl.identify.diagnose.SCREENING_BIC_STEP`)."""
+    (:data:`hpctl.identify.diagnose.SCREENING_BIC_STEP`).
+
+    ``jacobian``: ``"finite_difference"`` (the default) simulates one run
+    per parameter at every iterate; ``"broyden"`` does that at the start
+    and again only where the last update predicted the cost badly
+    (:class:`_Secant`), otherwise it updates the Jacobian from the step the
+    optimiser just took, at no run. For screening and cross-validation
+    fits, whose optimum only ranks models: more iterations of one run each
+    instead of fewer of one run per parameter. Either way the Jacobian the
+    errors come from is finite differences at the optimum.
+
+    ``errors=False``: no standard errors (``stderr`` empty), for a fit read
+    only for its prediction (cross-validation's folds): with ``"broyden"``
+    the optimum's finite differences are saved, and the input noise is not
+    carried through."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
         raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
+    if jacobian not in JACOBIANS:
+        raise bad_argument("jacobian", jacobian, f"one of {', '.join(JACOBIANS)}")
     model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
     if held:
         fitted = {p.name for p in model.params}
@@ -278,13 +296,18 @@ def fit(
     # model's sensitivity and not the step-size selection changing with the
     # parameter (which can swamp a weak sensitivity, e.g. a slow leak's).
     cache: dict[bytes, tuple[FloatArray, list[FloatArray | None]]] = {}
+    # The runs themselves at the last point evaluated and at the iterate
+    # the optimiser last accepted (where it ends, usually): the result's
+    # outputs without running the model once more.
+    runs: dict[str, tuple[bytes, list[dict[str, FloatArray] | Exception]]] = {}
 
     def evaluate(x: FloatArray) -> tuple[FloatArray, list[FloatArray | None]]:
         key = x.tobytes()
         if key not in cache:
             sims = simulate_all(model, datasets, [values_from_x(params, x)], record_steps=True)[0]
-            ends = [None if isinstance(s, Exception) else s.get("step_end_s") for s in sims]
+            ends = [None if isinstance(s, Exception) else s.pop("step_end_s", None) for s in sims]
             cache[key] = (residual_vector(datasets, sims, fold), ends)
+            runs["last"] = (key, sims)
         return cache[key]
 
     def prior_rows(x: FloatArray) -> FloatArray:
@@ -293,7 +316,7 @@ def fit(
     def fun(x: FloatArray) -> FloatArray:
         return np.concatenate([evaluate(x)[0], prior_rows(x)]) if prior else evaluate(x)[0]
 
-    def jac(x: FloatArray) -> FloatArray:
+    def fd_jac(x: FloatArray) -> FloatArray:
         f0, ends = evaluate(x)
         steps = []
         xs = []
@@ -313,6 +336,18 @@ def fit(
                 rows[row, i] = 1.0 / sigma
             jm = np.vstack([jm, rows])
         return jm
+
+    secant = _Secant(len(prior))
+
+    def jac(x: FloatArray) -> FloatArray:
+        f = fun(x)
+        if runs["last"][0] == x.tobytes():
+            runs["iterate"] = runs["last"]
+        if jacobian == "broyden":
+            updated = secant.update(x, f)
+            if updated is not None:
+                return updated
+        return secant.fresh(x, f, fd_jac(x))
 
     def callback(x: FloatArray) -> None:
         # Passed only with a ``stop``. The iterate's residuals are cached:
@@ -335,13 +370,20 @@ def fit(
         if sol.status == -2:
             # scipy's own message for a callback's StopIteration says nothing of why.
             message = "stopped by the caller's test (stop)"
+        if errors and not secant.exact_at(x):
+            # A Broyden update is good enough to step with, not to judge
+            # the estimate by: the errors need the sensitivities themselves.
+            jmat = fd_jac(x)
     else:
         x, success, message, jmat = x0, True, "nothing to fit", np.zeros((0, 0))
     values = values_from_x(params, x)
-    sims = simulate_all(model, datasets, [values])[0]
+    key = x.tobytes()
+    sims = next((v for k, v in runs.values() if k == key), None) or simulate_all(model, datasets, [values])[0]
     _raise_failed(datasets, sims)
     r = residual_vector(datasets, sims, fold)
     n_data = len(r)
+    if not errors:
+        return FitResult(model, values, {}, float(r @ r), n_data, _stats(datasets, sims), sims, list(datasets), success, message)
     draws = _input_noise_residuals(model, datasets, values, r, fold) if params and input_noise else None
     if draws is not None and draws.shape[1]:
         # The input noise's mean effect (second order in it: the model's
@@ -564,6 +606,57 @@ def _to_values(params: Sequence[Param], x: FloatArray, sx: FloatArray) -> dict[s
         value = p.from_x(float(xi))
         out[p.name] = float(value * math.log(10) * si) if p.log else float(p.scale * si)
     return out
+
+
+#: How :func:`fit` gets the Jacobian (its ``jacobian`` argument).
+JACOBIANS = ("finite_difference", "broyden")
+
+
+class _Secant:
+    """The Jacobian of a ``jacobian="broyden"`` fit between finite-difference
+    ones: Broyden's rank-one update from each step the optimiser accepts
+    (the new Jacobian maps that step to the residuals' change exactly and
+    agrees with the old one across it). Started again from finite
+    differences where the last step's actual cost reduction was less than
+    :attr:`MIN_RATIO` of what the Jacobian predicted: an update that has
+    drifted from the model costs failed trust-region steps, each a run, more
+    than the parameters' runs it saved. The prior rows are linear in x:
+    their part of the Jacobian is exact and never updated."""
+
+    MIN_RATIO = 0.5
+
+    def __init__(self, n_prior: int) -> None:
+        self.n_prior = n_prior
+        self.x: FloatArray | None = None
+        self.f: FloatArray | None = None
+        self.j: FloatArray | None = None
+        self.exact = False
+
+    def fresh(self, x: FloatArray, f: FloatArray, j: FloatArray) -> FloatArray:
+        self.x, self.f, self.j, self.exact = x.copy(), f, j, True
+        return j.copy()  # the optimiser's to keep: the next update starts from ours
+
+    def exact_at(self, x: FloatArray) -> bool:
+        return self.exact and self.x is not None and np.array_equal(self.x, x)
+
+    def update(self, x: FloatArray, f: FloatArray) -> FloatArray | None:
+        """The updated Jacobian at ``x`` (residuals ``f``), or None where
+        finite differences are due."""
+        if self.x is None or self.f is None or self.j is None:
+            return None
+        dx = x - self.x
+        dd = float(dx @ dx)
+        if dd == 0.0 or not np.all(np.isfinite(f)):
+            return None
+        predicted = float(self.f @ self.f) - float(np.sum((self.f + self.j @ dx) ** 2))
+        actual = float(self.f @ self.f) - float(f @ f)
+        if predicted <= 0.0 or actual < self.MIN_RATIO * predicted:
+            return None
+        j = self.j.copy()
+        rows = slice(0, len(f) - self.n_prior)
+        j[rows] += np.outer((f - self.f - self.j @ dx)[rows], dx / dd)
+        self.x, self.f, self.j, self.exact = x.copy(), f, j, False
+        return j.copy()
 
 
 def predict(result: FitResult, datasets: Sequence[Dataset], fold: int | None = None) -> tuple[float, int]:
