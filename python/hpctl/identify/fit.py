@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -364,8 +365,27 @@ def fit(
         # residual sum of squares each, ending worse than where it began
         # (foreign rig, friction seed 1: 1.78 x the noise against 1.51 x
         # without friction); scaled, 28 evaluations to 0.88 x.
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=max_nfev, xtol=1e-8, ftol=ftol,
-                            callback=callback if stop is not None else None)
+        def solve(start: FloatArray, budget: int) -> Any:
+            return least_squares(fun, start, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=budget, xtol=1e-8, ftol=ftol,
+                                 callback=callback if stop is not None else None)
+
+        sol = solve(x0, max_nfev)
+        used = int(sol.nfev)
+        while sol.status > 0 and not secant.exact_at(sol.x) and used < max_nfev:
+            # Converged (by ftol, xtol or gtol) on a Broyden update: believed
+            # only once finite differences there agree. An update can make
+            # the steps short before the optimum is reached (the virtual
+            # rig's friction sweep, HPCTL_TEST_SEED=1666552740: stopped 3.1
+            # above the optimum's residual sum of squares), so the optimiser
+            # starts again from there with finite differences (no step since
+            # the last Jacobian). Where that gains less than ftol of the
+            # cost, the optimum is confirmed as a finite-difference fit would
+            # have confirmed it; its later updates are not asked again.
+            cost = float(sol.cost)
+            sol = solve(sol.x, max_nfev - used)
+            used += int(sol.nfev)
+            if cost - float(sol.cost) <= ftol * cost:
+                break
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
         if sol.status == -2:
             # scipy's own message for a callback's StopIteration says nothing of why.
