@@ -123,6 +123,9 @@ class CaseDict(TypedDict):
     rtol: float | None
     steps_s: NDArray[np.float64] | None
     record_steps: bool
+    # The reference gas evaluated through the process's table (pressure
+    # within 1.3e-8 of the direct equation; other gases: direct).
+    gas_table: bool
 
 #: Channel name (CHANNELS) -> values at the output times.
 Channels = dict[str, NDArray[np.float64]]
