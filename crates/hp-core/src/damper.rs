@@ -335,8 +335,8 @@ pub struct Orifice {
 impl Orifice {
     /// Checks the parameters.
     pub fn validate(&self) -> Result<()> {
-        check_range("flow_area_m2", self.flow_area_m2, 0.0, 1e-2)?;
-        check_range("transition_pa", self.transition_pa, 1.0, 1e7)?;
+        crate::ranges::VALVE6_FLOW_AREA_M2.check(self.flow_area_m2)?;
+        crate::ranges::VALVE6_TRANSITION_PA.check(self.transition_pa)?;
         Ok(())
     }
 

@@ -65,11 +65,16 @@ pub const POLYTROPIC_EXPONENT: Range = r("polytropic_exponent", 1.0, 2.0);
 pub const DAMPER_BLOWOFF_KNEE: Range = r("blowoff_knee", 0.0, 2.0);
 /// The SDOF rig's sprung mass.
 pub const SPRUNG_MASS_KG: Range = r("sprung_mass_kg", 1.0, 1e6);
+/// Valve 6's discharge coefficient times flow area
+/// ([`crate::damper::Orifice`]).
+pub const VALVE6_FLOW_AREA_M2: Range = r("valve6_flow_area_m2", 0.0, 1e-2);
+/// Valve 6's laminar-turbulent transition pressure difference.
+pub const VALVE6_TRANSITION_PA: Range = r("valve6_transition_pa", 1.0, 1e7);
 
 /// Every range above, for the bindings. The effects' parameters have
 /// theirs in their own tables ([`crate::effect`], declared in
 /// [`crate::unit`]); [`crate::unit::Effects::visit`] lists them.
-pub const ALL: [Range; 17] = [
+pub const ALL: [Range; 19] = [
     PISTON_AREA_M2,
     SMALL_ACC_VOLUME_M3,
     LARGE_ACC_VOLUME_M3,
@@ -87,6 +92,8 @@ pub const ALL: [Range; 17] = [
     POLYTROPIC_EXPONENT,
     DAMPER_BLOWOFF_KNEE,
     SPRUNG_MASS_KG,
+    VALVE6_FLOW_AREA_M2,
+    VALVE6_TRANSITION_PA,
 ];
 
 #[cfg(test)]

@@ -731,7 +731,7 @@ def shape_values(result: FitResult) -> dict[str, float]:
     m = result.model
     if not m.flexible:
         return {}
-    names = {p.name for p in flexible_params(m.effects, m.damper_branches if m.fit_damper else ())}
+    names = {p.name for p in flexible_params(m.effects, m.damper_branches if m.fit_damper else (), m.valve6)}
     return {k: v for k, v in result.values.items() if k in names}
 
 

@@ -32,6 +32,7 @@ from hpctl.model.effects import (
     flexible_params,
     model_params,
     shaped_damper,
+    shaped_valve6,
 )
 from hpctl.model.unit import Unit
 from hpctl.sim.run import Case, run_many
@@ -51,6 +52,9 @@ class Model:
     flexible: bool = False
     #: The damper branches the records exercise (flexible model only).
     damper_branches: tuple[str, ...] = ()
+    #: Whether the records open valve 6 (flexible model only: its orifice
+    #: is identified then).
+    valve6: bool = False
     #: Values of the flexible model's shape parameters held fixed (not
     #: fitted): a characteristic identified once, then kept while other
     #: parameters are fitted (:func:`hpctl.identify.diagnose.diagnose`'s
@@ -61,7 +65,7 @@ class Model:
     def params(self) -> list[Param]:
         ps = model_params(self.effects) + [CHARGE]
         if self.flexible:
-            return ps + flexible_params(self.effects, self.damper_branches if self.fit_damper else ())
+            return ps + flexible_params(self.effects, self.damper_branches if self.fit_damper else (), self.valve6)
         if self.fit_damper:
             ps.append(DAMPER_GAIN)
         return ps
@@ -72,7 +76,7 @@ class Model:
         if "damper_gain" in values:
             base = base.replace(damper=base.damper.scaled(values["damper_gain"]))
         if self.flexible or self.held:
-            base = base.replace(damper=shaped_damper(base.damper, values))
+            base = shaped_valve6(base.replace(damper=shaped_damper(base.damper, values)), values)
         return build_unit(base, self.in_unit, values)
 
     @property
@@ -445,7 +449,7 @@ def fit(
 def model_for(datasets: Sequence[Dataset], effects: Sequence[str], *, fit_damper: bool | None = None, flexible: bool = False) -> Model:
     """The model :func:`fit` fits to ``datasets`` with ``effects``."""
     return Model(tuple(n for n in LIBRARY if n in effects), uses_damper(datasets) if fit_damper is None else fit_damper,
-                 flexible, damper_branches(datasets) if flexible else ())
+                 flexible, damper_branches(datasets) if flexible else (), flexible and opens_valve6(datasets))
 
 
 def _start_x(params: Sequence[Param], initial: Mapping[str, float]) -> FloatArray:
@@ -470,6 +474,11 @@ def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:
     on = any(bool(d.damper_on.any()) for d in datasets)
     off = any(bool((~d.damper_on).any()) for d in datasets)
     return (("on_compression", "on_rebound") if on else ()) + (("off_compression", "off_rebound") if off else ())
+
+
+def opens_valve6(datasets: Sequence[Dataset]) -> bool:
+    """Whether any record has valve 6 open (the soft spring) at some time."""
+    return any(bool((~np.asarray(d.spring_hard, bool)).any()) for d in datasets)
 
 
 def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | Exception]) -> None:

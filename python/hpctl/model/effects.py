@@ -431,6 +431,20 @@ FRICTION_SHAPE: tuple[Param, ...] = (
 )
 
 
+#: The flexible model's valve-6 parameters (records with valve 6 open):
+#: multipliers of the unit's orifice flow area (discharge coefficient
+#: included) and of its laminar-turbulent transition pressure, hp-core's
+#: `Orifice`. A record declares the accumulators and the piston, not the
+#: valve: the seed's 5 mm port at Cd 0.62 is an assumption, and the foreign
+#: rig's valves (Cd 0.65 on 2-5e-5 m^2, a Reynolds-number law of their own)
+#: flow 1.5-3.7 times less. Priors like the damper's (a factor 10 per
+#: sigma): a valve the records barely use stays at the nominal one.
+VALVE6_SHAPE: tuple[Param, ...] = (
+    Param("valve6_flow_area_scale", 0.01, 100.0, 1.0, 1.0, (0.3, 1.5), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
+    Param("valve6_transition_scale", 0.01, 100.0, 1.0, 1.0, (0.3, 3.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
+)
+
+
 #: The flexible model's heat-transfer parameter (with ``heat_transfer``):
 #: how the thermal time constant moves with the gas's heat capacity m c_v,
 #: tau = tau_s (m c_v / (m c_v)_static)^n (hp-core's `WallConductance`).
@@ -445,13 +459,25 @@ THERMAL_SHAPE: tuple[Param, ...] = (
 )
 
 
-def flexible_params(effects: Sequence[str], damper_branches: Sequence[str]) -> list[Param]:
+def flexible_params(effects: Sequence[str], damper_branches: Sequence[str], valve6: bool = False) -> list[Param]:
     """The flexible model's extra parameters: the damper characteristic of
-    ``damper_branches``; with heat transfer, how its time constant moves
-    with the gas's heat capacity; with friction, its smoothing and Stribeck
-    term."""
-    return (damper_shape_params(damper_branches) + (list(THERMAL_SHAPE) if "heat_transfer" in effects else [])
-            + (list(FRICTION_SHAPE) if "friction" in effects else []))
+    ``damper_branches``; with ``valve6`` (records with valve 6 open), its
+    orifice's characteristic; with heat transfer, how its time constant
+    moves with the gas's heat capacity; with friction, its smoothing and
+    Stribeck term."""
+    return (damper_shape_params(damper_branches) + (list(VALVE6_SHAPE) if valve6 else [])
+            + (list(THERMAL_SHAPE) if "heat_transfer" in effects else []) + (list(FRICTION_SHAPE) if "friction" in effects else []))
+
+
+def shaped_valve6(unit: Unit, values: Mapping[str, float]) -> Unit:
+    """``unit`` with valve 6's flow area and transition pressure multiplied
+    by the valve-6 shape ``values`` present (:data:`VALVE6_SHAPE`)."""
+    area = values.get("valve6_flow_area_scale")
+    transition = values.get("valve6_transition_scale")
+    if area is None and transition is None:
+        return unit
+    return unit.replace(valve6_flow_area_m2=unit.valve6_flow_area_m2 * (1.0 if area is None else area),
+                        valve6_transition_pa=unit.valve6_transition_pa * (1.0 if transition is None else transition))
 
 
 MODELS: dict[str, tuple[str, ...]] = {
@@ -483,7 +509,8 @@ _check_against_core()
 
 def param(name: str) -> Param:
     """A parameter of the registry (or a base parameter) by name."""
-    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES), *THERMAL_SHAPE, *FRICTION_SHAPE]:
+    for p in [p for e in LIBRARY.values() for p in e.params] + [POLYTROPIC, CHARGE, DAMPER_GAIN, *damper_shape_params(DAMPER_BRANCHES), *VALVE6_SHAPE, *THERMAL_SHAPE,
+                                                                 *FRICTION_SHAPE]:
         if p.name == name:
             return p
     raise ParameterError(f"unknown parameter {name!r}; expected one of {', '.join(all_param_names())}")

@@ -50,7 +50,10 @@ def markdown() -> str:
         "above blow-off, and a smooth blow-off knee (hp-core's `blowoff_knee`, a fraction of",
         "the blow-off flow; 0 = the nominal sharp knee; it leaves the low-speed curve alone,",
         "so the bleed alone sets the slope at no flow); only the branches of the valve states",
-        "the records use are fitted. With `heat_transfer`, how the thermal time constant",
+        "the records use are fitted. Where the records open valve 6, its orifice's flow area",
+        "(discharge coefficient included) and laminar-turbulent transition pressure, as",
+        "multipliers of the unit's (a record declares the accumulators, not the valve).",
+        "With `heat_transfer`, how the thermal time constant",
         "moves with the gas's heat capacity (`tau = tau_s (m c_v / (m c_v)_static)^n`, hp-core's",
         "`WallConductance`: n = 0 the seed's constant time constant, 1 a constant wall",
         "conductance h A). With `friction`, its smoothing velocity and a Stribeck",
@@ -61,7 +64,7 @@ def markdown() -> str:
         "| parameter | fit bounds | fit start | nominal (prior centre) | prior sigma | scale |",
         "|---|---|---|---|---|---|",
     ]
-    for p in flexible_params(("heat_transfer", "friction"), DAMPER_BRANCHES):
+    for p in flexible_params(("heat_transfer", "friction"), DAMPER_BRANCHES, valve6=True):
         lines.append(f"| `{p.name}` | [{_num(p.lower)}, {_num(p.upper)}] | {_num(p.initial)} | {_num(p.typical)} | "
                      f"{_num(p.prior_sigma or 0.0)} | {'log' if p.log else 'linear'} |")
     return "\n".join(lines) + "\n"
