@@ -46,7 +46,7 @@ def test_nominal_shape_values_give_the_nominal_damper_and_friction() -> None:
     assert shaped_damper(unit.damper, nominal) == unit.damper
     assert shaped_damper(unit.damper, {}) == unit.damper
     # Every flexible parameter is found by name, with its prior.
-    for p in flexible_params(("heat_transfer", "friction"), DAMPER_BRANCHES, valve6=True):
+    for p in flexible_params(("heat_transfer", "friction", "leakage"), DAMPER_BRANCHES, valve6=True):
         assert param(p.name) == p and p.prior_sigma is not None and p.lower <= p.initial <= p.upper
     # Valve 6's orifice: nominal at the prior's centre, scaled inside the
     # core's ranges at the fit's bounds.
@@ -323,3 +323,24 @@ def test_flexible_model_identifies_valve6_where_the_records_open_it(monkeypatch:
                f"valve tau {with_valve.values['valve_time_constant_s']:.4f} against {g.truth['hpctl_params']['valve_time_constant_s']:.4f}")
     assert with_valve.rms_ratio**2 - 1.0 <= 2.0 / 3.0 * (without.rms_ratio**2 - 1.0), context
     assert abs(area - true_area) <= abs(nominal - true_area) / 1.5, context
+
+
+def test_flexible_model_finds_a_pressure_driven_leak() -> None:
+    # The foreign rig's leak goes with the gauge pressure (permeation:
+    # dm/dt = -(m0 / tau_L)(p - p_atm) / (p0 - p_atm)); hpctl's fixed law
+    # decays at one time constant whatever the pressure, so in the hold the
+    # compressed accumulator's pressure residual trended up with time and
+    # the other's down (r = +1.00 / -0.99; diagnosis with --flexible: leakage
+    # and a sensor offset, 1.63 x the noise left). The flexible model fits
+    # the exponent n of hp-core's dm/dt = -(m / tau_L) r^n: the foreign law
+    # is n = 1 to first order in the gas lost. Seeds 1-7 on 2026-11-27:
+    # n 0.98-1.03, tau_L within 1.4 %, the residual 0.81-0.94 x the noise.
+    seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
+    g = generate("leakage", seed)
+    r = fit(prepare([read_record(p) for p in g.records]), ("heat_transfer", "real_gas", "leakage"), flexible=True)
+    truth = g.truth["hpctl_params"]["leak_time_constant_s"]
+    tau, n = r.values["leak_time_constant_s"], r.values["leak_pressure_exponent"]
+    context = f"FOREIGN_RIG_SEED={seed}: tau_L {tau:.4g} +- {r.stderr['leak_time_constant_s']:.2g} against {truth:.4g}, n {n:.3f}, RMS/noise {r.rms_ratio:.3f}"
+    assert abs(tau / truth - 1.0) <= 0.1, context
+    assert abs(n - 1.0) <= 0.1, context
+    assert r.rms_ratio <= 1.1, context

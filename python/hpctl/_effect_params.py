@@ -69,12 +69,19 @@ class OilNode:
 @dataclass(frozen=True)
 class Leakage:
     """Slow loss of gas from both accumulators (past the floating piston
-    seals).
+    seals): `dm/dt = -(m / tau) r^n`, `r = (p - p_amb) / (p_static - p_amb)`
+    the accumulator's gauge pressure over the static one. `n = 0` (the
+    default) a decay at the time constant whatever the pressure; `n = 1` a
+    leak driven by the pressure difference (permeation, a valve seat): the
+    compressed accumulator leaks faster.
     """
 
-    #: Time constant of the gas mass decay, s. Valid: [1, 1e+12]
-    #: (``leak_time_constant_s``).
+    #: Time constant of the gas mass decay at the static pressure, s. Valid:
+    #: [1, 1e+12] (``leak_time_constant_s``).
     time_constant_s: float
+    #: Exponent `n` of the gauge-pressure ratio the rate goes with. Valid: [0,
+    #: 4] (``leak_pressure_exponent``).
+    pressure_exponent: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -172,6 +179,7 @@ class OilNodeDict(TypedDict):
 
 class LeakageDict(TypedDict):
     time_constant_s: float
+    pressure_exponent: float
 
 
 class ValveLagDict(TypedDict):

@@ -109,10 +109,17 @@ effect_params! {
 }
 
 effect_params! {
-    /// Slow loss of gas from both accumulators (past the floating piston seals).
+    /// Slow loss of gas from both accumulators (past the floating piston
+    /// seals): `dm/dt = -(m / tau) r^n`, `r = (p - p_amb) / (p_static -
+    /// p_amb)` the accumulator's gauge pressure over the static one. `n = 0`
+    /// (the default) a decay at the time constant whatever the pressure;
+    /// `n = 1` a leak driven by the pressure difference (permeation, a
+    /// valve seat): the compressed accumulator leaks faster.
     Leakage = "leakage" {
-        /// Time constant of the gas mass decay, s.
+        /// Time constant of the gas mass decay at the static pressure, s.
         time_constant_s: [Range::new("leak_time_constant_s", 1.0, 1e12)],
+        /// Exponent `n` of the gauge-pressure ratio the rate goes with.
+        pressure_exponent: [Range::new("leak_pressure_exponent", 0.0, 4.0), default 0.0],
     }
 }
 
@@ -862,8 +869,19 @@ impl Unit {
         rate.v_gas_m3 = -(q_damper - q6);
         rate.v_gas2_m3 = -q6;
         if let Some(l) = e.leakage {
-            rate.m_small_kg = -state.m_small_kg / l.time_constant_s;
-            rate.m_large_kg = -state.m_large_kg / l.time_constant_s;
+            // The gauge-pressure ratio's power, exactly 1 for the default
+            // exponent (no pow on the hot path); never negative below
+            // ambient pressure.
+            let drive = |p_pa: f64| {
+                if l.pressure_exponent == 0.0 {
+                    1.0
+                } else {
+                    let r = (p_pa - p.ambient_pressure_pa) / (p.static_pressure_pa - p.ambient_pressure_pa).max(1.0);
+                    libm::pow(r.max(0.0), l.pressure_exponent)
+                }
+            };
+            rate.m_small_kg = -state.m_small_kg / l.time_constant_s * drive(p_s);
+            rate.m_large_kg = -state.m_large_kg / l.time_constant_s * drive(p_l);
         }
         let (heat_s, heat_l) = match conductance {
             Some(w) => {

@@ -164,7 +164,7 @@ fn every_effect_agrees_with_rk4() {
         p.effects.friction = Some(Friction::new(400.0, 300.0, 2e-3));
         p.effects.oil_compliance = Some(OilCompliance { bulk_modulus_pa: 1.2e9, oil_volume_m3: 0.3e-3 });
         p.effects.oil_node = Some(OilNode { heat_capacity_j_per_k: 2000.0, oil_to_ambient_tau_s: 300.0, wall_to_oil_tau_s: 60.0, wall_to_ambient_tau_s: 600.0 });
-        p.effects.leakage = Some(Leakage { time_constant_s: 50.0 });
+        p.effects.leakage = Some(Leakage { time_constant_s: 50.0, pressure_exponent: 0.0 });
         p.effects.valve_lag = Some(ValveLag { time_constant_s: 0.02 });
         p.effects.sensor = Some(Sensor { force_offset_n: 50.0, pressure_offset_pa: 2e4, pressure2_offset_pa: -1.5e4, time_constant_s: 0.01 });
     });
@@ -238,7 +238,7 @@ fn states_only_samples_skip_the_unit() {
 /// Final gas pressure of a 900 s hold with gas leakage of time constant
 /// `tau_s`, with the given step choice.
 fn leaky_hold(tau_s: f64, steps: Steps<'_>) -> f64 {
-    let unit = unit_with(|p| p.effects.leakage = Some(Leakage { time_constant_s: tau_s }));
+    let unit = unit_with(|p| p.effects.leakage = Some(Leakage { time_constant_s: tau_s, pressure_exponent: 0.0 }));
     let kind = RigKind::Characterisation { strut: Motion::Step { height_m: 0.05, start_s: 1.0, rise_s: 1.0 } };
     let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
     let t = times(900.0, 1.0);
@@ -444,4 +444,42 @@ fn replayed_steps_with_oil_compliance_give_smooth_parameter_derivatives() {
     let derivative = |eps: f64| (run(1e9 * (1.0 + eps), Steps::Replay(&ends)).0[k] - base[k]) / eps;
     let (d3, d4, d5) = (derivative(1e-3), derivative(1e-4), derivative(1e-5));
     assert!((d4 / d3 - 1.0).abs() < 2e-3 && (d5 / d3 - 1.0).abs() < 2e-3, "{d3} {d4} {d5}");
+}
+
+/// The small and large accumulators' pressures at the end of a 900 s hold
+/// with the strut compressed 50 mm (valve 6 closed: S compressed, L at the
+/// static state), with `leakage`.
+fn hold_pressures(leakage: Option<Leakage>) -> (f64, f64) {
+    let unit = unit_with(|p| p.effects.leakage = leakage);
+    let kind = RigKind::Characterisation { strut: Motion::Step { height_m: 0.05, start_s: 1.0, rise_s: 1.0 } };
+    let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
+    let mut last = (0.0, 0.0);
+    run_adaptive(&rig, &times(900.0, 1.0), Adaptive::default(), SampleDetail::Full, Steps::Controlled, |_, _| Valves::from_modes(true, true), |_, s| {
+        last = (s.unit.p_gas_true_pa, s.unit.p_gas2_true_pa);
+        true
+    })
+    .unwrap();
+    last
+}
+
+#[test]
+fn a_pressure_driven_leak_goes_with_the_gauge_pressure() {
+    // dm/dt = -(m / tau) r^n, r the gauge pressure over the static one.
+    // Held compressed, S sits at r > 1 and L at r = 1: with n = 1, S's
+    // leak-induced pressure loss (against the same hold without a leak) is
+    // r times n = 0's, L's the same; with n = 2, r^2 times. The leak is
+    // small over the hold (900 s of 1e6 s), so r barely moves.
+    let unit = unit_with(|_| {});
+    let (p_none_s, p_none_l) = hold_pressures(None);
+    let leak = |n: f64| hold_pressures(Some(Leakage { time_constant_s: 1e6, pressure_exponent: n }));
+    let (p0_s, p0_l) = leak(0.0);
+    let r = (p_none_s - unit.params().ambient_pressure_pa) / (unit.params().static_pressure_pa - unit.params().ambient_pressure_pa);
+    assert!(r > 1.3, "the hold must compress S well above the static pressure: r = {r}");
+    for n in [1.0, 2.0] {
+        let (pn_s, pn_l) = leak(n);
+        let ratio_s = (p_none_s - pn_s) / (p_none_s - p0_s);
+        let ratio_l = (p_none_l - pn_l) / (p_none_l - p0_l);
+        assert!((ratio_s / libm::pow(r, n) - 1.0).abs() < 0.01, "n = {n}: S lost {ratio_s} times n = 0's, r^n = {}", libm::pow(r, n));
+        assert!((ratio_l - 1.0).abs() < 0.01, "n = {n}: L lost {ratio_l} times n = 0's");
+    }
 }
