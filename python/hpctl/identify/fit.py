@@ -272,18 +272,21 @@ def fit(
     (:data:`hpctl.identify.diagnose.SCREENING_BIC_STEP`).
 
     ``jacobian``: ``"finite_difference"`` (the default) simulates one run
-    per parameter at every iterate; ``"broyden"`` does that at the start
-    and again only where the last update predicted the cost badly
-    (:class:`_Secant`), otherwise it updates the Jacobian from the step the
-    optimiser just took, at no run. For screening and cross-validation
-    fits, whose optimum only ranks models: more iterations of one run each
-    instead of fewer of one run per parameter. Either way the Jacobian the
-    errors come from is finite differences at the optimum.
+    per parameter at every iterate; ``"broyden"`` does that at the start,
+    where the last update predicted the cost badly (:class:`_Secant`) and
+    where the optimiser converged (a convergence on an update is confirmed
+    from finite differences, restarting there), and otherwise updates the
+    Jacobian from the step the optimiser just took, at no run. For
+    screening and cross-validation fits, whose optimum only ranks models
+    (:func:`hpctl.identify.diagnose.screening_jacobian`): more iterations
+    of one run each instead of fewer of one run per parameter. Either way
+    the Jacobian the errors come from is finite differences at the optimum.
 
-    ``errors=False``: no standard errors (``stderr`` empty), for a fit read
-    only for its prediction (cross-validation's folds): with ``"broyden"``
-    the optimum's finite differences are saved, and the input noise is not
-    carried through."""
+    ``errors=False``: no standard errors (``stderr`` empty) and the input
+    noise not carried through, for a fit read only for its prediction or
+    its cost (cross-validation's folds, screening fits): a fit stopped by
+    ``stop`` or its evaluation limit on a Broyden update then needs no
+    finite differences at its end."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
         raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
     if jacobian not in JACOBIANS:
