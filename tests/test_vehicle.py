@@ -86,6 +86,17 @@ def test_one_wheels_unit_can_be_replaced_for_a_gas_leak() -> None:
         bad = unit.to_dict()
         bad["effects"]["leakage"] = {"time_constant_s": 0.0}
         _core.VehiclePlant(v.to_core(), flat, 293.15, corner_units={0: bad})
+    # A field with a default (the leak's pressure exponent, added later) may
+    # be left out of the dict: the same leak as the dataclass's.
+    old_style = unit.to_dict()
+    old_style["effects"]["leakage"] = {"time_constant_s": tau_s}
+    again = _core.VehiclePlant(v.to_core(), flat, unit.static_temperature_k, corner_units={3: old_style})
+    for _ in range(1000):
+        s2 = again.step(1e-3, [False] * 4, [False] * 4, 0.0)
+    np.testing.assert_array_equal(np.asarray(s2["p_gas2_pa"]), p)
+    with pytest.raises(hpctl.ParameterError, match="pressure_exponent"):
+        old_style["effects"]["leakage"] = {"time_constant_s": tau_s, "pressure_exponent": "high"}
+        _core.VehiclePlant(v.to_core(), flat, 293.15, corner_units={0: old_style})
 
 
 def test_the_lane_change_has_the_iso_3888_2_layout() -> None:

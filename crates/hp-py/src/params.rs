@@ -177,7 +177,13 @@ impl EffectVisitor for ReadEffects<'_, '_> {
         if let Some(mut block) = self.dict.sub_opt(T::KEY)? {
             let mut value = T::ZERO;
             for f in T::FIELDS {
-                (f.set)(&mut value, block.f64(f.field)?);
+                // A field with a default may be left out (a dict written
+                // before the field existed still reads).
+                let v = match f.default {
+                    Some(d) if block.get_opt(f.field)?.is_none() => d,
+                    _ => block.f64(f.field)?,
+                };
+                (f.set)(&mut value, v);
             }
             block.finish()?;
             *slot = Some(value);
