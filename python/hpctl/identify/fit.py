@@ -692,12 +692,3 @@ class _Secant:
         j[rows] += np.outer((f - self.f - self.j @ dx)[rows], dx / dd)
         self.x, self.f, self.j, self.exact = x.copy(), f, j, False
         return j.copy()
-
-
-def predict(result: FitResult, datasets: Sequence[Dataset], fold: int | None = None) -> tuple[float, int]:
-    """RSS (noise units) and sample count of ``result``'s model and
-    parameters on other data (other datasets, or another fold): the
-    cross-validation error."""
-    sims = simulate_all(result.model, datasets, [result.values])[0]
-    r = residual_vector(datasets, sims, fold)
-    return float(r @ r), len(r)
