@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import os
 import secrets
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
@@ -19,9 +19,10 @@ from scipy.stats import binom, chi2
 import coverage
 import hpctl
 from foreign_rig import generate, sweep_tests
+from foreign_rig.sensors import ChannelNoise, measure
 from hpctl.data.records import read_record
-from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import FitResult, damper_branches, fit
+from hpctl.identify.dataset import _drive, input_disp_m, prepare
+from hpctl.identify.fit import FitResult, damper_branches, fit, simulate_all
 from hpctl.model.effects import (
     CORE_RANGES,
     DAMPER_BRANCHES,
@@ -183,21 +184,58 @@ def test_flexible_heat_transfer_finds_the_foreign_rigs_constant_wall_conductance
     assert err < 0.25, f"{c.context}: exponent {value:.3f} +- {err:.3f}: the sines should pin it"
 
 
+#: Draws of the measured input's noise per record for the part of the
+#: pressure residual it carries (the mean square over 4 x 401 samples: a
+#: few per cent sampling error in the expected RMS).
+CARRIED_DRAWS = 4
+
+
+def _carried_input_noise_ms(c: ControlCase, i: int, channel: str, rng: np.random.Generator) -> float:
+    """Mean square of what the measured displacement's noise puts into the
+    model's ``channel`` on record ``i``: the fitted model driven by the
+    measured input plus a fresh draw of the foreign data system's own
+    displacement noise (its white, coloured and quantisation parts, from
+    the truth), against the model driven by the measured input alone."""
+    r = c.flexible
+    ds = r.datasets[i]
+    noise = ChannelNoise(**{k: v for k, v in c.truth["noise"]["disp_m"].items() if k != "sigma"})
+    x = input_disp_m(ds.record)
+    noisy = []
+    for _ in range(CARRIED_DRAWS):
+        rig, _, _ = _drive(ds.record, ds.times_s, measure(x, ds.times_s, noise, rng))
+        noisy.append(replace(ds, rig=rig))
+    sims = simulate_all(r.model, noisy, [r.values])[0]
+    base = np.asarray(r.sims[i][channel])
+    out = []
+    for s in sims:
+        assert not isinstance(s, Exception), s
+        out.append(float(np.mean((np.asarray(s[channel]) - base) ** 2)))
+    return float(np.mean(out))
+
+
 def test_flexible_fit_leaves_the_gas_pressure_at_the_noise(control_case: ControlCase) -> None:
-    # What the pressure channels keep is the transducer's noise plus the
-    # data system's sample-time jitter times the signal's slope (the jitter
-    # is the foreign rig's, not in the noise's sigma): nothing the model
-    # could still explain.
+    # What the pressure channels keep is the transducer's noise, the data
+    # system's sample-time jitter times the signal's slope (the jitter is
+    # the foreign rig's, not in the noise's sigma) and the measured input
+    # displacement's noise carried through the model (it drives the model;
+    # near full compression the small accumulator's pressure moves by up to
+    # 0.6 Pa per um): nothing the model could still explain. Without the
+    # carried part the test failed on FOREIGN_RIG_SEED=1941164716 (the 0.3 Hz
+    # sine's strut-side pressure 3,263 Pa against 1.3 x 2,300 Pa; 10 um of
+    # displacement noise carrying 2,050 Pa; with it 1.06 x).
     c = control_case
     sigma, jitter = c.truth["noise"]["p_pa"]["sigma"], c.truth["noise"]["jitter_s"]
+    rng = np.random.default_rng(0)
     for i, ds in enumerate(c.flexible.datasets):
         sim = c.flexible.sims[i]
         assert not isinstance(sim, Exception)
         for ch in ("p_gas_pa", "p_gas2_pa"):
             rms = float(np.sqrt(np.mean(c.flexible.residuals(i, ch) ** 2)))
             slope = np.gradient(sim[ch], ds.times_s)
-            expected = math.sqrt(sigma**2 + float(np.mean((jitter * slope) ** 2)))
-            assert rms <= 1.3 * expected, f"{c.context}: {ds.name}/{ch} residual {rms:.0f} Pa, noise with jitter {expected:.0f} Pa"
+            carried = _carried_input_noise_ms(c, i, ch, rng)
+            expected = math.sqrt(sigma**2 + float(np.mean((jitter * slope) ** 2)) + carried)
+            assert rms <= 1.3 * expected, (f"{c.context}: {ds.name}/{ch} residual {rms:.0f} Pa, noise with jitter and the "
+                                           f"input's noise {expected:.0f} Pa (carried {math.sqrt(carried):.0f} Pa)")
 
 
 def test_input_noise_correction_holds_parameters_at_their_bounds() -> None:
