@@ -178,9 +178,16 @@ def test_flexible_heat_transfer_finds_the_foreign_rigs_constant_wall_conductance
     # time constant is 0 (the prior's centre). Before the flexible model
     # fitted it, the strut-side pressure kept 3-8x the noise on the 0.3 and
     # 1 Hz sines (FOREIGN_RIG_SEED=1767147371: 6.0x and 6.4x).
+    # Its standard error is honest: on 30 draws (FOREIGN_RIG_SEED=100..129,
+    # 2026-11-27) (n - 1) / sigma had mean 0.15 and standard deviation 1.00,
+    # 28 of 30 inside 2 sigma, the largest 2.45. One draw per run is checked
+    # against 3 sigma, which an honest error misses on 0.3 % of draws; at
+    # 2 sigma the test failed by design on about one draw in twenty where
+    # the error exceeds 0.05 (FOREIGN_RIG_SEED=1168470902: 0.891 +- 0.045,
+    # z = -2.45, the strut-side pressure's noise 7 kPa, at the draw's top).
     c = control_case
     value, err = c.flexible.values["tau_cv_exponent"], c.flexible.stderr["tau_cv_exponent"]
-    assert abs(value - 1.0) <= max(0.1, 2.0 * err), f"{c.context}: exponent {value:.3f} +- {err:.3f}, truth 1"
+    assert abs(value - 1.0) <= max(0.1, 3.0 * err), f"{c.context}: exponent {value:.3f} +- {err:.3f}, truth 1"
     assert err < 0.25, f"{c.context}: exponent {value:.3f} +- {err:.3f}: the sines should pin it"
 
 
