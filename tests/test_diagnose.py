@@ -125,3 +125,51 @@ def test_an_effect_whose_parameters_sit_at_its_null_is_not_accepted() -> None:
     r = FitResult(Model(("friction",), True), {"friction_coulomb_n": 0.0, "friction_viscous_n_s_per_m": 0.0},
                   {"friction_coulomb_n": 117.0, "friction_viscous_n_s_per_m": 1298.0}, 1.0, 1, [], [], [])
     assert not Candidate(("friction",), 2, r, 10.0, 0.1).shows_itself
+
+
+
+def test_sensor_offsets_must_show_in_the_residual_means() -> None:
+    # offset_delta_bic: the offsets alone (the best constant per channel,
+    # the rest held), against the same shift found by numpy's least squares
+    # on the weighted residuals. A constant on the force shows; a larger
+    # zero-mean structure (what a flexible damper leaves when it cannot
+    # follow the true curve) does not, however big.
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.diagnose import BIC_STRONG, offset_delta_bic
+    from hpctl.identify.fit import FitResult, Model
+    from hpctl.model.effects import OFFSET_CHANNELS
+
+    rng = np.random.default_rng(7)
+    _, records = rig_data([], rng)
+    datasets = prepare(records)
+    sigma_f = float(np.median(datasets[0].weight_sigma["force_n"]))
+
+    def result(force_offset: float, force_wave: float) -> tuple[FitResult, float]:
+        """Residuals of unit weighted noise plus the given force terms, and
+        the BIC change of the least-squares constants on the offset channels."""
+        sims, rss, n, by_channel = [], 0.0, 0, {}
+        for d in datasets:
+            sim = {}
+            for c, y in d.targets.items():
+                r = rng.normal(0.0, 1.0, len(y)) * d.weight_sigma[c]
+                if c == "force_n":
+                    r = r + force_offset + force_wave * np.sin(np.linspace(0.0, 6 * np.pi, len(y), endpoint=False))
+                sim[c] = y + r
+                w = 1.0 / d.weight_sigma[c]
+                rss += float(np.sum((r * w) ** 2))
+                n += len(y)
+                z, a = by_channel.get(c, (np.zeros(0), np.zeros(0)))
+                by_channel[c] = (np.concatenate((z, r * w)), np.concatenate((a, w)))
+            sims.append(sim)
+        after = 0.0
+        for c, (z, a) in by_channel.items():
+            if c in OFFSET_CHANNELS.values():
+                z = z - a * np.linalg.lstsq(a[:, None], z, rcond=None)[0][0]
+            after += float(z @ z)
+        k = sum(1 for c in OFFSET_CHANNELS.values() if c in by_channel)
+        return FitResult(Model(("heat_transfer", "real_gas"), True), {}, {}, rss, n, [], sims, datasets), n * np.log(rss / after) - k * np.log(n)
+
+    constant, expected = result(0.2 * sigma_f, 0.0)
+    assert offset_delta_bic(constant) == pytest.approx(expected, rel=1e-9) and expected > BIC_STRONG
+    shaped, expected = result(0.0, 2.0 * sigma_f)
+    assert offset_delta_bic(shaped) == pytest.approx(expected, rel=1e-6) and expected < BIC_STRONG

@@ -354,6 +354,10 @@ LIBRARY: dict[str, Effect] = {
     )
 }
 
+#: The channel each sensor-offset parameter shifts (``_sensor_offset``: the
+#: core adds the offsets to these outputs).
+OFFSET_CHANNELS = {"sensor_force_offset_n": "force_n", "sensor_pressure_offset_pa": "p_gas_pa", "sensor_pressure2_offset_pa": "p_gas2_pa"}
+
 # Parameters that every model has.
 POLYTROPIC = Param("polytropic_exponent", 1.0, 1.8, 1.3, 1.3, (1.1, 1.5))
 CHARGE = Param("charge_scale", 0.7, 1.3, 1.0, 1.0, (0.9, 1.1))
