@@ -60,7 +60,7 @@ def test_nominal_shape_values_give_the_nominal_damper_and_friction() -> None:
         for name in ("valve6_flow_area_m2", "valve6_transition_pa"):
             lo, hi = CORE_RANGES[name]
             assert lo <= getattr(u, name) <= hi, (name, getattr(u, name))
-    assert len(damper_shape_params(("off_compression",))) == 5
+    assert len(damper_shape_params(("off_compression",))) == 7
     assert CORE_RANGES["blowoff_knee"][0] <= DAMPER_KNEE_BOUNDS[0] < DAMPER_KNEE_BOUNDS[1] <= CORE_RANGES["blowoff_knee"][1]
     for p in FRICTION_SHAPE:
         lo, hi = CORE_RANGES[p.name]
@@ -81,6 +81,42 @@ def test_shape_changes_the_damper_force_as_the_core_curve_says() -> None:
     big = np.abs(a["damper_force_n"]) > 10.0
     assert big.sum() > 100
     np.testing.assert_allclose(b["damper_force_n"][big], 2 * a["damper_force_n"][big], rtol=1e-3)
+
+
+def test_a_second_blowoff_stage_gives_the_three_piece_curve_through_a_simulation() -> None:
+    # A sharp second stage on the bypass branches (the flexible model's
+    # stage-2 multipliers through shaped_damper, then the core's plant): at
+    # every sample the damper force is the piston area times the closed
+    # form R q + K q^2 / p_b + S (q - q_b) / p_b2 + S2 (q - q_b2), q the flow
+    # the strut's own speed makes.
+    unit = hpctl.Unit.seed()
+    from hpctl.sim.run import characterisation_rig, uniform_times
+
+    values = {f"damper_{b}_{k}": v for b in ("off_compression", "off_rebound")
+              for k, v in (("knee", 0.0), ("blowoff2_scale", 1.3), ("slope2_scale", 0.25))}
+    shaped = shaped_damper(unit.damper, values)
+    c = shaped.off_compression
+    assert c.blowoff2_pa == pytest.approx(1.3 * c.blowoff_pa) and c.blowoff2_slope_pa_s_per_m3 == pytest.approx(0.25 * c.blowoff_slope_pa_s_per_m3)
+    times = uniform_times(2.0, 0.002)
+    r = hpctl.run(unit.replace(damper=shaped), characterisation_rig(hpctl.Sine(0.06, 1.5)), times, spring_hard=True, damper_on=False)
+    area = unit.piston_area_m2
+    q = np.asarray(r["vel_m_s"]) * area
+    expected = np.empty_like(q)
+    reached = {1: 0, 2: 0}
+    for i, qi in enumerate(q):
+        b = shaped.off_compression if qi >= 0 else shaped.off_rebound
+        m = abs(qi)
+        q_b = (-b.bleed_pa_s_per_m3 + math.sqrt(b.bleed_pa_s_per_m3**2 + 4 * b.orifice_pa_s2_per_m6 * b.blowoff_pa)) / (2 * b.orifice_pa_s2_per_m6)
+        q_b2 = q_b + (b.blowoff2_pa - b.blowoff_pa) / b.blowoff_slope_pa_s_per_m3
+        if m <= q_b:
+            dp = m * (b.bleed_pa_s_per_m3 + b.orifice_pa_s2_per_m6 * m)
+        elif m <= q_b2:
+            dp, reached[1] = b.blowoff_pa + b.blowoff_slope_pa_s_per_m3 * (m - q_b), reached[1] + 1
+        else:
+            dp, reached[2] = b.blowoff2_pa + b.blowoff2_slope_pa_s_per_m3 * (m - q_b2), reached[2] + 1
+        expected[i] = math.copysign(dp, qi) * area
+    assert reached[1] > 50 and reached[2] > 50, reached  # the drive reaches both stages
+    np.testing.assert_allclose(r["damper_force_n"], expected, rtol=1e-7, atol=1e-6)
 
 
 def test_stribeck_friction_in_the_core_matches_the_formula() -> None:

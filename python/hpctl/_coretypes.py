@@ -27,6 +27,8 @@ class DamperCurveDict(TypedDict):
     blowoff_pa: float
     blowoff_slope_pa_s_per_m3: float
     blowoff_knee: float
+    blowoff2_pa: float
+    blowoff2_slope_pa_s_per_m3: float
 
 
 class DamperDict(TypedDict):

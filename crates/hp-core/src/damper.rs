@@ -31,6 +31,18 @@ use crate::error::{check_range, Result};
 /// (1 - h'(-q_b))` (1.8 `q_b` at `k = 1.5`). `k = 0` takes the sharp
 /// curve's own code path, so existing characteristics are unchanged bit
 /// for bit.
+///
+/// A second blow-off stage (`blowoff2_pa > 0`): a second valve that opens
+/// at `p_b2 > p_b` changes the slope from `S` to `S2`, as a bypass or a
+/// second washer stack in parallel does (each lifts at its own pressure).
+/// The first stage's excess flow `r1 = r(q)` is ramped again, `r2 =
+/// rho(r1)` with `rho` the same rounded ramp at `x_2 = (p_b2 - p_b) / S`
+/// (width `k x_2`): `dp = g(q - r1) + S (r1 - r2) + S2 r2`. Since
+/// `0 <= r2' = rho'(r1) r1' <= r1' < 1`, the slope
+/// `g'(1 - r1') + S (r1' - r2') + S2 r2'` is a positive blend again: the
+/// curve stays monotone for any `S2 > 0`, above or below `S`. Sharp, it is
+/// `p_b2 + S2 (q - q_b - x_2)` above the second knee. `blowoff2_pa = 0`
+/// (no second stage) keeps the one-stage code paths, bit for bit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DamperCurve {
     /// Laminar (bleed) coefficient R, Pa s/m^3.
@@ -45,6 +57,12 @@ pub struct DamperCurve {
     /// (0 = the sharp knee; about 0.3-1 for a washer that lifts
     /// progressively).
     pub blowoff_knee: f64,
+    /// Pressure drop p_b2 at which a second blow-off stage opens, Pa (above
+    /// `blowoff_pa`; 0 = no second stage).
+    pub blowoff2_pa: f64,
+    /// Slope above the second blow-off S2, Pa s/m^3 (used only with a
+    /// second stage).
+    pub blowoff2_slope_pa_s_per_m3: f64,
 }
 
 impl DamperCurve {
@@ -67,6 +85,8 @@ impl DamperCurve {
             blowoff_pa: blowoff_n / area_m2,
             blowoff_slope_pa_s_per_m3: slope_n_s_per_m / (area_m2 * area_m2),
             blowoff_knee: 0.0,
+            blowoff2_pa: 0.0,
+            blowoff2_slope_pa_s_per_m3: 0.0,
         }
     }
 
@@ -81,7 +101,19 @@ impl DamperCurve {
             // A curve with no resistance below blow-off cannot be inverted.
             check_range("bleed_pa_s_per_m3", self.bleed_pa_s_per_m3, 1e3, 1e14)?;
         }
+        if self.blowoff2_pa != 0.0 {
+            // Strictly above the first stage: at p_b itself the second
+            // knee's ramp would have no width to round over.
+            check_range("blowoff2_pa", self.blowoff2_pa, self.blowoff_pa * (1.0 + 1e-6) + 1e-3, 1e9)?;
+            check_range("blowoff2_slope_pa_s_per_m3", self.blowoff2_slope_pa_s_per_m3, 1e3, 1e14)?;
+        }
         Ok(())
+    }
+
+    /// True when a second blow-off stage is set.
+    #[inline]
+    fn staged(&self) -> bool {
+        self.blowoff2_pa > 0.0
     }
 
     /// Flow at which the orifice branch reaches the blow-off pressure, m^3/s.
@@ -91,6 +123,9 @@ impl DamperCurve {
 
     /// Pressure drop for a flow magnitude `q_m3_s >= 0`, Pa.
     pub fn pressure_drop_pa(&self, q_m3_s: f64) -> f64 {
+        if self.staged() {
+            return self.staged_pressure_drop_pa(q_m3_s).0;
+        }
         if self.blowoff_knee > 0.0 {
             return self.smooth_pressure_drop_pa(q_m3_s).0;
         }
@@ -106,6 +141,9 @@ impl DamperCurve {
     /// `q_m3_s >= 0`, Pa s/m^3 (the sharp knee's slope from below at the
     /// knee itself).
     pub fn pressure_drop_slope_pa_s_per_m3(&self, q_m3_s: f64) -> f64 {
+        if self.staged() {
+            return self.staged_pressure_drop_pa(q_m3_s).1;
+        }
         if self.blowoff_knee > 0.0 {
             return self.smooth_pressure_drop_pa(q_m3_s).1;
         }
@@ -122,26 +160,27 @@ impl DamperCurve {
     fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
         let (r, k, s) = (self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, self.blowoff_slope_pa_s_per_m3);
         let q_b = self.blowoff_flow_m3_s();
-        let w = self.blowoff_knee * q_b;
-        let g = |x: f64| x * (r + k * libm::fabs(x));
-        // With a = q - q_b, b = -q_b, s_a = sqrt(a^2 + w^2), s_b likewise,
-        // the ramp and its slope in forms free of the cancellation near
-        // q = 0 (where both are O(q^2) and O(q) differences of O(q) terms):
-        //   r  = q^2 (s_a s_b + w^2 + q_b (q - q_b)) / ((s_a + s_b)^2 (s_b + q_b))
-        //   r' = q (s_b + q_b (q - 2 q_b) / (s_a + s_b)) / (s_a (s_b + q_b))
-        // (the first numerator is at least 2 w^2 by Cauchy-Schwarz).
-        let q = q_m3_s;
-        let a = q - q_b;
-        let s_a = libm::sqrt(a * a + w * w);
-        let s_b = libm::sqrt(q_b * q_b + w * w);
-        let sum = s_a + s_b;
-        let den = sum * sum * (s_b + q_b);
-        let ramp_q = if den > 0.0 { q * q * (s_a * s_b + w * w + q_b * a) / den } else { 0.0 };
-        let slope_den = s_a * (s_b + q_b);
-        let ramp_slope = if slope_den > 0.0 && sum > 0.0 { q * (s_b + q_b * (q - 2.0 * q_b) / sum) / slope_den } else { 0.0 };
-        let inner = q - ramp_q;
-        let dp = g(inner) + s * ramp_q;
+        let (ramp_q, ramp_slope) = rounded_ramp(q_m3_s, q_b, self.blowoff_knee * q_b);
+        let inner = q_m3_s - ramp_q;
+        let dp = inner * (r + k * libm::fabs(inner)) + s * ramp_q;
         let slope = (r + 2.0 * k * libm::fabs(inner)) * (1.0 - ramp_slope) + s * ramp_slope;
+        (dp, slope)
+    }
+
+    /// The two-stage curve (see the type's description) and its slope, at
+    /// flow `q_m3_s >= 0`; a knee of 0 gives the sharp ramps (the rounded
+    /// ramp's formula is exact at zero width).
+    fn staged_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
+        let (r, k) = (self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6);
+        let (s, s2) = (self.blowoff_slope_pa_s_per_m3, self.blowoff2_slope_pa_s_per_m3);
+        let q_b = self.blowoff_flow_m3_s();
+        let (r1, r1_slope) = rounded_ramp(q_m3_s, q_b, self.blowoff_knee * q_b);
+        let x_2 = (self.blowoff2_pa - self.blowoff_pa) / s;
+        let (r2, rho_slope) = rounded_ramp(r1, x_2, self.blowoff_knee * x_2);
+        let r2_slope = rho_slope * r1_slope;
+        let inner = q_m3_s - r1;
+        let dp = inner * (r + k * libm::fabs(inner)) + s * (r1 - r2) + s2 * r2;
+        let slope = (r + 2.0 * k * libm::fabs(inner)) * (1.0 - r1_slope) + s * (r1_slope - r2_slope) + s2 * r2_slope;
         (dp, slope)
     }
 
@@ -158,8 +197,11 @@ impl DamperCurve {
     /// }
     /// ```
     pub fn flow_m3_s(&self, dp_pa: f64) -> f64 {
+        if self.staged() {
+            return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_pressure_drop_pa(q));
+        }
         if self.blowoff_knee > 0.0 {
-            return self.smooth_flow_m3_s(dp_pa);
+            return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_pressure_drop_pa(q));
         }
         if dp_pa <= self.blowoff_pa {
             solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa)
@@ -168,19 +210,19 @@ impl DamperCurve {
         }
     }
 
-    /// Inverse of the smooth-knee curve: Newton steps kept inside a
-    /// bracket that bisection shrinks when Newton would leave it (the curve
-    /// is monotone, so the bracket always holds the root).
-    fn smooth_flow_m3_s(&self, dp_pa: f64) -> f64 {
+    /// Inverse of a smooth curve `curve(q) = (dp, d(dp)/dq)`: Newton steps
+    /// kept inside a bracket that bisection shrinks when Newton would leave
+    /// it (the curve is monotone, so the bracket always holds the root).
+    fn bracketed_flow_m3_s(&self, dp_pa: f64, curve: impl Fn(f64) -> (f64, f64)) -> f64 {
         if dp_pa <= 0.0 {
             return 0.0;
         }
         let mut lo = 0.0;
         // A first guess from both limbs; the smooth curve can lie below it
         // (the knee's offset), so double the upper end until it brackets.
-        let mut hi = self.blowoff_flow_m3_s() + dp_pa / self.blowoff_slope_pa_s_per_m3 + solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa);
+        let mut hi = self.blowoff_flow_m3_s() + dp_pa / self.slowest_slope_pa_s_per_m3() + solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa);
         for _ in 0..64 {
-            if self.smooth_pressure_drop_pa(hi).0 >= dp_pa {
+            if curve(hi).0 >= dp_pa {
                 break;
             }
             lo = hi;
@@ -188,7 +230,7 @@ impl DamperCurve {
         }
         let mut q = 0.5 * (lo + hi);
         for _ in 0..100 {
-            let (f, slope) = self.smooth_pressure_drop_pa(q);
+            let (f, slope) = curve(q);
             let err = f - dp_pa;
             if libm::fabs(err) <= 1e-14 * dp_pa || hi - lo <= 1e-15 * hi {
                 break;
@@ -203,6 +245,40 @@ impl DamperCurve {
         }
         q
     }
+}
+
+impl DamperCurve {
+    /// The smaller of the blow-off slopes in use (the first guess of the
+    /// inverse's bracket).
+    fn slowest_slope_pa_s_per_m3(&self) -> f64 {
+        if self.staged() {
+            self.blowoff_slope_pa_s_per_m3.min(self.blowoff2_slope_pa_s_per_m3)
+        } else {
+            self.blowoff_slope_pa_s_per_m3
+        }
+    }
+}
+
+/// The ramp `max(q - q_b, 0)` rounded by the hyperbola of width `w` less its
+/// tangent at no flow, rescaled to unit slope (see [`DamperCurve`]), and
+/// its slope, at `q >= 0`. With `a = q - q_b`, `b = -q_b`, `s_a = sqrt(a^2 +
+/// w^2)`, `s_b` likewise, in forms free of the cancellation near `q = 0`
+/// (where both are O(q^2) and O(q) differences of O(q) terms):
+///   `r  = q^2 (s_a s_b + w^2 + q_b (q - q_b)) / ((s_a + s_b)^2 (s_b + q_b))`
+///   `r' = q (s_b + q_b (q - 2 q_b) / (s_a + s_b)) / (s_a (s_b + q_b))`
+/// (the first numerator is at least 2 w^2 by Cauchy-Schwarz). Exact at
+/// `w = 0`: the sharp ramp and its step.
+#[inline]
+fn rounded_ramp(q: f64, q_b: f64, w: f64) -> (f64, f64) {
+    let a = q - q_b;
+    let s_a = libm::sqrt(a * a + w * w);
+    let s_b = libm::sqrt(q_b * q_b + w * w);
+    let sum = s_a + s_b;
+    let den = sum * sum * (s_b + q_b);
+    let ramp = if den > 0.0 { q * q * (s_a * s_b + w * w + q_b * a) / den } else { 0.0 };
+    let slope_den = s_a * (s_b + q_b);
+    let slope = if slope_den > 0.0 && sum > 0.0 { q * (s_b + q_b * (q - 2.0 * q_b) / sum) / slope_den } else { 0.0 };
+    (ramp, slope)
 }
 
 /// Positive root q of `r q + k q^2 = dp`, in the cancellation-free form.

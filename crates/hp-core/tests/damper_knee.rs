@@ -116,3 +116,77 @@ fn far_above_the_knee_the_curve_is_the_sharp_one_with_the_knee_moved() {
         }
     }
 }
+
+fn staged(knee: f64, p2_over_p1: f64, s2_over_s1: f64) -> DamperCurve {
+    let mut c = curve(knee);
+    c.blowoff2_pa = c.blowoff_pa * p2_over_p1;
+    c.blowoff2_slope_pa_s_per_m3 = c.blowoff_slope_pa_s_per_m3 * s2_over_s1;
+    c
+}
+
+#[test]
+fn a_sharp_second_stage_is_the_three_piece_curve() {
+    // R q + K q^2 up to p_b, p_b + S (q - q_b) up to p_b2, then
+    // p_b2 + S2 (q - q_b2), q_b2 = q_b + (p_b2 - p_b) / S: the closed form.
+    for s2 in [0.2, 3.0] {
+        let c = staged(0.0, 2.5, s2);
+        let q_b = curve(0.0).flow_m3_s(c.blowoff_pa);
+        let q_b2 = q_b + (c.blowoff2_pa - c.blowoff_pa) / c.blowoff_slope_pa_s_per_m3;
+        assert!(q_b2 < 4.0 * q_b, "the test's flows reach the second stage");
+        for q in flows() {
+            let expected = if q <= q_b {
+                q * (c.bleed_pa_s_per_m3 + c.orifice_pa_s2_per_m6 * q)
+            } else if q <= q_b2 {
+                c.blowoff_pa + c.blowoff_slope_pa_s_per_m3 * (q - q_b)
+            } else {
+                c.blowoff2_pa + c.blowoff2_slope_pa_s_per_m3 * (q - q_b2)
+            };
+            let got = c.pressure_drop_pa(q);
+            assert!((got - expected).abs() <= 1e-9 * expected.max(1.0), "S2/S {s2}: {got} vs {expected} at q/q_b {}", q / q_b);
+        }
+    }
+}
+
+#[test]
+fn a_second_stage_keeps_the_curve_monotone_with_its_slope_and_inverse_exact() {
+    for knee in [0.0, 0.3, 1.0, 2.0] {
+        for (p2, s2) in [(1.01, 0.05), (1.5, 0.2), (3.0, 0.02), (2.0, 5.0), (1.2, 50.0)] {
+            let c = staged(knee, p2, s2);
+            assert!(c.validate().is_ok());
+            assert_eq!(c.pressure_drop_pa(0.0), 0.0);
+            assert_eq!(c.flow_m3_s(0.0), 0.0);
+            let mut last = 0.0;
+            for q in flows() {
+                let dp = c.pressure_drop_pa(q);
+                assert!(dp > last, "knee {knee}, p2 {p2}, S2 {s2}: not increasing at q = {q}");
+                last = dp;
+                let back = c.flow_m3_s(dp);
+                assert!((back - q).abs() <= 1e-10 * q, "knee {knee}, p2 {p2}, S2 {s2}: q {q} -> dp {dp} -> {back}");
+                // The analytic slope against a central difference (away from
+                // the sharp curve's kinks).
+                let h = 1e-6 * q;
+                let fd = (c.pressure_drop_pa(q + h) - c.pressure_drop_pa(q - h)) / (2.0 * h);
+                let slope = c.pressure_drop_slope_pa_s_per_m3(q);
+                assert!(slope > 0.0);
+                if knee > 0.0 {
+                    assert!((fd / slope - 1.0).abs() < 1e-4, "knee {knee}, p2 {p2}, S2 {s2}: slope {slope} vs {fd} at q {q}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_curve_without_a_second_stage_is_unchanged_and_a_bad_stage_is_refused() {
+    let one = curve(0.5);
+    assert_eq!(one.blowoff2_pa, 0.0);
+    // The second stage at the first one's slope does nothing (up to rounding).
+    let same = staged(0.5, 2.0, 1.0);
+    for q in flows() {
+        let (a, b) = (one.pressure_drop_pa(q), same.pressure_drop_pa(q));
+        assert!((a - b).abs() <= 1e-12 * a.max(1.0), "{a} vs {b} at {q}");
+    }
+    for (p2, s2) in [(1.0, 0.5), (0.5, 0.5), (f64::NAN, 0.5), (2.0, 0.0), (2.0, f64::INFINITY), (-1.0, 0.5)] {
+        assert!(staged(0.5, p2, s2).validate().is_err(), "p2/p1 {p2}, S2/S {s2} accepted");
+    }
+}

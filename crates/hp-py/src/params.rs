@@ -104,6 +104,9 @@ fn curve(r: &mut Reader<'_>, key: &str) -> PyResult<DamperCurve> {
         blowoff_pa: c.f64("blowoff_pa")?,
         blowoff_slope_pa_s_per_m3: c.f64("blowoff_slope_pa_s_per_m3")?,
         blowoff_knee: c.f64("blowoff_knee")?,
+        // The second stage came later: curves written without it have none.
+        blowoff2_pa: if c.get_opt("blowoff2_pa")?.is_some() { c.f64("blowoff2_pa")? } else { 0.0 },
+        blowoff2_slope_pa_s_per_m3: if c.get_opt("blowoff2_slope_pa_s_per_m3")?.is_some() { c.f64("blowoff2_slope_pa_s_per_m3")? } else { 0.0 },
     };
     c.finish()?;
     Ok(curve)
@@ -323,6 +326,8 @@ pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py,
         cd.set_item("blowoff_pa", c.blowoff_pa)?;
         cd.set_item("blowoff_slope_pa_s_per_m3", c.blowoff_slope_pa_s_per_m3)?;
         cd.set_item("blowoff_knee", c.blowoff_knee)?;
+        cd.set_item("blowoff2_pa", c.blowoff2_pa)?;
+        cd.set_item("blowoff2_slope_pa_s_per_m3", c.blowoff2_slope_pa_s_per_m3)?;
         Ok(cd)
     };
     d.set_item("piston_area_m2", p.piston_area_m2)?;

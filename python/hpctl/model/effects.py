@@ -389,6 +389,15 @@ DAMPER_KNEE_PRIOR = 0.5
 #: foreign rig's dampers (two washers in parallel opening progressively)
 #: take the widest knee the core allows on most draws (docs/foreign-rig.md).
 DAMPER_KNEE_BOUNDS = (0.0, 2.0)
+#: A second blow-off stage (hp-core's `blowoff2_pa`, `blowoff2_slope_pa_s_per_m3`):
+#: its pressure over the (shaped) first one's and its slope over the first
+#: stage's. The foreign rig's dampers with valve 5 open blow off twice, the
+#: bypass at about 0.75 MPa and the main valves at 2.6-4.3 MPa in parallel,
+#: which one knee cannot follow (docs/foreign-rig.md). The slope ratio's
+#: prior is centred on 1, where the second stage does nothing (and its
+#: pressure is moot, held by its own prior); the pressure ratio starts at 3.
+DAMPER_STAGE2_PRESSURE_BOUNDS = (1.05, 30.0)
+DAMPER_STAGE2_PRESSURE_START = 3.0
 
 
 def _damper_shape_params(branch: str) -> tuple[Param, ...]:
@@ -397,7 +406,10 @@ def _damper_shape_params(branch: str) -> tuple[Param, ...]:
     # The knee starts off its bound (a bound start stalls the trust region's
     # first step) but its prior is centred on the nominal sharp knee.
     knee = Param(f"damper_{branch}_knee", *DAMPER_KNEE_BOUNDS, 0.1, 0.0, (0.0, 1.0), prior_sigma=DAMPER_KNEE_PRIOR)
-    return scales + (knee,)
+    stage2 = (Param(f"damper_{branch}_blowoff2_scale", *DAMPER_STAGE2_PRESSURE_BOUNDS, DAMPER_STAGE2_PRESSURE_START, DAMPER_STAGE2_PRESSURE_START,
+                    (2.0, 5.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
+              Param(f"damper_{branch}_slope2_scale", 0.01, 100.0, 1.0, 1.0, (0.3, 3.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES))
+    return scales + (knee,) + stage2
 
 
 #: The damper-shape parameters per branch.
@@ -411,11 +423,19 @@ def damper_shape_params(branches: Sequence[str]) -> list[Param]:
 
 def shaped_damper(damper: Damper, values: Mapping[str, float]) -> Damper:
     """``damper`` with every branch's coefficients multiplied (and its knee
-    set) by the damper-shape ``values`` present; absent ones are nominal."""
+    and second blow-off stage set) by the damper-shape ``values`` present;
+    absent ones are nominal."""
 
     def shape(branch: str, c: DamperCurve) -> DamperCurve:
         kw = {field_: getattr(c, field_) * values.get(f"damper_{branch}_{k}", 1.0) for k, field_ in DAMPER_SHAPE_COEFFICIENTS}
-        return DamperCurve(**kw, blowoff_knee=values.get(f"damper_{branch}_knee", c.blowoff_knee))
+        slope2 = values.get(f"damper_{branch}_slope2_scale", 1.0)
+        if slope2 == 1.0:
+            # No second stage (or the curve's own): the one-stage curve bit for bit.
+            stage2 = {"blowoff2_pa": c.blowoff2_pa, "blowoff2_slope_pa_s_per_m3": c.blowoff2_slope_pa_s_per_m3}
+        else:
+            pressure2 = values.get(f"damper_{branch}_blowoff2_scale", DAMPER_STAGE2_PRESSURE_START)
+            stage2 = {"blowoff2_pa": kw["blowoff_pa"] * pressure2, "blowoff2_slope_pa_s_per_m3": kw["blowoff_slope_pa_s_per_m3"] * slope2}
+        return DamperCurve(**kw, blowoff_knee=values.get(f"damper_{branch}_knee", c.blowoff_knee), **stage2)
 
     return Damper(*(shape(b, getattr(damper, b)) for b in DAMPER_BRANCHES))
 

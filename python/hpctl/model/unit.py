@@ -34,13 +34,17 @@ class DamperCurve:
     ``R q + K q^2`` below the blow-off pressure, ``p_b + S (q - q_b)`` above;
     ``blowoff_knee`` > 0 rounds the knee over that fraction of the blow-off
     flow without touching the low-speed curve (``hp_core::damper::DamperCurve``;
-    0 = sharp)."""
+    0 = sharp). ``blowoff2_pa`` > 0 adds a second blow-off stage: above that
+    pressure drop the slope is ``blowoff2_slope_pa_s_per_m3`` (a bypass or a
+    second washer stack lifting later; 0 = none)."""
 
     bleed_pa_s_per_m3: float
     orifice_pa_s2_per_m6: float
     blowoff_pa: float
     blowoff_slope_pa_s_per_m3: float
     blowoff_knee: float = 0.0
+    blowoff2_pa: float = 0.0
+    blowoff2_slope_pa_s_per_m3: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -57,7 +61,7 @@ class Damper:
 
         def s(c: DamperCurve) -> DamperCurve:
             return DamperCurve(c.bleed_pa_s_per_m3 * gain, c.orifice_pa_s2_per_m6 * gain, c.blowoff_pa * gain, c.blowoff_slope_pa_s_per_m3 * gain,
-                               c.blowoff_knee)
+                               c.blowoff_knee, c.blowoff2_pa * gain, c.blowoff2_slope_pa_s_per_m3 * gain)
 
         return Damper(s(self.on_compression), s(self.on_rebound), s(self.off_compression), s(self.off_rebound))
 
