@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import secrets
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -126,6 +127,33 @@ def test_an_effect_whose_parameters_sit_at_its_null_is_not_accepted() -> None:
                   {"friction_coulomb_n": 117.0, "friction_viscous_n_s_per_m": 1298.0}, 1.0, 1, [], [], [])
     assert not Candidate(("friction",), 2, r, 10.0, 0.1).shows_itself
 
+
+def test_an_effect_within_its_errors_of_the_null_shows_itself_by_what_switching_it_off_loses() -> None:
+    # Wide errors (a flexible damper can take friction's role by moving far)
+    # but switching the effect off at the candidate's own values loses much:
+    # the effect shows itself. _null_delta_bic against an independent
+    # computation: the candidate's model run with its effect's parameters
+    # at their nulls, the BIC from the two sums of squares.
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.diagnose import BIC_STRONG, NULL_Z, Candidate, _null_delta_bic
+    from hpctl.identify.fit import fit, rss_at
+
+    rng = np.random.default_rng(11)
+    values, records = rig_data(["friction"], rng)
+    datasets = prepare(records)
+    r = fit(datasets, SEED_MODEL + ("friction",), input_noise=False, errors=False)
+    wide = {k: 1e9 for k in r.values}  # no parameter NULL_Z errors from anywhere
+    c = Candidate(("friction",), 2, replace(r, stderr=wide), 100.0, 1.0)
+    assert max(c.null_z.values()) < NULL_Z and not c.shows_itself
+    off = dict(r.values, friction_coulomb_n=0.0, friction_viscous_n_s_per_m=0.0)
+    rss_off = rss_at(datasets, r.model.effects, off)
+    expected = r.n * np.log(rss_off / r.rss) - 2 * np.log(r.n)
+    assert _null_delta_bic(datasets, c) == pytest.approx(expected, rel=1e-9)
+    c.null_delta_bic = expected
+    assert (expected > BIC_STRONG) == c.shows_itself, (values, expected)
+    assert expected > BIC_STRONG, f"the drawn friction {values} should show: {expected}"
+    c.null_delta_bic = BIC_STRONG
+    assert not c.shows_itself
 
 
 def test_sensor_offsets_must_show_in_the_residual_means() -> None:
