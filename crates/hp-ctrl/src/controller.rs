@@ -87,6 +87,11 @@ pub struct State {
     ride_height_m: f32,
     /// Last valid target pressure of L, Pa.
     p_gas2_target_pa: f32,
+    /// The gas table's density intervals of the last reference and held
+    /// offset lookups, where the next ones start their walks
+    /// ([`crate::gas_table::Isotherm::offset_near_m`]: the same offsets,
+    /// found sooner).
+    table_intervals: [u8; 2],
 }
 
 impl State {
@@ -101,6 +106,8 @@ impl State {
             load: LoadState::new(),
             ride_height_m: 0.0,
             p_gas2_target_pa: 0.0,
+            // Mid-table: any start finds the same interval.
+            table_intervals: [(crate::gas_table::TABLE_DENSITIES / 2) as u8; 2],
         }
     }
 }
@@ -217,15 +224,16 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
     if usable(PRESSURES) && usable(TEMPERATURE) {
         // Volume offsets of L's gas: the soft-mode rest state, the request
         // relative to it, and what L holds now.
-        let table = &params.table;
-        let t_k = inputs.t_gas_k as f32;
-        let reference_m = table.offset_m(p_load_pa, t_k);
+        // All three at the same temperature: located once.
+        let table = params.table.isotherm(inputs.t_gas_k as f32);
+        let [reference_near, height_near] = &mut state.table_intervals;
+        let reference_m = table.offset_near_m(p_load_pa, reference_near);
         let (stroke_min_m, stroke_max_m) = params.stroke_m;
         state.ride_height_m =
             // max/min rather than clamp: clamp keeps a panic path for bounds
             // it cannot prove ordered, and the firmware must link none.
-            (table.offset_m(inputs.p_gas2_pa as f32, t_k) - reference_m).max(stroke_min_m).min(stroke_max_m);
-        state.p_gas2_target_pa = table.pressure_pa(reference_m + request_m, t_k);
+            (table.offset_near_m(inputs.p_gas2_pa as f32, height_near) - reference_m).max(stroke_min_m).min(stroke_max_m);
+        state.p_gas2_target_pa = table.pressure_pa(reference_m + request_m);
     } else {
         flags |= diag::HEIGHT_ESTIMATE_HELD;
     }

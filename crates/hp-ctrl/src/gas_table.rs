@@ -184,7 +184,16 @@ impl Column<'_> {
         let guess = (p_pa - p_first) / (p_last - p_first) * last as f32;
         // 0 < guess < last for a p_pa inside; through u32 as in
         // `GridPoint::locate`, and a NaN guess is node 0.
-        let mut j = (guess as u32 as usize).min(last - 1);
+        self.walk(p_pa, guess as u32 as usize)
+    }
+
+    /// The same interval as [`Column::interval`], walked to from the
+    /// interval `start` (any: the column rises strictly, so the walk ends
+    /// on the one interval holding `p_pa` wherever it starts; a unit test
+    /// checks every start against a bisection).
+    fn walk(&self, p_pa: f32, start: usize) -> usize {
+        let last = TABLE_DENSITIES - 1;
+        let mut j = start.min(last - 1);
         while j > 0 && self.at(j) > p_pa {
             j -= 1;
         }
@@ -277,6 +286,17 @@ impl LargeTable {
         }
     }
 
+    /// The table at one gas temperature `t_k`, for several lookups at it:
+    /// the controller makes three per period at the same temperature, and
+    /// locating the temperature and the column's ends once serves them all
+    /// (each lookup gives exactly what [`LargeTable::pressure_pa`] and
+    /// [`LargeTable::offset_m`] give).
+    pub fn isotherm(&self, t_k: f32) -> Isotherm<'_> {
+        let column = self.column(t_k);
+        let ends_pa = (column.at(0), column.at(TABLE_DENSITIES - 1));
+        Isotherm { table: self, column, ends_pa }
+    }
+
     /// Smallest and largest tabulated volume offset, m.
     pub fn offset_range_m(&self) -> (f32, f32) {
         self.u_range_m
@@ -285,37 +305,83 @@ impl LargeTable {
     /// Pressure of L's gas at the volume offset `u_m` and gas temperature
     /// `t_k`, Pa. Arguments outside the table are clamped to its edges.
     pub fn pressure_pa(&self, u_m: f32, t_k: f32) -> f32 {
-        let (u_min, u_max) = self.u_range_m;
-        // `max` first: a NaN offset becomes the table's edge.
-        let u_m = u_m.max(u_min).min(u_max);
-        let rho = self.mass_kg / (self.v0_m3 + self.area_m2 * u_m);
-        let column = self.column(t_k);
-        let at = GridPoint::locate(rho, self.rho0_kg_m3, self.rho_step_kg_m3, TABLE_DENSITIES);
-        lerp(column.at(at.node), column.at(at.node + 1), at.weight)
+        self.isotherm(t_k).pressure_pa(u_m)
     }
 
     /// The volume offset at which L's gas has the pressure `p_pa` at gas
     /// temperature `t_k`, m: the inverse of [`LargeTable::pressure_pa`],
     /// clamped to the table.
     pub fn offset_m(&self, p_pa: f32, t_k: f32) -> f32 {
-        let column = self.column(t_k);
-        let (u_min, u_max) = self.u_range_m;
+        self.isotherm(t_k).offset_m(p_pa)
+    }
+}
+
+/// [`LargeTable`] at one gas temperature ([`LargeTable::isotherm`]).
+pub struct Isotherm<'a> {
+    table: &'a LargeTable,
+    column: Column<'a>,
+    /// The pressures at the first and the last density node, Pa.
+    ends_pa: (f32, f32),
+}
+
+impl Isotherm<'_> {
+    /// [`LargeTable::pressure_pa`] at this temperature.
+    pub fn pressure_pa(&self, u_m: f32) -> f32 {
+        let table = self.table;
+        let (u_min, u_max) = table.u_range_m;
+        // `max` first: a NaN offset becomes the table's edge.
+        let u_m = u_m.max(u_min).min(u_max);
+        let rho = table.mass_kg / (table.v0_m3 + table.area_m2 * u_m);
+        let column = &self.column;
+        let at = GridPoint::locate(rho, table.rho0_kg_m3, table.rho_step_kg_m3, TABLE_DENSITIES);
+        lerp(column.at(at.node), column.at(at.node + 1), at.weight)
+    }
+
+    /// [`LargeTable::offset_m`] at this temperature.
+    pub fn offset_m(&self, p_pa: f32) -> f32 {
+        let (p_first, p_last) = self.ends_pa;
+        self.offset_in_m(p_pa, |column| column.interval(p_pa, p_first, p_last))
+    }
+
+    /// [`Isotherm::offset_m`] (the same value) with the table's interval
+    /// walked to from `*near`, the interval of an earlier lookup, which is
+    /// then set to this one's. A controller's pressures move by a fraction
+    /// of an interval per period, so the walk nearly always stops at once:
+    /// the linear guess [`Isotherm::offset_m`] starts from costs a division
+    /// and lands a few intervals off (the walk's branches then mispredict),
+    /// on the period's longest chain of dependent operations (the gas table
+    /// lookups were 14 % of the semi-active 8x8's time by `perf`).
+    pub fn offset_near_m(&self, p_pa: f32, near: &mut u8) -> f32 {
+        self.offset_in_m(p_pa, |column| {
+            let j = column.walk(p_pa, usize::from(*near));
+            // j < TABLE_DENSITIES, far below u8::MAX.
+            *near = u8::try_from(j).unwrap_or(0);
+            j
+        })
+    }
+
+    /// The offset of `p_pa` with its interval found by `interval` (for a
+    /// `p_pa` strictly inside the column).
+    #[inline(always)]
+    fn offset_in_m(&self, p_pa: f32, interval: impl FnOnce(&Column<'_>) -> usize) -> f32 {
+        let table = self.table;
+        let column = &self.column;
+        let (u_min, u_max) = table.u_range_m;
         // The pressure rises with the density.
-        let last = TABLE_DENSITIES - 1;
-        let (p_first, p_last) = (column.at(0), column.at(last));
+        let (p_first, p_last) = self.ends_pa;
         if p_pa <= p_first || p_pa.is_nan() {
             return u_max;
         }
         if p_pa >= p_last {
             return u_min;
         }
-        let lo = column.interval(p_pa, p_first, p_last);
+        let lo = interval(column);
         let (p_a, p_b) = (column.at(lo), column.at(lo + 1));
         // p_a <= p_pa < p_b, and the table rises strictly, so p_b > p_a.
         let fraction = (p_pa - p_a) / (p_b - p_a);
-        let rho = self.rho0_kg_m3 + self.rho_step_kg_m3 * (lo as f32 + fraction);
+        let rho = table.rho0_kg_m3 + table.rho_step_kg_m3 * (lo as f32 + fraction);
         // max/min rather than clamp, which keeps a panic path.
-        ((self.mass_kg / rho - self.v0_m3) / self.area_m2).max(u_min).min(u_max)
+        ((table.mass_kg / rho - table.v0_m3) / table.area_m2).max(u_min).min(u_max)
     }
 }
 
@@ -341,6 +407,34 @@ mod tests {
     }
 
     #[test]
+    fn a_lookup_from_an_earlier_interval_gives_the_same_offset() {
+        let params = crate::Params::seed_unit().unwrap();
+        let table = params.large_table();
+        let m = params.config().monitor;
+        let mut checked = 0;
+        for ti in 0..=37 {
+            let t_k = (m.temperature_min_k + (m.temperature_max_k - m.temperature_min_k) * f64::from(ti) / 37.0) as f32;
+            let isotherm = table.isotherm(t_k);
+            let (first_pa, last_pa) = isotherm.ends_pa;
+            let mut pressures: Vec<f32> = (-10..1010).map(|k| first_pa + (last_pa - first_pa) * k as f32 / 1000.0).collect();
+            pressures.extend([f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -1.0, first_pa, last_pa]);
+            for (k, &p_pa) in pressures.iter().enumerate() {
+                let expected = table.offset_m(p_pa, t_k);
+                assert_eq!(isotherm.offset_m(p_pa).to_bits(), expected.to_bits());
+                for start in [0_u8, 1, 9, 19, 20, 21, 200, (k % 23) as u8] {
+                    let mut near = start;
+                    let u_m = isotherm.offset_near_m(p_pa, &mut near);
+                    assert_eq!(u_m.to_bits(), expected.to_bits(), "t {t_k} K, p {p_pa} Pa, from {start}");
+                    // Kept when the pressure is outside the table.
+                    assert!(near == start || usize::from(near) < TABLE_DENSITIES - 1);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 300_000, "{checked}");
+    }
+
+    #[test]
     fn the_walk_finds_the_interval_a_bisection_finds() {
         let params = crate::Params::seed_unit().unwrap();
         let table = params.large_table();
@@ -362,6 +456,9 @@ mod tests {
             for p_pa in pressures.into_iter().filter(|&p| p > first_pa && p < last_pa) {
                 let j = column.interval(p_pa, first_pa, last_pa);
                 assert_eq!(j, bisection(&column, p_pa), "t {t_k} K, p {p_pa} Pa");
+                for start in (0..=last + 1).step_by(if checked % 16 == 0 { 1 } else { 7 }) {
+                    assert_eq!(column.walk(p_pa, start), j, "t {t_k} K, p {p_pa} Pa, from {start}");
+                }
                 assert!(column.at(j) <= p_pa && p_pa < column.at(j + 1));
                 checked += 1;
             }
