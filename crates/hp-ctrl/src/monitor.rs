@@ -280,7 +280,29 @@ fn value_fault(x: f64, min: f64, max: f64) -> u32 {
     }
 }
 
+/// Whether every value is in its range (then [`value_faults`] are all
+/// zero): the usual period's check, two comparisons per value and no
+/// branch. A NaN fails its comparisons, and every limit is finite
+/// ([`MonitorConfig::validate`]), so a value in range is finite.
+#[inline(always)]
+fn all_in_range(p: &MonitorParams, i: &Inputs) -> bool {
+    let within = |x: f64, (min, max): (f64, f64)| (x >= min) & (x <= max);
+    let symmetric = |x: f64, max: f64| (x >= -max) & (x <= max);
+    within(i.p_gas_pa, p.pressure_pa)
+        & within(i.p_gas2_pa, p.pressure_pa)
+        & within(i.strut_disp_m, p.disp_m)
+        & symmetric(i.body_acc_m_s2, p.body_acc_max_m_s2)
+        & within(i.speed_m_s, p.speed_m_s)
+        & symmetric(i.lat_acc_m_s2, p.vehicle_acc_max_m_s2)
+        & symmetric(i.long_acc_m_s2, p.vehicle_acc_max_m_s2)
+        & symmetric(i.steer_angle_rad, p.steer_angle_max_rad)
+        & symmetric(i.steer_rate_rad_s, p.steer_rate_max_rad_s)
+        & within(i.t_gas_k, p.temperature_k)
+        & i.ride_height_request_m.is_finite()
+}
+
 /// The value faults of each group, in the bit order of [`input_group`].
+#[cold]
 fn value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
     let symmetric = |x: f64, max: f64| value_fault(x, -max, max);
     [
@@ -300,7 +322,7 @@ fn value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
 
 /// Checks this period's inputs; `dt_us` is `None` when `dt_s` was invalid.
 pub fn step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
-    let mut faults = value_faults(p, inputs);
+    let mut faults = if all_in_range(p, inputs) { [0; GROUPS] } else { value_faults(p, inputs) };
     let mut flags = 0;
     match dt_us {
         Some(dt_us) => {
@@ -324,17 +346,30 @@ pub fn step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Opt
                     rate_faults |= group;
                 }
             }
-            for ((fault, age), (bit, timeout)) in faults
-                .iter_mut()
-                .zip(s.age_us.iter_mut())
-                .zip((0..GROUPS).map(|n| 1_u16 << n).zip(p.timeouts_us))
-            {
-                *age = if fresh(bit) { 0 } else { age.saturating_add(dt_us) };
-                if *age > timeout {
-                    *fault |= diag::STALE;
+            if inputs.fresh & input_group::ALL == input_group::ALL {
+                // Every group fresh (the usual period): every age is zero,
+                // and zero is never beyond a timeout, so nothing is stale.
+                s.age_us = [0; GROUPS];
+                if rate_faults != 0 {
+                    for (n, fault) in faults.iter_mut().enumerate() {
+                        if rate_faults & (1 << n) != 0 {
+                            *fault |= diag::RATE_LIMIT;
+                        }
+                    }
                 }
-                if rate_faults & bit != 0 {
-                    *fault |= diag::RATE_LIMIT;
+            } else {
+                for ((fault, age), (bit, timeout)) in faults
+                    .iter_mut()
+                    .zip(s.age_us.iter_mut())
+                    .zip((0..GROUPS).map(|n| 1_u16 << n).zip(p.timeouts_us))
+                {
+                    *age = if fresh(bit) { 0 } else { age.saturating_add(dt_us) };
+                    if *age > timeout {
+                        *fault |= diag::STALE;
+                    }
+                    if rate_faults & bit != 0 {
+                        *fault |= diag::RATE_LIMIT;
+                    }
                 }
             }
         }
@@ -372,4 +407,185 @@ pub fn step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Opt
         }
     }
     Health { diag: flags, usable, safe }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+
+    /// The step as it was before its fast paths (every value classified,
+    /// every age counted), the reference the fast paths must match.
+    fn reference_value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
+        let symmetric = |x: f64, max: f64| value_fault(x, -max, max);
+        [
+            value_fault(i.p_gas_pa, p.pressure_pa.0, p.pressure_pa.1)
+                | value_fault(i.p_gas2_pa, p.pressure_pa.0, p.pressure_pa.1),
+            value_fault(i.strut_disp_m, p.disp_m.0, p.disp_m.1),
+            symmetric(i.body_acc_m_s2, p.body_acc_max_m_s2),
+            value_fault(i.speed_m_s, p.speed_m_s.0, p.speed_m_s.1)
+                | symmetric(i.lat_acc_m_s2, p.vehicle_acc_max_m_s2)
+                | symmetric(i.long_acc_m_s2, p.vehicle_acc_max_m_s2),
+            symmetric(i.steer_angle_rad, p.steer_angle_max_rad) | symmetric(i.steer_rate_rad_s, p.steer_rate_max_rad_s),
+            value_fault(i.t_gas_k, p.temperature_k.0, p.temperature_k.1),
+            // The request is clamped, not rejected, when finite but too large.
+            if i.ride_height_request_m.is_finite() { 0 } else { diag::NOT_FINITE },
+        ]
+    }
+
+    fn reference_step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
+        let mut faults = reference_value_faults(p, inputs);
+        let mut flags = 0;
+        match dt_us {
+            Some(dt_us) => {
+                let fresh = |group: u16| inputs.fresh & group != 0;
+                let value_ok = |faults: &[u32; GROUPS], group: u16| {
+                    faults.get(group.trailing_zeros() as usize).is_some_and(|&f| f == 0)
+                };
+                // Rate checks between consecutive good fresh samples.
+                let rate_checked = [
+                    (&mut s.p_small, inputs.p_gas_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
+                    (&mut s.p_large, inputs.p_gas2_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
+                    (&mut s.disp, inputs.strut_disp_m, input_group::STRUT, p.disp_rate_m_per_us),
+                    (&mut s.t_gas, inputs.t_gas_k, input_group::TEMPERATURE, p.temperature_rate_k_per_us),
+                ];
+                let mut rate_faults = 0_u16;
+                for (track, x, group, limit) in rate_checked {
+                    track.advance(dt_us);
+                    if !value_ok(&faults, group) {
+                        *track = RateTrack::NONE;
+                    } else if fresh(group) && !track.sample(x as f32, limit) {
+                        rate_faults |= group;
+                    }
+                }
+                for ((fault, age), (bit, timeout)) in faults
+                    .iter_mut()
+                    .zip(s.age_us.iter_mut())
+                    .zip((0..GROUPS).map(|n| 1_u16 << n).zip(p.timeouts_us))
+                {
+                    *age = if fresh(bit) { 0 } else { age.saturating_add(dt_us) };
+                    if *age > timeout {
+                        *fault |= diag::STALE;
+                    }
+                    if rate_faults & bit != 0 {
+                        *fault |= diag::RATE_LIMIT;
+                    }
+                }
+            }
+            None => {
+                flags |= diag::BAD_DT;
+                // Without a valid step size the time between samples is unknown.
+                for track in [&mut s.p_small, &mut s.p_large, &mut s.disp, &mut s.t_gas] {
+                    *track = RateTrack::NONE;
+                }
+            }
+        }
+        if inputs.link_fault {
+            flags |= diag::LINK_FAULT;
+        }
+        let mut usable = input_group::ALL;
+        for (n, fault) in faults.iter().enumerate() {
+            if *fault != 0 {
+                let bit = 1_u16 << n;
+                flags |= fault | diag::group(bit);
+                if *fault & !diag::STALE != 0 {
+                    usable &= !bit;
+                }
+            }
+        }
+        let faulted = flags != 0;
+        match dt_us {
+            Some(dt_us) if !faulted => s.good_us = s.good_us.saturating_add(dt_us),
+            _ => s.good_us = 0,
+        }
+        let safe = faulted || s.good_us < p.recovery_us;
+        if safe {
+            flags |= diag::SAFE_STATE;
+            if !faulted {
+                flags |= diag::RECOVERING;
+            }
+        }
+        Health { diag: flags, usable, safe }
+    }
+
+    /// A deterministic sequence of periods with every kind of input: good
+    /// values, values at, just beyond and far beyond their limits, NaN and
+    /// infinities, jumps, dropped fresh flags, link faults and bad steps.
+    #[test]
+    fn the_fast_paths_decide_as_the_full_checks_do() {
+        // A short recovery, so that the sequence is out of the safe state too.
+        let config = MonitorConfig { recovery_s: 0.005, ..MonitorConfig::default() };
+        let p = MonitorParams::new(&config, &UnitConfig::seed_unit());
+        let (mut fast, mut full) = (MonitorState::new(), MonitorState::new());
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let good = Inputs {
+            p_gas_pa: 8.0e6,
+            p_gas2_pa: 8.0e6,
+            t_gas_k: 300.0,
+            speed_m_s: 10.0,
+            fresh: input_group::ALL,
+            ..Inputs::default()
+        };
+        let mut inputs = good;
+        let (mut safe_periods, mut faulted_kinds) = (0, 0);
+        for _ in 0..200_000 {
+            let r = next();
+            if r % 13 == 0 {
+                inputs = good;
+            }
+            let field = (r >> 8) % 16;
+            let value = match (r >> 16) % 12 {
+                0 => f64::NAN,
+                1 => f64::INFINITY,
+                2 => f64::NEG_INFINITY,
+                3 => config.pressure_max_pa,
+                4 => config.pressure_min_pa * (1.0 - 1e-15),
+                5 => -config.body_acc_max_m_s2,
+                6 => config.temperature_max_k * (1.0 + 1e-15),
+                7 => -(config.disp_margin_m + 0.2),
+                _ => ((r >> 24) % 2000) as f64 * 1.0e4 - 2.0e6,
+            };
+            if (r >> 40) % 16 == 0 {
+                match field {
+                    0 => inputs.p_gas_pa = value,
+                    1 => inputs.p_gas2_pa = value,
+                    2 => inputs.strut_disp_m = value * 1e-8,
+                    3 => inputs.body_acc_m_s2 = value * 1e-6,
+                    4 => inputs.speed_m_s = value * 1e-6,
+                    5 => inputs.lat_acc_m_s2 = value * 1e-6,
+                    6 => inputs.long_acc_m_s2 = value * 1e-6,
+                    7 => inputs.steer_angle_rad = value * 1e-7,
+                    8 => inputs.steer_rate_rad_s = value * 1e-7,
+                    9 => inputs.t_gas_k = value * 1e-4 + 300.0,
+                    10 => inputs.ride_height_request_m = value,
+                    11 => inputs.fresh = (r >> 48) as u16 & input_group::ALL,
+                    12 => inputs.fresh = input_group::ALL,
+                    13 => inputs.link_fault = !inputs.link_fault,
+                    14 => inputs.p_gas_pa = 8.0e6 + value,
+                    _ => inputs.t_gas_k = 300.0 + value * 1e-6,
+                }
+            }
+            let dt_us = match (r >> 52) % 50 {
+                0 => None,
+                1 => Some(50_000),
+                n => Some(n as u32 * 100),
+            };
+            let a = step(&p, &mut fast, &inputs, dt_us);
+            let b = reference_step(&p, &mut full, &inputs, dt_us);
+            assert_eq!(a, b, "{inputs:?} {dt_us:?}");
+            assert_eq!(fast, full);
+            safe_periods += usize::from(a.safe);
+            faulted_kinds |= a.diag;
+        }
+        // The sequence reached every verdict.
+        assert!(safe_periods > 1000 && safe_periods < 199_000, "{safe_periods}");
+        let kinds = diag::NOT_FINITE | diag::OUT_OF_RANGE | diag::RATE_LIMIT | diag::STALE | diag::BAD_DT | diag::LINK_FAULT;
+        assert_eq!(faulted_kinds & kinds, kinds, "{faulted_kinds:#x}");
+    }
 }
