@@ -192,15 +192,26 @@ impl Column<'_> {
     /// on the one interval holding `p_pa` wherever it starts; a unit test
     /// checks every start against a bisection).
     fn walk(&self, p_pa: f32, start: usize) -> usize {
+        self.walk_to(p_pa, start).0
+    }
+
+    /// [`Column::walk`] with the pressures at the interval's ends, which
+    /// the walk has read on its way (`(j, p(j), p(j + 1))`).
+    fn walk_to(&self, p_pa: f32, start: usize) -> (usize, f32, f32) {
         let last = TABLE_DENSITIES - 1;
         let mut j = start.min(last - 1);
-        while j > 0 && self.at(j) > p_pa {
+        let mut p_j = self.at(j);
+        while j > 0 && p_j > p_pa {
             j -= 1;
+            p_j = self.at(j);
         }
-        while j + 1 < last && self.at(j + 1) <= p_pa {
+        let mut p_next = self.at(j + 1);
+        while j + 1 < last && p_next <= p_pa {
             j += 1;
+            p_j = p_next;
+            p_next = self.at(j + 1);
         }
-        j
+        (j, p_j, p_next)
     }
 }
 
@@ -340,7 +351,10 @@ impl Isotherm<'_> {
     /// [`LargeTable::offset_m`] at this temperature.
     pub fn offset_m(&self, p_pa: f32) -> f32 {
         let (p_first, p_last) = self.ends_pa;
-        self.offset_in_m(p_pa, |column| column.interval(p_pa, p_first, p_last))
+        self.offset_in_m(p_pa, |column| {
+            let j = column.interval(p_pa, p_first, p_last);
+            (j, column.at(j), column.at(j + 1))
+        })
     }
 
     /// [`Isotherm::offset_m`] (the same value) with the table's interval
@@ -353,17 +367,18 @@ impl Isotherm<'_> {
     /// lookups were 14 % of the semi-active 8x8's time by `perf`).
     pub fn offset_near_m(&self, p_pa: f32, near: &mut u8) -> f32 {
         self.offset_in_m(p_pa, |column| {
-            let j = column.walk(p_pa, usize::from(*near));
-            // j < TABLE_DENSITIES, far below u8::MAX.
-            *near = u8::try_from(j).unwrap_or(0);
-            j
+            let found = column.walk_to(p_pa, usize::from(*near));
+            // found.0 < TABLE_DENSITIES, far below u8::MAX.
+            *near = found.0 as u8;
+            found
         })
     }
 
-    /// The offset of `p_pa` with its interval found by `interval` (for a
-    /// `p_pa` strictly inside the column).
+    /// The offset of `p_pa` with its interval and the pressures at the
+    /// interval's ends found by `interval` (for a `p_pa` strictly inside
+    /// the column).
     #[inline(always)]
-    fn offset_in_m(&self, p_pa: f32, interval: impl FnOnce(&Column<'_>) -> usize) -> f32 {
+    fn offset_in_m(&self, p_pa: f32, interval: impl FnOnce(&Column<'_>) -> (usize, f32, f32)) -> f32 {
         let table = self.table;
         let column = &self.column;
         let (u_min, u_max) = table.u_range_m;
@@ -375,8 +390,7 @@ impl Isotherm<'_> {
         if p_pa >= p_last {
             return u_min;
         }
-        let lo = interval(column);
-        let (p_a, p_b) = (column.at(lo), column.at(lo + 1));
+        let (lo, p_a, p_b) = interval(column);
         // p_a <= p_pa < p_b, and the table rises strictly, so p_b > p_a.
         let fraction = (p_pa - p_a) / (p_b - p_a);
         let rho = table.rho0_kg_m3 + table.rho_step_kg_m3 * (lo as f32 + fraction);
@@ -457,7 +471,9 @@ mod tests {
                 let j = column.interval(p_pa, first_pa, last_pa);
                 assert_eq!(j, bisection(&column, p_pa), "t {t_k} K, p {p_pa} Pa");
                 for start in (0..=last + 1).step_by(if checked % 16 == 0 { 1 } else { 7 }) {
-                    assert_eq!(column.walk(p_pa, start), j, "t {t_k} K, p {p_pa} Pa, from {start}");
+                    let (walked, p_j, p_next) = column.walk_to(p_pa, start);
+                    assert_eq!(walked, j, "t {t_k} K, p {p_pa} Pa, from {start}");
+                    assert_eq!((p_j.to_bits(), p_next.to_bits()), (column.at(j).to_bits(), column.at(j + 1).to_bits()));
                 }
                 assert!(column.at(j) <= p_pa && p_pa < column.at(j + 1));
                 checked += 1;
