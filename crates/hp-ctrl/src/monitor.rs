@@ -302,6 +302,7 @@ fn all_in_range(p: &MonitorParams, i: &Inputs) -> bool {
 }
 
 /// The value faults of each group, in the bit order of [`input_group`].
+#[cold]
 fn value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
     let symmetric = |x: f64, max: f64| value_fault(x, -max, max);
     [
@@ -321,60 +322,7 @@ fn value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
 
 /// Checks this period's inputs; `dt_us` is `None` when `dt_s` was invalid.
 pub fn step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
-    match dt_us {
-        Some(dt_us) if inputs.fresh & input_group::ALL == input_group::ALL && !inputs.link_fault && all_in_range(p, inputs) => {
-            step_all_good(p, s, inputs, dt_us)
-        }
-        _ => step_checked(p, s, inputs, dt_us),
-    }
-}
-
-/// [`step`] for the usual period, which [`step_checked`] would find
-/// without a value fault, stale group or link fault and with a valid step
-/// size: only the rate checks can fault it. The same verdict and state
-/// (a unit test runs both on every kind of period), for the eight
-/// controllers of the 8x8 every period in a third of the instructions.
-#[inline(always)]
-fn step_all_good(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: u32) -> Health {
-    let rate_checked = [
-        (&mut s.p_small, inputs.p_gas_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
-        (&mut s.p_large, inputs.p_gas2_pa, input_group::PRESSURES, p.pressure_rate_pa_per_us),
-        (&mut s.disp, inputs.strut_disp_m, input_group::STRUT, p.disp_rate_m_per_us),
-        (&mut s.t_gas, inputs.t_gas_k, input_group::TEMPERATURE, p.temperature_rate_k_per_us),
-    ];
-    let mut rate_faults = 0_u16;
-    for (track, x, group, limit) in rate_checked {
-        track.advance(dt_us);
-        if !track.sample(x as f32, limit) {
-            rate_faults |= group;
-        }
-    }
-    // Every group fresh: every age zero, and zero is never beyond a timeout.
-    s.age_us = [0; GROUPS];
-    let faulted = rate_faults != 0;
-    let mut flags = 0;
-    if faulted {
-        flags = diag::RATE_LIMIT | diag::group(rate_faults);
-        s.good_us = 0;
-    } else {
-        s.good_us = s.good_us.saturating_add(dt_us);
-    }
-    let safe = faulted || s.good_us < p.recovery_us;
-    if safe {
-        flags |= diag::SAFE_STATE;
-        if !faulted {
-            flags |= diag::RECOVERING;
-        }
-    }
-    Health { diag: flags, usable: input_group::ALL & !rate_faults, safe }
-}
-
-/// [`step`] for any period: every value classified, every group's age
-/// counted. Out of line: a period with a fault or a stale group is rare.
-#[cold]
-#[inline(never)]
-fn step_checked(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
-    let mut faults = value_faults(p, inputs);
+    let mut faults = if all_in_range(p, inputs) { [0; GROUPS] } else { value_faults(p, inputs) };
     let mut flags = 0;
     match dt_us {
         Some(dt_us) => {
@@ -398,17 +346,30 @@ fn step_checked(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us:
                     rate_faults |= group;
                 }
             }
-            for ((fault, age), (bit, timeout)) in faults
-                .iter_mut()
-                .zip(s.age_us.iter_mut())
-                .zip((0..GROUPS).map(|n| 1_u16 << n).zip(p.timeouts_us))
-            {
-                *age = if fresh(bit) { 0 } else { age.saturating_add(dt_us) };
-                if *age > timeout {
-                    *fault |= diag::STALE;
+            if inputs.fresh & input_group::ALL == input_group::ALL {
+                // Every group fresh (the usual period): every age is zero,
+                // and zero is never beyond a timeout, so nothing is stale.
+                s.age_us = [0; GROUPS];
+                if rate_faults != 0 {
+                    for (n, fault) in faults.iter_mut().enumerate() {
+                        if rate_faults & (1 << n) != 0 {
+                            *fault |= diag::RATE_LIMIT;
+                        }
+                    }
                 }
-                if rate_faults & bit != 0 {
-                    *fault |= diag::RATE_LIMIT;
+            } else {
+                for ((fault, age), (bit, timeout)) in faults
+                    .iter_mut()
+                    .zip(s.age_us.iter_mut())
+                    .zip((0..GROUPS).map(|n| 1_u16 << n).zip(p.timeouts_us))
+                {
+                    *age = if fresh(bit) { 0 } else { age.saturating_add(dt_us) };
+                    if *age > timeout {
+                        *fault |= diag::STALE;
+                    }
+                    if rate_faults & bit != 0 {
+                        *fault |= diag::RATE_LIMIT;
+                    }
                 }
             }
         }
