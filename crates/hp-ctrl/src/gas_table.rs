@@ -179,18 +179,25 @@ impl Column<'_> {
     /// intervals (measured on the 8x8's controllers: 145 instead of 176
     /// instructions per lookup; cachegrind's model counts fewer
     /// mispredictions too, 881 against 1,009 per simulated second).
+    #[cfg(test)]
     fn interval(&self, p_pa: f32, p_first: f32, p_last: f32) -> usize {
+        self.walk(p_pa, Column::guess(p_pa, p_first, p_last))
+    }
+
+    /// Where the walk of [`Column::interval`] starts.
+    fn guess(p_pa: f32, p_first: f32, p_last: f32) -> usize {
         let last = TABLE_DENSITIES - 1;
         let guess = (p_pa - p_first) / (p_last - p_first) * last as f32;
         // 0 < guess < last for a p_pa inside; through u32 as in
         // `GridPoint::locate`, and a NaN guess is node 0.
-        self.walk(p_pa, guess as u32 as usize)
+        (guess as u32 as usize).min(last - 1)
     }
 
     /// The same interval as [`Column::interval`], walked to from the
     /// interval `start` (any: the column rises strictly, so the walk ends
     /// on the one interval holding `p_pa` wherever it starts; a unit test
     /// checks every start against a bisection).
+    #[cfg(test)]
     fn walk(&self, p_pa: f32, start: usize) -> usize {
         self.walk_to(p_pa, start).0
     }
@@ -351,36 +358,22 @@ impl Isotherm<'_> {
     /// [`LargeTable::offset_m`] at this temperature.
     pub fn offset_m(&self, p_pa: f32) -> f32 {
         let (p_first, p_last) = self.ends_pa;
-        self.offset_in_m(p_pa, |column| {
-            let j = column.interval(p_pa, p_first, p_last);
-            (j, column.at(j), column.at(j + 1))
-        })
+        // Below TABLE_DENSITIES, far below u8::MAX.
+        let mut near = Column::guess(p_pa, p_first, p_last) as u8;
+        self.offset_near_m(p_pa, &mut near)
     }
 
     /// [`Isotherm::offset_m`] (the same value) with the table's interval
     /// walked to from `*near`, the interval of an earlier lookup, which is
-    /// then set to this one's. A controller's pressures move by a fraction
-    /// of an interval per period, so the walk nearly always stops at once:
-    /// the linear guess [`Isotherm::offset_m`] starts from costs a division
-    /// and lands a few intervals off (the walk's branches then mispredict),
-    /// on the period's longest chain of dependent operations (the gas table
+    /// then set to this one's (left as it was for a pressure outside the
+    /// table). A controller's pressures move by a fraction of an interval
+    /// per period, so the walk nearly always stops at once: the linear
+    /// guess [`Isotherm::offset_m`] starts from costs a division and lands
+    /// a few intervals off (the walk's branches then mispredict), on the
+    /// period's longest chain of dependent operations (the gas table
     /// lookups were 14 % of the semi-active 8x8's time by `perf`).
     pub fn offset_near_m(&self, p_pa: f32, near: &mut u8) -> f32 {
-        self.offset_in_m(p_pa, |column| {
-            let found = column.walk_to(p_pa, usize::from(*near));
-            // found.0 < TABLE_DENSITIES, far below u8::MAX.
-            *near = found.0 as u8;
-            found
-        })
-    }
-
-    /// The offset of `p_pa` with its interval and the pressures at the
-    /// interval's ends found by `interval` (for a `p_pa` strictly inside
-    /// the column).
-    #[inline(always)]
-    fn offset_in_m(&self, p_pa: f32, interval: impl FnOnce(&Column<'_>) -> (usize, f32, f32)) -> f32 {
         let table = self.table;
-        let column = &self.column;
         let (u_min, u_max) = table.u_range_m;
         // The pressure rises with the density.
         let (p_first, p_last) = self.ends_pa;
@@ -390,7 +383,9 @@ impl Isotherm<'_> {
         if p_pa >= p_last {
             return u_min;
         }
-        let (lo, p_a, p_b) = interval(column);
+        let (lo, p_a, p_b) = self.column.walk_to(p_pa, usize::from(*near));
+        // lo < TABLE_DENSITIES, far below u8::MAX.
+        *near = lo as u8;
         // p_a <= p_pa < p_b, and the table rises strictly, so p_b > p_a.
         let fraction = (p_pa - p_a) / (p_b - p_a);
         let rho = table.rho0_kg_m3 + table.rho_step_kg_m3 * (lo as f32 + fraction);
