@@ -176,11 +176,13 @@ impl GasChargeParams {
     /// assert!((k - 1.0).abs() < 1e-3);
     /// ```
     pub fn sample_ratio(&self, table: &LargeTable, p_gas_pa: f32, p_gas2_pa: f32, strut_disp_m: f32, t_k: f32) -> Option<f32> {
+        let (u_min, u_max) = table.offset_range_m();
+        // Six lookups at one temperature: located once.
+        let table = table.isotherm(t_k);
         let volume = |p_pa: f32| -> Option<f32> {
-            let (u_min, u_max) = table.offset_range_m();
             // The table's pressures at its ends: inside them the inverse is not clamped.
-            let inside = p_pa > table.pressure_pa(u_max, t_k) && p_pa < table.pressure_pa(u_min, t_k);
-            inside.then(|| self.v_large_m3 + self.area_m2 * table.offset_m(p_pa, t_k))
+            let inside = p_pa > table.pressure_pa(u_max) && p_pa < table.pressure_pa(u_min);
+            inside.then(|| self.v_large_m3 + self.area_m2 * table.offset_m(p_pa))
         };
         let nominal_volume = self.small_over_large * volume(p_gas_pa)? + volume(p_gas2_pa)?;
         let volume_now = self.v_total_m3 - self.area_m2 * strut_disp_m;

@@ -323,7 +323,18 @@ impl LargeTable {
     /// Pressure of L's gas at the volume offset `u_m` and gas temperature
     /// `t_k`, Pa. Arguments outside the table are clamped to its edges.
     pub fn pressure_pa(&self, u_m: f32, t_k: f32) -> f32 {
-        self.isotherm(t_k).pressure_pa(u_m)
+        // Not through `isotherm`: a single forward lookup needs no column ends.
+        self.pressure_in_pa(&self.column(t_k), u_m)
+    }
+
+    /// [`LargeTable::pressure_pa`] in the column at the temperature.
+    fn pressure_in_pa(&self, column: &Column<'_>, u_m: f32) -> f32 {
+        let (u_min, u_max) = self.u_range_m;
+        // `max` first: a NaN offset becomes the table's edge.
+        let u_m = u_m.max(u_min).min(u_max);
+        let rho = self.mass_kg / (self.v0_m3 + self.area_m2 * u_m);
+        let at = GridPoint::locate(rho, self.rho0_kg_m3, self.rho_step_kg_m3, TABLE_DENSITIES);
+        lerp(column.at(at.node), column.at(at.node + 1), at.weight)
     }
 
     /// The volume offset at which L's gas has the pressure `p_pa` at gas
@@ -345,14 +356,7 @@ pub struct Isotherm<'a> {
 impl Isotherm<'_> {
     /// [`LargeTable::pressure_pa`] at this temperature.
     pub fn pressure_pa(&self, u_m: f32) -> f32 {
-        let table = self.table;
-        let (u_min, u_max) = table.u_range_m;
-        // `max` first: a NaN offset becomes the table's edge.
-        let u_m = u_m.max(u_min).min(u_max);
-        let rho = table.mass_kg / (table.v0_m3 + table.area_m2 * u_m);
-        let column = &self.column;
-        let at = GridPoint::locate(rho, table.rho0_kg_m3, table.rho_step_kg_m3, TABLE_DENSITIES);
-        lerp(column.at(at.node), column.at(at.node + 1), at.weight)
+        self.table.pressure_in_pa(&self.column, u_m)
     }
 
     /// [`LargeTable::offset_m`] at this temperature.
