@@ -177,6 +177,64 @@ impl Default for State {
 /// assert_ne!(out.diag & hp_ctrl::diag::SAFE_STATE, 0);
 /// ```
 pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> Outputs {
+    let mut begun = begin(params, state, inputs, dt_s);
+    estimate_height(params, state, inputs, &mut begun);
+    finish(params, state, inputs, &begun)
+}
+
+/// [`step`] for several controllers with the same parameters (an ECU's
+/// corners, or a vehicle simulation's): controller `k` takes `inputs[k]`
+/// and `states[k]` and writes `outputs[k]`, exactly as `step` called for
+/// each in turn would (controllers share nothing); the corners beyond the
+/// shortest of the three slices are not stepped.
+///
+/// The step runs in three phases, each over up to eight controllers
+/// before the next: the checks and filters, the gas-table lookups, the
+/// modes and valves. A lookup is a chain of dependent divisions (the
+/// temperature's location, the interval's fraction, the density, the
+/// volume offset, the target's density); one controller after another,
+/// each chain waited for the last, side by side the core overlaps them.
+pub fn step_all(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: f64, outputs: &mut [Outputs]) {
+    const BATCH: usize = 8;
+    for ((states, inputs), outputs) in states.chunks_mut(BATCH).zip(inputs.chunks(BATCH)).zip(outputs.chunks_mut(BATCH)) {
+        let mut begun = [None; BATCH];
+        for ((b, state), i) in begun.iter_mut().zip(states.iter_mut()).zip(inputs) {
+            *b = Some(begin(params, state, i, dt_s));
+        }
+        for ((b, state), i) in begun.iter_mut().zip(states.iter_mut()).zip(inputs) {
+            if let Some(b) = b {
+                estimate_height(params, state, i, b);
+            }
+        }
+        for (((b, state), i), o) in begun.iter().zip(states.iter_mut()).zip(inputs).zip(outputs.iter_mut()) {
+            if let Some(b) = b {
+                *o = finish(params, state, i, b);
+            }
+        }
+    }
+}
+
+/// What the first phase of a step hands to the others.
+#[derive(Debug, Clone, Copy)]
+struct Begun {
+    health: monitor::Health,
+    flags: u32,
+    dt_us: u32,
+    request_m: f32,
+    vehicle: ModeInputs,
+    p_load_pa: f32,
+    reference_settled: bool,
+}
+
+impl Begun {
+    fn usable(&self, group: u16) -> bool {
+        self.health.usable & group != 0
+    }
+}
+
+/// The checks, the estimator and the load pressure.
+#[inline(always)]
+fn begin(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> Begun {
     let dt_us = clock::dt_us(dt_s, params.monitor.dt_max_s);
     let health = monitor::step(&params.monitor, &mut state.monitor, inputs, dt_us);
     let dt_us = dt_us.unwrap_or(0);
@@ -221,23 +279,34 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
     });
     let p_load_pa = load::step(&params.load, &mut state.load, load_inputs, dt_us);
     let reference_settled = state.load.averaged_us() >= params.ride_height.load_settle_us;
-    if usable(PRESSURES) && usable(TEMPERATURE) {
+    Begun { health, flags, dt_us, request_m, vehicle, p_load_pa, reference_settled }
+}
+
+/// The ride-height estimate and the target pressure from the gas table.
+#[inline(always)]
+fn estimate_height(params: &Params, state: &mut State, inputs: &Inputs, b: &mut Begun) {
+    if b.usable(PRESSURES) && b.usable(TEMPERATURE) {
         // Volume offsets of L's gas: the soft-mode rest state, the request
         // relative to it, and what L holds now.
         // All three at the same temperature: located once.
         let table = params.table.isotherm(inputs.t_gas_k as f32);
         let [reference_near, height_near] = &mut state.table_intervals;
-        let reference_m = table.offset_near_m(p_load_pa, reference_near);
+        let reference_m = table.offset_near_m(b.p_load_pa, reference_near);
         let (stroke_min_m, stroke_max_m) = params.stroke_m;
         state.ride_height_m =
             // max/min rather than clamp: clamp keeps a panic path for bounds
             // it cannot prove ordered, and the firmware must link none.
             (table.offset_near_m(inputs.p_gas2_pa as f32, height_near) - reference_m).max(stroke_min_m).min(stroke_max_m);
-        state.p_gas2_target_pa = table.pressure_pa(reference_m + request_m);
+        state.p_gas2_target_pa = table.pressure_pa(reference_m + b.request_m);
     } else {
-        flags |= diag::HEIGHT_ESTIMATE_HELD;
+        b.flags |= diag::HEIGHT_ESTIMATE_HELD;
     }
+}
 
+/// The modes, the valves and the outputs.
+#[inline(always)]
+fn finish(params: &Params, state: &mut State, inputs: &Inputs, b: &Begun) -> Outputs {
+    let Begun { health, mut flags, dt_us, request_m, vehicle, p_load_pa, reference_settled } = *b;
     let (drive_mode, triggers) =
         mode::step(&params.mode, &mut state.mode, &vehicle, inputs.driver_mode, health.safe, dt_us);
     flags |= triggers;

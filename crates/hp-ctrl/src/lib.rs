@@ -53,5 +53,5 @@ pub mod ride_height;
 pub mod vehicle;
 
 pub use config::{Config, ParamError};
-pub use controller::{step, Params, State};
+pub use controller::{step, step_all, Params, State};
 pub use io::{input_group, DamperMode, DriveMode, DriverMode, Inputs, Outputs, SequencerState, SpringMode};

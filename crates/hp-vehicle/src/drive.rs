@@ -15,7 +15,7 @@
 
 use hp_core::error::{check_range, Result};
 use hp_core::unit::Valves;
-use hp_ctrl::{input_group, step, DriverMode, Inputs, Outputs, Params, State};
+use hp_ctrl::{input_group, step_all, DriverMode, Inputs, Outputs, Params, State};
 
 use crate::closed_loop::Sensors;
 use crate::track::Road;
@@ -170,15 +170,21 @@ pub fn run(
         }
         t_gas_k = Some(read);
         let mut next_valves = valves;
-        for (k, ((i, o), v)) in inputs.iter_mut().zip(outputs.iter_mut()).zip(next_valves.iter_mut()).enumerate().take(corners) {
+        for (k, i) in inputs.iter_mut().enumerate().take(corners) {
             *i = sensed(&sample, k, read.get(k).copied().unwrap_or(0.0), &driver);
-            match suspension {
-                Suspension::Passive(p) => *v = p,
-                Suspension::SemiActive(params) => {
-                    if let Some(state) = states.get_mut(k) {
-                        *o = step(params, state, i, dt_s);
-                        *v = Valves { valve5_open: o.valve5_open, valve6_open: o.valve6_open };
-                    }
+        }
+        match suspension {
+            Suspension::Passive(p) => next_valves.iter_mut().take(corners).for_each(|v| *v = p),
+            Suspension::SemiActive(params) => {
+                // All corners' controllers together (`step_all`: the same
+                // as one `step` per corner, with their gas-table lookups
+                // overlapping).
+                let n = corners.min(MAX_CORNERS);
+                if let (Some(s), Some(i), Some(o)) = (states.get_mut(..n), inputs.get(..n), outputs.get_mut(..n)) {
+                    step_all(params, s, i, dt_s, o);
+                }
+                for (v, o) in next_valves.iter_mut().zip(&outputs).take(corners) {
+                    *v = Valves { valve5_open: o.valve5_open, valve6_open: o.valve6_open };
                 }
             }
         }
