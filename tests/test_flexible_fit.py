@@ -119,6 +119,34 @@ def test_a_second_blowoff_stage_gives_the_three_piece_curve_through_a_simulation
     np.testing.assert_allclose(r["damper_force_n"], expected, rtol=1e-7, atol=1e-6)
 
 
+def test_a_bad_second_stage_is_refused_and_a_curve_without_one_still_reads() -> None:
+    # The core refuses a second stage at or below the first blow-off or
+    # with a slope that is not a finite positive number, naming the field,
+    # its value and its range (a ValueError, never a panic); a unit written
+    # before the second stage existed (no blowoff2 keys) reads as one stage.
+    from dataclasses import replace as dc_replace
+
+    from hpctl.errors import ParameterError
+    from hpctl.sim.run import characterisation_rig, uniform_times
+
+    unit = hpctl.Unit.seed()
+    c = unit.damper.off_compression
+    rig, times = characterisation_rig(hpctl.Sine(0.01, 1.0)), uniform_times(0.1, 0.01)
+    for field_, kw in (("blowoff2_pa", {"blowoff2_pa": 0.5 * c.blowoff_pa, "blowoff2_slope_pa_s_per_m3": 1e9}),
+                       ("blowoff2_pa", {"blowoff2_pa": c.blowoff_pa, "blowoff2_slope_pa_s_per_m3": 1e9}),
+                       ("blowoff2_slope_pa_s_per_m3", {"blowoff2_pa": 2 * c.blowoff_pa, "blowoff2_slope_pa_s_per_m3": float("nan")}),
+                       ("blowoff2_slope_pa_s_per_m3", {"blowoff2_pa": 2 * c.blowoff_pa, "blowoff2_slope_pa_s_per_m3": 0.0})):
+        bad = dc_replace(unit.damper, off_compression=dc_replace(c, **kw))
+        with pytest.raises(ParameterError, match=f"{field_} = .* outside the valid range"):
+            hpctl.run(unit.replace(damper=bad), rig, times, spring_hard=True, damper_on=False)
+    d = unit.to_dict()
+    for branch in DAMPER_BRANCHES:
+        for key in ("blowoff2_pa", "blowoff2_slope_pa_s_per_m3"):
+            del d["damper"][branch][key]  # type: ignore[misc]
+    old = hpctl.Unit.from_dict(d)
+    assert old == unit and old.damper.off_compression.blowoff2_pa == 0.0
+
+
 def test_stribeck_friction_in_the_core_matches_the_formula() -> None:
     unit = hpctl.Unit.seed().with_effects(friction=Friction(400.0, 300.0, 1e-3, 1.4, 0.01))
     from hpctl.sim.run import characterisation_rig, uniform_times
