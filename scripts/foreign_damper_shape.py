@@ -8,7 +8,8 @@ and after, per seed (issue 12, item 2).
 Run from the repository root (``tests/`` holds the foreign rig). Prints one
 line per seed and fit: hpctl's RMS/noise (its own noise estimate), the
 RMS over the noise the foreign rig drew, the fit's time, and the damper
-parameters; then per seed the slowest sine's force residual (RMS over the
+parameters (and the flexible fit's RMS over the true noise per record and
+channel); then per seed the slowest sine's force residual (RMS over the
 true force noise, and its correlation with the strut velocity) with one
 gain and with the identified curve, and whether the flexible one passes
 ``tests/test_flexible_fit.py``'s check (no more than 1.1 times one gain's,
@@ -77,6 +78,11 @@ def main() -> None:
             thermal = {k: f"{r.values[k]:.4g} +- {r.stderr[k]:.2g}" for k in ("tau_s", "tau_cv_exponent") if k in r.values}
             print(f"seed {seed} {'flexible' if shape else 'gain    '}: hpctl RMS/noise {r.rms_ratio:.2f}, true {true_ratio(r, g.truth):.2f}, "
                   f"worst {worst(r)}, {dt:.0f} s, {len(r.model.params)} params; {thermal} {friction} {damper}", flush=True)
+            if shape:
+                per_channel = ", ".join(
+                    f"{d.name}/{c} {math.sqrt(float(np.mean((r.residuals(i, c) / g.truth['noise'][SIGMA_KEY[c]]['sigma']) ** 2))):.2f}"
+                    for i, d in enumerate(r.datasets) for c in d.targets)
+                print(f"    per channel, RMS over the true noise: {per_channel}", flush=True)
             names = [d.name for d in r.datasets]
             if "sine_0.03hz" in names:
                 i = names.index("sine_0.03hz")
