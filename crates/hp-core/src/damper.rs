@@ -245,9 +245,7 @@ impl DamperCurve {
         }
         q
     }
-}
 
-impl DamperCurve {
     /// The smaller of the blow-off slopes in use (the first guess of the
     /// inverse's bracket).
     fn slowest_slope_pa_s_per_m3(&self) -> f64 {
