@@ -413,6 +413,13 @@ def test_flexible_model_identifies_valve6_where_the_records_open_it(monkeypatch:
     # excess cut by a third at least, and Cd A nearer the truth than the
     # nominal valve by a factor 1.5 at least (the worst corner of the
     # foreign rig's draws, a truth at 3.25e-5 m^2 and +27 %: 1.85).
+    # Known to fail on seed 1981622276 (Cd A +37 %, the bound +35 %): the
+    # foreign rig switches valve 6 exactly on a nominal sample time and the
+    # sample-time jitter decides which sample logs the switch; where the
+    # late one does, hpctl opens the valve one sample (5 ms) after the
+    # rig did, and the first 20 ms after the switch leave 130-270 kPa in
+    # the small accumulator's pressure, which a larger, smoother valve
+    # partly makes up for (measured 2026-11-27; not fixed: see the issue).
     from hpctl.identify import fit as fit_module
 
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))

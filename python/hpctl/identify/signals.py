@@ -10,8 +10,16 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import savgol_coeffs, savgol_filter
+from scipy.stats import norm
 
 FloatArray = NDArray[np.float64]
+
+
+# Fourth differences beyond this many standard deviations are steps or
+# spikes, not noise.
+_CLIP = 4.0
+# The variance a normal distribution keeps when cut at +-_CLIP sigma.
+_CLIP_KEPT = 1.0 - 2.0 * _CLIP * float(norm.pdf(_CLIP)) / (2.0 * float(norm.cdf(_CLIP)) - 1.0)
 
 
 def noise_sigma(y: FloatArray) -> float:
@@ -19,12 +27,25 @@ def noise_sigma(y: FloatArray) -> float:
     noise of variance s^2 gives differences of variance 70 s^2, while a
     signal smooth on the sampling scale contributes almost nothing (its
     fourth difference scales with the fourth power of the sampling step).
-    The median absolute deviation keeps steps and spikes out."""
+
+    The median absolute deviation keeps steps and spikes out but wastes
+    data: on 401 white samples it scatters by 7.7 % (one record's pressure
+    read 24 % low, and a clean residual looked like 1.3 x the noise). The
+    root mean square of the differences within 4 sigma of their centre,
+    starting from the MAD and corrected for the cut, scatters by 5.5 % and
+    still ignores steps and spikes."""
     d4 = np.diff(np.asarray(y, float), 4)
     if d4.size == 0:
         return 0.0
-    mad = float(np.median(np.abs(d4 - np.median(d4))))
-    return mad / 0.6745 / math.sqrt(70.0)
+    centre = float(np.median(d4))
+    s = float(np.median(np.abs(d4 - centre))) / 0.6745
+    for _ in range(3):
+        kept = d4[np.abs(d4 - centre) < _CLIP * s]
+        if kept.size < 2:
+            break
+        centre = float(np.mean(kept))
+        s = float(np.sqrt(np.mean((kept - centre) ** 2) / _CLIP_KEPT))
+    return s / math.sqrt(70.0)
 
 
 # Quintic over 15 samples: a cubic over 11 (the earlier choice) passed

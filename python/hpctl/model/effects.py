@@ -465,7 +465,7 @@ FRICTION_SHAPE: tuple[Param, ...] = (
 #: sigma): a valve the records barely use stays at the nominal one.
 VALVE6_SHAPE: tuple[Param, ...] = (
     Param("valve6_flow_area_scale", 0.01, 100.0, 1.0, 1.0, (0.3, 1.5), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
-    Param("valve6_transition_scale", 0.01, 100.0, 1.0, 1.0, (0.3, 3.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
+    Param("valve6_transition_scale", 1e-3, 100.0, 1.0, 1.0, (0.3, 3.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
 )
 
 
