@@ -128,6 +128,9 @@ class CaseDict(TypedDict):
     # The reference gas evaluated through the process's table (pressure
     # within 1.3e-8 of the direct equation; other gases: direct).
     gas_table: bool
+    # Each valve switch this fraction of the interval before the first
+    # output with the new valves (0: at it; 0.5: midway), in [0, 1).
+    switch_lead: float
 
 #: Channel name (CHANNELS) -> values at the output times.
 Channels = dict[str, NDArray[np.float64]]

@@ -370,10 +370,57 @@ pub fn run<'a>(
     rig: &Rig<'a>,
     times_s: impl IntoIterator<Item = f64>,
     max_dt_s: f64,
+    valves_at: impl FnMut(usize, f64) -> Valves,
+    on_sample: impl FnMut(usize, &RigSample) -> bool,
+) -> Result<()> {
+    run_with_lead(rig, times_s, max_dt_s, 0.0, valves_at, on_sample)
+}
+
+/// Checks a switch lead (the fraction of an output interval by which a
+/// valve switch precedes the first output that shows it): in [0, 1).
+pub(crate) fn check_lead(lead: f64) -> Result<f64> {
+    if lead.is_finite() && (0.0..1.0).contains(&lead) {
+        Ok(lead)
+    } else {
+        Err(Error::OutOfRange { name: "switch_lead", value: lead, min: 0.0, max: 1.0 })
+    }
+}
+
+/// [`run`], with each valve switch `switch_lead` of the interval before the
+/// first output that has the new valves (`valves_at(i, t_i)` differs from
+/// `valves_at(i - 1, ..)`), instead of at that output.
+///
+/// A record's valve column is the valve state at each sample; where it
+/// changes, the valve switched somewhere in the interval before, and
+/// taking it midway (0.5) halves the largest timing error and quarters its
+/// mean square (against the sample that shows it: an error uniform on
+/// [0, dt], mean square dt^2/3; midway dt^2/12). A controller's valves,
+/// commanded at its period's start, switch at the output (0).
+///
+/// ```
+/// use hp_core::{presets, motion::Motion, rig::{run, run_with_lead, Rig, RigKind}, unit::{Unit, Valves}};
+/// let unit = Unit::new(presets::seed_unit()).unwrap();
+/// let kind = RigKind::Characterisation { strut: Motion::Sine { amplitude_m: 0.03, frequency_hz: 0.5, offset_m: 0.0 } };
+/// let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
+/// let valves = |i: usize, _| Valves::from_modes(i < 50, true);
+/// // Switched midway between the outputs at 0.49 s and 0.50 s: the same as
+/// // switching at an output placed there.
+/// let (mut a, mut b) = (0.0, 0.0);
+/// run_with_lead(&rig, (0..=100).map(|i| f64::from(i) * 0.01), 1e-3, 0.5, valves, |i, s| { if i == 100 { a = s.unit.p_gas_pa; } true }).unwrap();
+/// let fine: Vec<f64> = (0..=200).map(|i| f64::from(i) * 0.005).collect();
+/// run(&rig, fine.iter().copied(), 1e-3, |i, _| Valves::from_modes(i < 99, true), |i, s| { if i == 200 { b = s.unit.p_gas_pa; } true }).unwrap();
+/// assert!((a - b).abs() < 1e-6 * b);
+/// ```
+pub fn run_with_lead<'a>(
+    rig: &Rig<'a>,
+    times_s: impl IntoIterator<Item = f64>,
+    max_dt_s: f64,
+    switch_lead: f64,
     mut valves_at: impl FnMut(usize, f64) -> Valves,
     mut on_sample: impl FnMut(usize, &RigSample) -> bool,
 ) -> Result<()> {
     check_range("dt_s", max_dt_s, 1e-9, 10.0)?;
+    check_lead(switch_lead)?;
     let mut times = times_s.into_iter();
     let Some(t0) = times.next() else { return Ok(()) };
     check_range("time_s", t0, 0.0, 1e9)?;
@@ -401,9 +448,18 @@ pub fn run<'a>(
         if !(next > t) || !next.is_finite() {
             return Err(Error::OutOfRange { name: "time_s (strictly increasing)", value: next, min: t, max: f64::MAX });
         }
-        state = rig.advance(t, next, &state, &rate, max_dt_s)?;
-        t = next;
         index += 1;
-        rig.valves = valves_at(index, t);
+        let next_valves = valves_at(index, next);
+        if next_valves != rig.valves && switch_lead > 0.0 {
+            let t_switch = next - switch_lead * (next - t);
+            state = rig.advance(t, t_switch, &state, &rate, max_dt_s)?;
+            rig.valves = next_valves;
+            let (rate, _) = rig.evaluate(t_switch, &state)?;
+            state = rig.advance(t_switch, next, &state, &rate, max_dt_s)?;
+        } else {
+            state = rig.advance(t, next, &state, &rate, max_dt_s)?;
+            rig.valves = next_valves;
+        }
+        t = next;
     }
 }

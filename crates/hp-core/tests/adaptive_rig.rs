@@ -16,7 +16,7 @@ use hp_core::unit::{Friction, Leakage, OilCompliance, OilNode, Sensor, Unit, Val
 fn adaptive(unit: &Unit, kind: RigKind<'_>, valves: impl Fn(usize, f64) -> Valves, times: &[f64], rtol: f64) -> (Vec<RigSample>, hp_core::adaptive::Stats) {
     let rig = Rig::new(unit, kind, unit.params().static_temperature_k, valves(0, times[0])).unwrap();
     let mut out = Vec::with_capacity(times.len());
-    let stats = run_adaptive(&rig, times, Adaptive { rtol, max_dt_s: f64::INFINITY }, SampleDetail::Full, Steps::Controlled, valves, |_, s| {
+    let stats = run_adaptive(&rig, times, Adaptive { rtol, max_dt_s: f64::INFINITY, ..Adaptive::default() }, SampleDetail::Full, Steps::Controlled, valves, |_, s| {
         out.push(*s);
         true
     })

@@ -6,7 +6,7 @@ use crate::exec::{detached_with_progress, parse_cases, run_parallel, threads_arg
 use crate::params::{self, RigSpec};
 use hp_core::gas::EquationOfState;
 use hp_core::lag::{self, Lag, LagSample, LagState};
-use hp_core::rig::{run, run_adaptive, Adaptive, Rig, RigKind, RigSample, SampleDetail, Steps};
+use hp_core::rig::{run_adaptive, run_with_lead, Adaptive, Rig, RigKind, RigSample, SampleDetail, Steps};
 use hp_core::unit::{Unit, UnitParams, Valves};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -129,6 +129,10 @@ struct Case {
     /// direct equation) instead of the equation itself; other gases, or a
     /// table that could not be built, are evaluated directly.
     gas_table: bool,
+    /// Where between two outputs the valves switch (hp-core's
+    /// `run_with_lead`): the fraction of the interval before the first
+    /// output with the new valves; 0 at that output.
+    switch_lead: f64,
 }
 
 /// What a run returns: the channels' columns and, when recorded, the step ends.
@@ -176,6 +180,7 @@ impl Case {
         replay_steps_s: Option<Vec<f64>>,
         record_steps: bool,
         gas_table: bool,
+        switch_lead: f64,
     ) -> PyResult<Case> {
         if times_s.is_empty() {
             return Err(parameter("times_s is empty; expected at least one output time"));
@@ -189,6 +194,7 @@ impl Case {
             replay_steps_s,
             record_steps,
             gas_table,
+            switch_lead,
             unit: params::unit(unit)?,
             rig: params::rig(rig)?,
             times_s,
@@ -225,12 +231,12 @@ impl Case {
         };
         let mut ends: Vec<f64> = Vec::new();
         match self.rtol {
-            None => run(&rig, self.times_s.iter().copied(), self.dt_s, |i, _| valves_at(i), on_sample)?,
+            None => run_with_lead(&rig, self.times_s.iter().copied(), self.dt_s, self.switch_lead, |i, _| valves_at(i), on_sample)?,
             Some(rtol) => {
                 let states_only =
                     self.channels.iter().all(|&c| CHANNELS.get(c).is_some_and(|name| STATE_CHANNELS.contains(name)));
                 let detail = if states_only { SampleDetail::States } else { SampleDetail::Full };
-                let settings = Adaptive { rtol, max_dt_s: self.dt_s };
+                let settings = Adaptive { rtol, max_dt_s: self.dt_s, switch_lead: self.switch_lead };
                 let mut record = |t: f64| ends.push(t);
                 let steps = match (&self.replay_steps_s, self.record_steps) {
                     (Some(replay), _) => Steps::Replay(replay),
@@ -265,12 +271,15 @@ impl Case {
 /// run whose steps do not move when a parameter does, for
 /// finite-difference derivatives). `gas_table` evaluates the reference gas
 /// through the process's table (pressure within 1.3e-8 of the equation,
-/// several times cheaper; other gases directly).
+/// several times cheaper; other gases directly). `switch_lead` places
+/// each valve switch that fraction of the interval before the first output
+/// with the new valves (0: at it; 0.5: midway, for a record's logged
+/// valve states), in [0, 1).
 ///
 /// `progress(done, total)` is called about ten times a second from the
 /// simulation thread; the GIL is released otherwise. Ctrl-C stops the run.
 #[pyfunction]
-#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None, rtol=None, steps_s=None, record_steps=false, gas_table=false))]
+#[pyo3(signature = (unit, rig, times_s, dt_s, ambient_k, spring_hard, damper_on, channels=None, progress=None, rtol=None, steps_s=None, record_steps=false, gas_table=false, switch_lead=0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -287,10 +296,11 @@ pub fn simulate<'py>(
     steps_s: Option<Vec<f64>>,
     record_steps: bool,
     gas_table: bool,
+    switch_lead: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     guard(|| {
         let times = f64_array(times_s, "times_s")?;
-        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels, rtol, steps_s, record_steps, gas_table)?;
+        let case = Case::from_py(unit, rig, times, dt_s, ambient_k, spring_hard, damper_on, channels, rtol, steps_s, record_steps, gas_table, switch_lead)?;
         let total = case.times_s.len();
         let result = detached_with_progress(py, total, progress, |tick| case.run(tick))?;
         let columns = result.map_err(to_py)?;
@@ -327,6 +337,10 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: O
                 Some(v) => extract(&v, &format!("{path}.gas_table"), "a bool")?,
                 None => false,
             };
+            let switch_lead = match r.get_opt("switch_lead")? {
+                Some(v) => extract(&v, &format!("{path}.switch_lead"), "a number")?,
+                None => 0.0,
+            };
             Case::from_py(
                 &r.get("unit")?,
                 &r.get("rig")?,
@@ -340,6 +354,7 @@ pub fn simulate_many<'py>(py: Python<'py>, cases: &Bound<'py, PyAny>, threads: O
                 steps,
                 record,
                 gas_table,
+                switch_lead,
             )
         })?;
         run_parallel(py, &specs, threads, |c| c.run(|_| true), |c, r| c.to_dict(py, r))

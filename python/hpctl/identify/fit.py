@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from hpctl import _core
+from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
 from hpctl.model.effects import (
@@ -94,7 +95,8 @@ def _case(model: Model, d: Dataset, values: Mapping[str, float], steps_s: FloatA
     # fast so (the bundled heat run: 0.24 -> 0.11 s), the pressures within
     # about 1 Pa of the equation's (the rigs' noise: kPa).
     return Case(model.unit_for(d, values), d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on,
-                ambient_k=d.ambient_k, channels=channels, steps_s=steps_s, record_steps=record_steps, gas_table=True)
+                ambient_k=d.ambient_k, channels=channels, steps_s=steps_s, record_steps=record_steps, gas_table=True,
+                switch_lead=LOGGED_SWITCH_LEAD)
 
 
 def values_from_x(params: Sequence[Param], x: Sequence[float] | FloatArray) -> dict[str, float]:

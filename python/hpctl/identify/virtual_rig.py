@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hpctl.data.records import RecordTest, RigRecord
+from hpctl.data.records import LOGGED_SWITCH_LEAD, RecordTest, RigRecord
 from hpctl.model.effects import LIBRARY, build_unit, ordered
 from hpctl.model.unit import SEED_SPRUNG_MASS_KG, Unit
 from hpctl.sim.experiments import _record
@@ -112,7 +112,9 @@ def record_test(unit: Unit, test: Test, noise: Noise, rng: np.random.Generator, 
     else:
         spring_hard = test.spring_hard
     rig = sdof_rig(test.motion, SEED_SPRUNG_MASS_KG) if test.sdof else characterisation_rig(test.motion)
-    result = run(unit, rig, times, spring_hard=spring_hard, damper_on=test.damper_on, ambient_k=ambient)
+    # The valves switch midway between samples, where the fit places a
+    # switch its record's flag column shows (LOGGED_SWITCH_LEAD).
+    result = run(unit, rig, times, spring_hard=spring_hard, damper_on=test.damper_on, ambient_k=ambient, switch_lead=LOGGED_SWITCH_LEAD)
     rt = RecordTest(
         spring="hard" if test.spring_hard else "soft",
         damper="on" if test.damper_on else "off",

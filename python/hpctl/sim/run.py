@@ -233,6 +233,7 @@ def _case(
     steps_s: ArrayLike | None = None,
     record_steps: bool = False,
     gas_table: bool = False,
+    switch_lead: float = 0.0,
 ) -> CaseDict:
     if not isinstance(unit, Unit):
         raise bad_argument("unit", unit, "an hpctl.Unit")
@@ -256,6 +257,7 @@ def _case(
         "steps_s": None if steps_s is None else check_float_array(steps_s, "steps_s"),
         "record_steps": bool(record_steps),
         "gas_table": bool(gas_table),
+        "switch_lead": check_number(switch_lead, "switch_lead"),
         "ambient_k": unit.static_temperature_k if ambient_k is None else check_number(ambient_k, "ambient_k"),
         "spring_hard": check_flags(spring_hard, "spring_hard"),
         "damper_on": check_flags(damper_on, "damper_on"),
@@ -333,6 +335,7 @@ def run(
     progress: Progress | None = None,
     steps_s: ArrayLike | None = None,
     record_steps: bool = False,
+    switch_lead: float = 0.0,
 ) -> Result:
     """Runs ``rig`` (see :func:`characterisation_rig`, :func:`sdof_rig`)
     with outputs at ``times_s``; ``spring_hard`` / ``damper_on`` are one
@@ -346,12 +349,18 @@ def run(
     ``record_steps`` keeps the adaptive steps' end times
     (:attr:`Result.step_end_s`); ``steps_s`` replays such a list without
     error control, so that a finite-difference derivative with respect to
-    a unit parameter does not see the step-size selection change."""
+    a unit parameter does not see the step-size selection change.
+
+    Where the valves change from one output to the next they switch
+    ``switch_lead`` of the interval before the output that has the new
+    ones: 0 (the default) at it, as a controller commands them;
+    :data:`hpctl.data.records.LOGGED_SWITCH_LEAD` (midway) for a record's
+    logged valve states."""
     c = _case(unit, rig, times_s, spring_hard=spring_hard, damper_on=damper_on, dt_s=dt_s, rtol=rtol, ambient_k=ambient_k, channels=channels,
-              steps_s=steps_s, record_steps=record_steps)
+              steps_s=steps_s, record_steps=record_steps, switch_lead=switch_lead)
     out = _core.simulate(
         c["unit"], c["rig"], c["times_s"], c["dt_s"], c["ambient_k"], c["spring_hard"], c["damper_on"], c["channels"], progress, c["rtol"],
-        c["steps_s"], c["record_steps"],
+        c["steps_s"], c["record_steps"], c["gas_table"], c["switch_lead"],
     )
     return Result.from_core(out, unit, rig, c["ambient_k"])
 
@@ -422,6 +431,8 @@ class Case:
     #: equation (pressure within 1.3e-8 of it, several times cheaper; other
     #: gases are evaluated directly): for the many runs of a fit.
     gas_table: bool = False
+    #: Where a valve switch falls between two outputs (see :func:`run`).
+    switch_lead: float = 0.0
 
 
 def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result | Exception]:
@@ -434,6 +445,7 @@ def run_many(cases: Sequence[Case], threads: int | None = None) -> list[Result |
         if not isinstance(c, Case):
             raise bad_argument("cases", c, "a sequence of hpctl.sim.run.Case")
         dicts.append(_case(c.unit, c.rig, c.times_s, spring_hard=c.spring_hard, damper_on=c.damper_on, dt_s=c.dt_s, rtol=c.rtol, ambient_k=c.ambient_k,
-                           channels=c.channels, steps_s=c.steps_s, record_steps=c.record_steps, gas_table=c.gas_table))
+                           channels=c.channels, steps_s=c.steps_s, record_steps=c.record_steps, gas_table=c.gas_table,
+                           switch_lead=c.switch_lead))
     results = _core.simulate_many(dicts, threads)
     return [r if isinstance(r, Exception) else Result.from_core(r, c.unit, c.rig, d["ambient_k"]) for c, d, r in zip(cases, dicts, results)]

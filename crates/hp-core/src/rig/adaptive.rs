@@ -8,6 +8,7 @@
 
 use super::{Rig, RigKind, RigSample, RigState, RIG_STATES};
 use crate::adaptive::{AdaptiveSystem, Control, Integrator, LowRank, RankOne, Stats, StiffMethod};
+use super::check_lead;
 use crate::error::{check_range, Error, Result};
 use crate::ode::OdeSystem;
 use crate::thermal::HeatTransfer;
@@ -29,11 +30,16 @@ pub struct Adaptive {
     pub rtol: f64,
     /// Largest step, s (`f64::INFINITY`: none).
     pub max_dt_s: f64,
+    /// Where between two outputs the valves switch, as the fraction of the
+    /// interval before the first output that has the new valves, in [0, 1)
+    /// (see [`run_with_lead`](super::run_with_lead)): 0 switches at that
+    /// output (a controller's period), 0.5 midway (a logged valve state).
+    pub switch_lead: f64,
 }
 
 impl Default for Adaptive {
     fn default() -> Self {
-        Adaptive { rtol: DEFAULT_RTOL, max_dt_s: f64::INFINITY }
+        Adaptive { rtol: DEFAULT_RTOL, max_dt_s: f64::INFINITY, switch_lead: 0.0 }
     }
 }
 
@@ -211,9 +217,11 @@ impl AdaptiveSystem<RIG_STATES> for System<'_, '_> {
 /// Runs `rig` from its initial state through the output times `times_s`
 /// (strictly increasing, starting at or after 0) with error-controlled
 /// steps, each sample from the dense output of the step that covers it.
-/// The valves at output `i` (time `t_i`) and over the interval that
-/// follows it are `valves_at(i, t_i)` (which must not depend on the
-/// samples: it is asked ahead, to find where the valves switch);
+/// The valves at output `i` (time `t_i`) are `valves_at(i, t_i)` (which
+/// must not depend on the samples: it is asked ahead, to find where the
+/// valves switch); they hold over the interval that follows `t_i`, and
+/// where they differ from the previous output's they took over
+/// `settings.switch_lead` of the interval before it already;
 /// `valves_at(0, t_0)` also holds before the first output. Each sample is
 /// handed to `on_sample` (return `false` to stop). `steps` chooses, records
 /// or replays the steps. Returns the integrator's work counts.
@@ -243,6 +251,7 @@ pub fn run_adaptive<'a>(
     mut on_sample: impl FnMut(usize, &RigSample) -> bool,
 ) -> Result<Stats> {
     check_range("rtol", settings.rtol, 1e-14, 1e-2)?;
+    check_lead(settings.switch_lead)?;
     if !(settings.max_dt_s >= 1e-9) {
         return Err(Error::OutOfRange { name: "dt_s", value: settings.max_dt_s, min: 1e-9, max: f64::INFINITY });
     }
@@ -298,7 +307,14 @@ pub fn run_adaptive<'a>(
             }
             end += 1;
         }
-        let t_stop = if end < n { time(end) } else { last };
+        // Where the valves switch: `switch_lead` of the interval before
+        // output `end`, after output `end - 1` (which keeps the old valves).
+        let t_stop = if end < n {
+            let t_end = time(end);
+            t_end - settings.switch_lead * (t_end - time(end - 1))
+        } else {
+            last
+        };
         for i in index..end {
             let t = time(i);
             stepper.advance(&mut integrator, &system, t, t_stop)?;
