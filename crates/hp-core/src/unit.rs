@@ -178,6 +178,9 @@ pub struct Effects {
     pub wall_conductance: Option<WallConductance>,
 }
 
+/// Every effect absent (what [`Effects::default`] gives), as a constant.
+const NO_EFFECTS: Effects = Effects { friction: None, oil_compliance: None, oil_node: None, leakage: None, valve_lag: None, sensor: None, wall_conductance: None };
+
 impl Effects {
     /// Calls `v` on every effect slot, in declaration order: the one list of
     /// the effects that checking, the bindings' conversions and the
@@ -503,6 +506,26 @@ struct PressureGradient {
     per_m: f64,
 }
 
+/// One accumulator's gas mass and volume: what the linearisations read
+/// of the state (passed by value, so that the state need not be kept in
+/// memory for them).
+#[derive(Debug, Clone, Copy)]
+struct GasMass {
+    mass_kg: f64,
+    volume_m3: f64,
+}
+
+impl GasMass {
+    #[inline(always)]
+    fn small(s: &UnitState) -> Self {
+        GasMass { mass_kg: s.m_small_kg, volume_m3: s.v_gas_m3 }
+    }
+    #[inline(always)]
+    fn large(s: &UnitState) -> Self {
+        GasMass { mass_kg: s.m_large_kg, volume_m3: s.v_gas2_m3 }
+    }
+}
+
 impl PressureGradient {
     fn of(heat: HeatTransfer, props: &GasProps, mass_kg: f64, volume_m3: f64) -> Self {
         let per_m = props.dp_drho_pa_m3_per_kg / volume_m3;
@@ -523,6 +546,10 @@ pub struct Unit {
     /// `c_v` of the gas at the static state, J/(kg K): the reference of a
     /// time constant that moves with the heat capacity ([`WallConductance`]).
     static_cv_j_per_kg_k: f64,
+    /// No optional effects and a finite thermal time constant: the model
+    /// the vehicles run, evaluated with those choices known
+    /// ([`Unit::evaluate_parts_plain_with`]).
+    plain: bool,
 }
 
 /// A gas volume the model can evaluate holding `m` kg: positive mass,
@@ -572,7 +599,16 @@ impl Unit {
             large_mass_kg: rho * p.large_acc_volume_m3,
             valve6_coefficient: p.valve6.coefficient(p.oil_density_kg_m3),
             static_cv_j_per_kg_k: p.gas.props(rho, p.static_temperature_k).cv_j_per_kg_k,
+            plain: p.effects == NO_EFFECTS && matches!(p.heat, HeatTransfer::TimeConstant(_)),
         })
+    }
+
+    /// True when the unit has no optional effect and a finite thermal
+    /// time constant ([`HeatTransfer::TimeConstant`]): the seed's model, the
+    /// one [`Unit::evaluate_parts_plain_with`] evaluates with those choices
+    /// known.
+    pub fn is_plain(&self) -> bool {
+        self.plain
     }
 
     /// The parameters the unit was built from.
@@ -785,8 +821,47 @@ impl Unit {
         ambient_k: f64,
         needs: Needs,
     ) -> (UnitState, UnitOutputs, Linearisation) {
+        self.evaluate_terms::<false>(gas, state, motion, valves, ambient_k, needs)
+    }
+
+    /// [`Unit::evaluate_parts_with`], for a unit that [`Unit::is_plain`]
+    /// with the absent effects and the heat transfer's kind known to the
+    /// compiler (the branches on them and what they keep alive go; every
+    /// operation that is left is the same, so are the results to the bit),
+    /// for any other unit the general form. The vehicles' hot path: the
+    /// caller gets both forms' code.
+    #[inline(always)]
+    pub fn evaluate_parts_plain_with(
+        &self,
+        gas: &impl EquationOfState,
+        state: &UnitState,
+        motion: StrutMotion,
+        valves: Valves,
+        ambient_k: f64,
+        needs: Needs,
+    ) -> (UnitState, UnitOutputs, Linearisation) {
+        if self.plain {
+            self.evaluate_terms::<true>(gas, state, motion, valves, ambient_k, needs)
+        } else {
+            self.evaluate_terms::<false>(gas, state, motion, valves, ambient_k, needs)
+        }
+    }
+
+    /// The evaluation; with `PLAIN` (only for a unit that
+    /// [`Unit::is_plain`]) the effects are known absent and the heat
+    /// transfer a time constant (its value still the parameters').
+    #[inline(always)]
+    fn evaluate_terms<const PLAIN: bool>(
+        &self,
+        gas: &impl EquationOfState,
+        state: &UnitState,
+        motion: StrutMotion,
+        valves: Valves,
+        ambient_k: f64,
+        needs: Needs,
+    ) -> (UnitState, UnitOutputs, Linearisation) {
         let p = &self.params;
-        let e = &p.effects;
+        let (heat, e) = if PLAIN { (HeatTransfer::TimeConstant(p.heat.tau_s()), &NO_EFFECTS) } else { (p.heat, &p.effects) };
         let area = p.piston_area_m2;
         let mut rate = UnitState::default();
 
@@ -806,8 +881,8 @@ impl Unit {
         };
 
         // Gas states.
-        let t_s = gas_temperature_k(p.heat, state.t_gas_k, t_wall);
-        let t_l = gas_temperature_k(p.heat, state.t_gas2_k, t_wall);
+        let t_s = gas_temperature_k(heat, state.t_gas_k, t_wall);
+        let t_l = gas_temperature_k(heat, state.t_gas2_k, t_wall);
         let (rho_s, rho_l) = (state.m_small_kg / state.v_gas_m3, state.m_large_kg / state.v_gas2_m3);
         let gas = |rho: f64, t: f64| {
             if needs.rates {
@@ -821,7 +896,7 @@ impl Unit {
         let lagging_sensor = matches!(e.sensor, Some(s) if s.time_constant_s > 0.0);
         // A time constant that moves with L's heat capacity needs L's c_v
         // whenever L's temperature relaxes.
-        let conductance = e.wall_conductance.filter(|_| needs.rates && matches!(p.heat, HeatTransfer::TimeConstant(_)));
+        let conductance = e.wall_conductance.filter(|_| needs.rates && matches!(heat, HeatTransfer::TimeConstant(_)));
         let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor || conductance.is_some();
         let props_l = if large_needed { gas(rho_l, t_l) } else { UNUSED_PROPS };
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
@@ -889,11 +964,11 @@ impl Unit {
                     libm::pow(m_kg * props.cv_j_per_kg_k / (m0_kg * self.static_cv_j_per_kg_k), w.cv_exponent)
                 };
                 (
-                    p.heat.with_tau_factor(factor(state.m_small_kg, self.small_mass_kg, &props_s)),
-                    p.heat.with_tau_factor(factor(state.m_large_kg, self.large_mass_kg, &props_l)),
+                    heat.with_tau_factor(factor(state.m_small_kg, self.small_mass_kg, &props_s)),
+                    heat.with_tau_factor(factor(state.m_large_kg, self.large_mass_kg, &props_l)),
                 )
             }
-            None => (p.heat, p.heat),
+            None => (heat, heat),
         };
         rate.t_gas_k = temperature_rate_k_s(
             heat_s,
@@ -982,19 +1057,19 @@ impl Unit {
             cavitating,
         };
         let valve6 = if needs.coupling && s6 > 0.0 {
-            Some(self.valve6_coupling(state, &props_s, &props_l, (t_s, t_l), s6, e.valve_lag.is_some()))
+            Some(self.valve6_coupling(heat, e, GasMass::small(state), GasMass::large(state), &props_s, &props_l, (t_s, t_l), s6, e.valve_lag.is_some()))
         } else {
             None
         };
         let damper = match oil_stiffness_pa_per_m3 {
-            Some(stiffness) if needs.coupling => Some(self.damper_coupling(state, &props_s, t_s, q_damper, p_strut - p_s, s5, stiffness)),
+            Some(stiffness) if needs.coupling => Some(self.damper_coupling(heat, e, GasMass::small(state), &props_s, t_s, q_damper, p_strut - p_s, s5, stiffness)),
             _ => None,
         };
         // The strut's linearisation assumes the incompressible oil's force
         // `A (p_S + dp(A v) - p_0)`: with oil compliance the force is the
         // strut pressure, a state of its own, whose stiff flow is `damper`.
         let strut = if needs.strut && !cavitating && e.oil_compliance.is_none() {
-            Some(self.strut_coupling(state, &props_s, t_s, motion, s5, p_strut - p_s))
+            Some(self.strut_coupling(heat, e, GasMass::small(state), &props_s, t_s, motion, s5, p_strut - p_s))
         } else {
             None
         };
@@ -1008,7 +1083,9 @@ impl Unit {
     #[allow(clippy::too_many_arguments)]
     fn damper_coupling(
         &self,
-        state: &UnitState,
+        heat: HeatTransfer,
+        e: &Effects,
+        gas_s: GasMass,
         props_s: &GasProps,
         t_s: f64,
         q_m3_s: f64,
@@ -1021,7 +1098,7 @@ impl Unit {
         // linearisation there, and the error control does without.
         let slope = 1.0 / p.damper.pressure_drop_slope_pa_s_per_m3(q_m3_s, s5);
         let slope = if slope.is_finite() { slope } else { 0.0 };
-        let g = PressureGradient::of(p.heat, props_s, state.m_small_kg, state.v_gas_m3);
+        let g = PressureGradient::of(heat, props_s, gas_s.mass_kg, gas_s.volume_m3);
         // The flow grows with the strut pressure and falls with S's. The
         // bypass valve's opening (valve lag) moves the flow too, but the
         // flow does not move the valve: a one-way coupling that leaves the
@@ -1038,11 +1115,11 @@ impl Unit {
         let mut u = UnitState {
             p_strut_pa: -oil_stiffness_pa_per_m3,
             v_gas_m3: -1.0,
-            t_gas_k: -temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
+            t_gas_k: -temperature_rate_per_volume_rate(heat, props_s, t_s, gas_s.mass_kg, gas_s.volume_m3),
             e_damper_j: dp_pa,
             ..UnitState::default()
         };
-        if let Some(n) = p.effects.oil_node {
+        if let Some(n) = e.oil_node {
             u.t_oil_k = dp_pa / n.heat_capacity_j_per_k;
         }
         FlowCoupling { u, v }
@@ -1051,24 +1128,25 @@ impl Unit {
     /// The strut linearised (see [`StrutCoupling`]), for the incompressible
     /// oil while it does not cavitate: the force is `A (p_S + dp(A v) -
     /// p_0) + friction + end stop`, the gas volume in S falls by `A v`.
-    fn strut_coupling(&self, state: &UnitState, props_s: &GasProps, t_s: f64, motion: StrutMotion, s5: f64, damper_dp_pa: f64) -> StrutCoupling {
+    #[allow(clippy::too_many_arguments)]
+    fn strut_coupling(&self, heat: HeatTransfer, e: &Effects, gas_s: GasMass, props_s: &GasProps, t_s: f64, motion: StrutMotion, s5: f64, damper_dp_pa: f64) -> StrutCoupling {
         let p = &self.params;
         let area = p.piston_area_m2;
         let q = area * motion.vel_m_s;
         let dp_dv = area * p.damper.pressure_drop_slope_pa_s_per_m3(q, s5);
-        let g = PressureGradient::of(p.heat, props_s, state.m_small_kg, state.v_gas_m3);
+        let g = PressureGradient::of(heat, props_s, gas_s.mass_kg, gas_s.volume_m3);
         let force_per_state = UnitState {
             t_gas_k: area * g.per_t,
             v_gas_m3: area * g.per_v,
             m_small_kg: area * g.per_m,
             ..UnitState::default()
         };
-        let friction = p.effects.friction.map_or(0.0, |f| f.slope_n_s_per_m(motion.vel_m_s));
+        let friction = e.friction.map_or(0.0, |f| f.slope_n_s_per_m(motion.vel_m_s));
         let (k_stop, c_stop) = self.end_stop_slopes(motion);
         // The damper's power dp q: d/dv = A (dp + q dp'/dq).
         let rate_per_vel = UnitState {
             v_gas_m3: -area,
-            t_gas_k: -area * temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
+            t_gas_k: -area * temperature_rate_per_volume_rate(heat, props_s, t_s, gas_s.mass_kg, gas_s.volume_m3),
             e_damper_j: area * damper_dp_pa + q * dp_dv,
             ..UnitState::default()
         };
@@ -1076,9 +1154,13 @@ impl Unit {
     }
 
     /// The valve-6 exchange linearised (see [`Valve6Coupling`]).
+    #[allow(clippy::too_many_arguments)]
     fn valve6_coupling(
         &self,
-        state: &UnitState,
+        heat: HeatTransfer,
+        e: &Effects,
+        gas_s: GasMass,
+        gas_l: GasMass,
         props_s: &GasProps,
         props_l: &GasProps,
         (t_s, t_l): (f64, f64),
@@ -1089,8 +1171,8 @@ impl Unit {
         let dp = props_s.p_pa - props_l.p_pa;
         // q6 = s6 Q(p_S - p_L).
         let slope = s6 * p.valve6.flow_slope_m3_s_pa(dp, self.valve6_coefficient);
-        let g_s = PressureGradient::of(p.heat, props_s, state.m_small_kg, state.v_gas_m3);
-        let g_l = PressureGradient::of(p.heat, props_l, state.m_large_kg, state.v_gas2_m3);
+        let g_s = PressureGradient::of(heat, props_s, gas_s.mass_kg, gas_s.volume_m3);
+        let g_l = PressureGradient::of(heat, props_l, gas_l.mass_kg, gas_l.volume_m3);
         let mut v = UnitState {
             t_gas_k: slope * g_s.per_t,
             v_gas_m3: slope * g_s.per_v,
@@ -1108,12 +1190,12 @@ impl Unit {
         let mut u = UnitState {
             v_gas_m3: 1.0,
             v_gas2_m3: -1.0,
-            t_gas_k: temperature_rate_per_volume_rate(p.heat, props_s, t_s, state.m_small_kg, state.v_gas_m3),
-            t_gas2_k: -temperature_rate_per_volume_rate(p.heat, props_l, t_l, state.m_large_kg, state.v_gas2_m3),
+            t_gas_k: temperature_rate_per_volume_rate(heat, props_s, t_s, gas_s.mass_kg, gas_s.volume_m3),
+            t_gas2_k: -temperature_rate_per_volume_rate(heat, props_l, t_l, gas_l.mass_kg, gas_l.volume_m3),
             e_valve6_j: dp,
             ..UnitState::default()
         };
-        if let Some(n) = p.effects.oil_node {
+        if let Some(n) = e.oil_node {
             u.t_oil_k = dp / n.heat_capacity_j_per_k;
         }
         Valve6Coupling { u, v }

@@ -69,7 +69,7 @@ pub fn evaluate(
         disp_m: static_disp_m + motion.wheel_disp_m - motion.body_disp_m,
         vel_m_s: motion.wheel_vel_m_s - motion.body_vel_m_s,
     };
-    let (rate, unit_out, linear) = unit.evaluate_parts_with(gas, state, strut, valves, ambient_k, Needs { outputs, coupling, strut: coupling, rates: true });
+    let (rate, unit_out, linear) = unit.evaluate_parts_plain_with(gas, state, strut, valves, ambient_k, Needs { outputs, coupling, strut: coupling, rates: true });
     let deflection = tyre_static_deflection_m + motion.road_m - motion.wheel_disp_m;
     let tyre_force = tyre.force_n(deflection, motion.road_vel_m_s - motion.wheel_vel_m_s);
     (rate, CornerForces { strut, unit: unit_out, tyre_deflection_m: deflection, tyre_force_n: tyre_force }, linear)
