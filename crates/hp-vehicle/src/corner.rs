@@ -51,7 +51,7 @@ pub struct CornerForces {
 /// there only with oil compliance, is not used: the strut pressure is not
 /// among the states that `W` treats implicitly.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 pub fn evaluate(
     unit: &Unit,
     gas: &impl EquationOfState,

@@ -584,15 +584,41 @@ impl Dynamics<'_> {
     /// [`Dynamics::evaluate`] writing the rate into `rate` (every element:
     /// the unused corners' are zero), so that the stepper reuses its
     /// arrays instead of copying a returned one.
+    ///
+    /// Compiled once for each combination of a sample and a linearisation
+    /// asked for or not, so that the stages that want neither (a ROS2
+    /// step's second stage, most first stages) carry no code or live
+    /// values for them: the same operations for what they compute.
     #[inline]
     fn evaluate_into(
         &self,
         t_s: f64,
         y: &[f64; VEHICLE_STATES],
         rate: &mut [f64; VEHICLE_STATES],
-        mut sample: Option<&mut VehicleSample>,
-        mut couplings: Option<&mut Couplings>,
+        sample: Option<&mut VehicleSample>,
+        couplings: Option<&mut Couplings>,
     ) {
+        match (sample, couplings) {
+            (None, None) => self.evaluate_into_for::<false, false>(t_s, y, rate, None, None),
+            (None, c @ Some(_)) => self.evaluate_into_for::<false, true>(t_s, y, rate, None, c),
+            (s @ Some(_), None) => self.evaluate_into_for::<true, false>(t_s, y, rate, s, None),
+            (s @ Some(_), c @ Some(_)) => self.evaluate_into_for::<true, true>(t_s, y, rate, s, c),
+        }
+    }
+
+    /// [`Dynamics::evaluate_into`] with `sample` and `couplings` known to
+    /// be `Some` (`SAMPLE`, `LINEARISE`) or `None`.
+    #[inline(never)]
+    fn evaluate_into_for<const SAMPLE: bool, const LINEARISE: bool>(
+        &self,
+        t_s: f64,
+        y: &[f64; VEHICLE_STATES],
+        rate: &mut [f64; VEHICLE_STATES],
+        sample: Option<&mut VehicleSample>,
+        couplings: Option<&mut Couplings>,
+    ) {
+        let mut sample = if SAMPLE { sample } else { None };
+        let mut couplings = if LINEARISE { couplings } else { None };
         let v = self.vehicle;
         let b = &v.params.body;
         let [heave, heave_vel, pitch, pitch_rate, roll, roll_rate, lat_vel, yaw_rate, heading, lateral_pos, distance, ..] = *y;
