@@ -269,8 +269,8 @@ impl DamperCurve {
 #[inline]
 fn rounded_ramp(q: f64, q_b: f64, w: f64) -> (f64, f64) {
     let a = q - q_b;
-    let s_a = libm::sqrt(a * a + w * w);
-    let s_b = libm::sqrt(q_b * q_b + w * w);
+    let s_a = sqrt(a * a + w * w);
+    let s_b = sqrt(q_b * q_b + w * w);
     let sum = s_a + s_b;
     let den = sum * sum * (s_b + q_b);
     let ramp = if den > 0.0 { q * q * (s_a * s_b + w * w + q_b * a) / den } else { 0.0 };
@@ -284,7 +284,7 @@ fn solve_quadratic_flow(r: f64, k: f64, dp: f64) -> f64 {
     if dp <= 0.0 {
         return 0.0;
     }
-    let disc = libm::sqrt(r * r + 4.0 * k * dp);
+    let disc = sqrt(r * r + 4.0 * k * dp);
     let denom = r + disc;
     if denom > 0.0 {
         2.0 * dp / denom
@@ -318,6 +318,7 @@ impl Damper {
     /// Signed pressure drop from strut to accumulator for a signed flow out
     /// of the strut `q_m3_s`, with valve 5 open by the fraction
     /// `bypass_open` (0 = closed = damper on, 1 = open), Pa.
+    #[inline(always)]
     pub fn pressure_drop_pa(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
         let (on, off) = if q_m3_s >= 0.0 {
             (&self.on_compression, &self.off_compression)
@@ -431,8 +432,8 @@ impl Orifice {
         // the two square roots instead of after them. On the vehicle's hot
         // path (valve 6 open, every corner, both stages) the chain of two
         // roots and a division was the longest latency of an evaluation.
-        let root = libm::sqrt(s);
-        coefficient * (dp_pa / s) * (root * libm::sqrt(root))
+        let root = sqrt(s);
+        coefficient * (dp_pa / s) * (root * sqrt(root))
     }
 
     /// `d(flow)/d(dp)` of [`Orifice::flow_m3_s`], m^3/(s Pa):
@@ -440,7 +441,28 @@ impl Orifice {
     pub fn flow_slope_m3_s_pa(&self, dp_pa: f64, coefficient: f64) -> f64 {
         let dp_t = self.transition_pa;
         let s = dp_pa * dp_pa + dp_t * dp_t;
-        let quarter = libm::sqrt(libm::sqrt(s));
+        let quarter = sqrt(sqrt(s));
         coefficient * (0.5 * dp_pa * dp_pa + dp_t * dp_t) / (s * quarter)
+    }
+}
+
+/// `sqrt(x)`, correctly rounded: the same value as `libm::sqrt`. On x86-64
+/// `libm::sqrt` is inline assembly, a legacy-encoded `sqrtsd`; in code the
+/// compiler builds for AVX (`hp_vehicle::wide`'s drive loop, into which the
+/// damper and valve 6 are inlined) such an instruction, mixed with the
+/// 256-bit operations there, stalls on the registers' upper halves (the
+/// 8x8's run took 2.5 times as long). Through the SSE2 intrinsic the
+/// compiler encodes it for the code it lands in.
+#[inline(always)]
+fn sqrt(x: f64) -> f64 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        use core::arch::x86_64::{_mm_cvtsd_f64, _mm_set_sd, _mm_sqrt_pd};
+        // SAFETY: sse2 is enabled (the cfg); no memory access.
+        unsafe { _mm_cvtsd_f64(_mm_sqrt_pd(_mm_set_sd(x))) }
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        libm::sqrt(x)
     }
 }

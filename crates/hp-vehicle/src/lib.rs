@@ -18,6 +18,7 @@
 //! - [`presets`]: an armoured-vehicle class 4x4 and 8x8.
 //! - [`closed_loop`]: the controller (`hp-ctrl`) on the SDOF rig.
 //! - [`drive`]: the vehicle with one controller per wheel (or passive).
+//! - [`wide`]: whether the drive loop runs in its AVX2 compilation.
 //!
 //! `hp-ctrl`'s closed-loop runner used to live in that crate; it moved here
 //! so the controller crate holds only what flies.
@@ -37,3 +38,4 @@ mod stepping;
 pub mod track;
 pub mod tyre;
 pub mod vehicle;
+pub mod wide;

@@ -265,6 +265,7 @@ impl W {
     }
 
     /// `x <- W^-1 x`.
+    #[inline(always)]
     pub fn solve(&self, x: &mut [f64; VEHICLE_STATES]) {
         if !self.implicit {
             return;

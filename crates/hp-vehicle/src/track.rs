@@ -50,7 +50,7 @@ impl Track<'_> {
     /// assert!((z - 0.15).abs() < 1e-12 && (slope - 0.2).abs() < 1e-12);
     /// assert_eq!(t.at(5.0), (0.3, 0.0)); // flat beyond the last point
     /// ```
-    #[inline]
+    #[inline(always)]
     pub fn at(&self, x_m: f64) -> (f64, f64) {
         let h = self.height_m;
         let u_all = (x_m - self.start_m) / self.dx_m;

@@ -589,7 +589,7 @@ impl Dynamics<'_> {
     /// asked for or not, so that the stages that want neither (a ROS2
     /// step's second stage, most first stages) carry no code or live
     /// values for them: the same operations for what they compute.
-    #[inline]
+    #[inline(always)]
     fn evaluate_into(
         &self,
         t_s: f64,
@@ -608,7 +608,7 @@ impl Dynamics<'_> {
 
     /// [`Dynamics::evaluate_into`] with `sample` and `couplings` known to
     /// be `Some` (`SAMPLE`, `LINEARISE`) or `None`.
-    #[inline(never)]
+    #[inline(always)]
     fn evaluate_into_for<const SAMPLE: bool, const LINEARISE: bool>(
         &self,
         t_s: f64,
@@ -750,6 +750,7 @@ impl Dynamics<'_> {
     /// Projects a step's result onto the units' constraints and checks it
     /// ([`Unit::project`], [`Dynamics::check`]), each unit's state taken
     /// out of the array once for both.
+    #[inline(always)]
     fn finish(&self, t_s: f64, y: &mut [f64; VEHICLE_STATES]) -> Result<()> {
         let v = self.vehicle;
         let (_, corner_y) = y.split_at_mut(BODY_STATES);
@@ -799,6 +800,7 @@ impl Dynamics<'_> {
     /// would otherwise check every state twice, and copy a returned rate.
     /// With `linearise` (and ROS2 stepping) each corner's linearisation
     /// comes with it.
+    #[inline(always)]
     pub(crate) fn rate_into(&self, t_s: f64, state: &VehicleState, sample: Option<&mut VehicleSample>, linearise: bool, rate: &mut Rate) {
         rate.linearised = linearise && self.vehicle.stepping == Stepping::Ros2;
         let couplings = if rate.linearised { Some(&mut rate.couplings) } else { None };
@@ -831,6 +833,7 @@ impl Dynamics<'_> {
     /// [`Dynamics::advance_with`] overwriting `state`, with `rate` as the
     /// first stage's storage (the drive loop's form: nothing copied in or
     /// out). On an error `state` is left part way.
+    #[inline(always)]
     pub(crate) fn advance_in_place(
         &self,
         t_s: f64,
@@ -861,6 +864,7 @@ impl Dynamics<'_> {
     ///
     /// `y` itself holds the second stage's state `y + h k1` (so the result
     /// is `y + h k1 + h (1/2 k1 + 1/2 k2)`), and `rate` is `k1`'s storage.
+    #[inline(always)]
     fn advance_ros2(&self, t_s: f64, t_end_s: f64, y: &mut [f64; VEHICLE_STATES], rate: &mut Rate, max_dt_s: f64, memory: &mut StepMemory) -> Result<()> {
         let (n, h) = hp_core::ode::steps(t_s, t_end_s, max_dt_s)?;
         let gh = ROS2_GAMMA * h;

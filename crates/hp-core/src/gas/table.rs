@@ -269,7 +269,7 @@ fn value_and_slopes(a: &[f64; 16], s: f64, r: f64) -> (f64, f64, f64) {
 /// plain form's lanes by itself (measured: it stays scalar), hence the
 /// intrinsics.
 ///
-/// The crate's only `unsafe`: the SSE2 intrinsics are `unsafe fn`s because
+/// The crate's `unsafe` (with `damper`'s square root): the SSE2 intrinsics are `unsafe fn`s because
 /// they need the CPU feature; this module is compiled only where the build
 /// enables `sse2` (`cfg(target_feature)`, on in every x86-64 target's
 /// baseline), and none of them touches memory, so every call is sound.
@@ -420,7 +420,7 @@ impl<E: EquationOfState> TabulatedGas<'_, E> {
 }
 
 impl<E: EquationOfState> EquationOfState for TabulatedGas<'_, E> {
-    #[inline]
+    #[inline(always)]
     fn props(&self, rho_kg_m3: f64, t_k: f64) -> GasProps {
         match self.cell(rho_kg_m3, t_k) {
             Some((c, s, r)) => {
