@@ -138,3 +138,26 @@ def test_run_many_refuses_a_gas_table_flag_that_is_not_a_bool(seed_unit: hpctl.U
     with pytest.raises(hpctl.ParameterError, match=r"cases\[0\]\.gas_table must be a bool") as e:
         _core.simulate_many([{**c, "gas_table": "yes"}])  # type: ignore[typeddict-item]
     assert isinstance(e.value, ValueError)
+
+
+def test_a_switch_lead_places_the_switch_between_samples_and_a_bad_one_is_refused(seed_unit: hpctl.Unit) -> None:
+    # Midway (a record's logged valve state) equals a switch at an output
+    # placed there on a grid twice as fine; at the sample it differs.
+    rig = characterisation_rig(hpctl.Sine(0.03, 1.0))
+    coarse, fine = uniform_times(0.4, 0.01), uniform_times(0.4, 0.005)
+    midway = hpctl.run(seed_unit, rig, coarse, spring_hard=coarse < 0.2, damper_on=True, switch_lead=0.5)
+    placed = hpctl.run(seed_unit, rig, fine, spring_hard=fine < 0.195, damper_on=True)
+    at_sample = hpctl.run(seed_unit, rig, coarse, spring_hard=coarse < 0.2, damper_on=True)
+    np.testing.assert_allclose(midway["p_gas_pa"], placed["p_gas_pa"][::2], rtol=1e-9)
+    assert np.max(np.abs(at_sample["p_gas_pa"] - placed["p_gas_pa"][::2])) > 1e4
+    for lead in (1.0, -0.1, float("nan"), "half"):
+        with pytest.raises(hpctl.ParameterError, match="switch_lead") as e:
+            hpctl.run(seed_unit, rig, coarse, spring_hard=coarse < 0.2, switch_lead=lead)  # type: ignore[arg-type]
+        assert isinstance(e.value, ValueError)
+        # run_many checks the argument's type up front and returns the
+        # core's range error in the failed case's place.
+        try:
+            out: list[object] = list(hpctl.run_many([Case(seed_unit, rig, coarse, spring_hard=coarse < 0.2, switch_lead=lead)]))  # type: ignore[arg-type]
+        except hpctl.ParameterError as err:
+            out = [err]
+        assert isinstance(out[0], hpctl.ParameterError) and "switch_lead" in str(out[0]), out
