@@ -174,7 +174,7 @@ fn run_wide(
 /// plant's evaluation, steps and checks, all `inline(always)`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(crate) fn run_loop(
+fn run_loop(
     vehicle: &Vehicle,
     road: &Road<'_>,
     suspension: Suspension<'_>,

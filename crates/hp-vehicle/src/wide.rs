@@ -5,7 +5,8 @@
 //! the 8x8). Floating-point results are the same to the bit either way: the
 //! compiler neither fuses (no FMA unless asked) nor reorders floating-point
 //! operations, and every operation is the IEEE one in both encodings
-//! (`tests/wide.rs` compares the two).
+//! (`drive::tests::the_wide_compilation_gives_the_same_results_to_the_bit`
+//! compares the two).
 //!
 //! The environment variable `HPCTL_NO_WIDE` (any value) keeps the baseline
 //! compilation, for comparing the two.
