@@ -3,7 +3,7 @@ friction's smoothing and Stribeck term identified from the data, and the
 standard errors' coverage on randomised virtual-rig runs.
 
 Both statistical tests draw anew on every run; the seed is printed on
-failure (FOREIGN_RIG_SEED / COVERAGE_SEED replay it)."""
+failure (FOREIGN_RIG_SEED / COVERAGE_SEED / EXPONENT_SEED replay it)."""
 
 from __future__ import annotations
 
@@ -235,24 +235,60 @@ def test_flexible_damper_leaves_the_slowest_sine_no_worse(control_case: ControlC
     assert _force_rms(c.flexible, i) <= 1.1 * _force_rms(c.gain, i), c.context
 
 
-def test_flexible_heat_transfer_finds_the_foreign_rigs_constant_wall_conductance(control_case: ControlCase) -> None:
+#: Foreign-rig draws for the coverage of the heat-transfer exponent's
+#: standard error: one flexible fit of the three short sines each, about
+#: 2 s (40-60 s in all on the shared 2-core machine).
+EXPONENT_DRAWS = 20
+
+
+@pytest.fixture(scope="module")
+def exponent_draws() -> tuple[int, list[tuple[float, float]]]:
+    base = int(os.environ.get("EXPONENT_SEED", secrets.randbelow(2**31 - EXPONENT_DRAWS)))
+    out = []
+    for seed in range(base, base + EXPONENT_DRAWS):
+        g = generate(None, seed, tests=[t for t in sweep_tests() if t.name in SHORT])
+        r = fit(prepare([read_record(p) for p in g.records]), ("heat_transfer", "real_gas"), flexible=True)
+        out.append((r.values["tau_cv_exponent"], r.stderr["tau_cv_exponent"]))
+    return base, out
+
+
+def test_flexible_heat_transfer_finds_the_foreign_rigs_constant_wall_conductance(
+    control_case: ControlCase, exponent_draws: tuple[int, list[tuple[float, float]]]
+) -> None:
     # The foreign rig's gas exchanges heat through a constant conductance
     # h A (its own formulation: tau = m c_v / h A moves with c_v), which is
     # exponent 1 of m c_v in hpctl's time constant; the seed's constant
     # time constant is 0 (the prior's centre). Before the flexible model
     # fitted it, the strut-side pressure kept 3-8x the noise on the 0.3 and
     # 1 Hz sines (FOREIGN_RIG_SEED=1767147371: 6.0x and 6.4x).
-    # Its standard error is honest: on 30 draws (FOREIGN_RIG_SEED=100..129,
-    # 2026-11-27) (n - 1) / sigma had mean 0.15 and standard deviation 1.00,
-    # 28 of 30 inside 2 sigma, the largest 2.45. One draw per run is checked
-    # against 3 sigma, which an honest error misses on 0.3 % of draws; at
-    # 2 sigma the test failed by design on about one draw in twenty where
-    # the error exceeds 0.05 (FOREIGN_RIG_SEED=1168470902: 0.891 +- 0.045,
-    # z = -2.45, the strut-side pressure's noise 7 kPa, at the draw's top).
     c = control_case
-    value, err = c.flexible.values["tau_cv_exponent"], c.flexible.stderr["tau_cv_exponent"]
-    assert abs(value - 1.0) <= max(0.1, 3.0 * err), f"{c.context}: exponent {value:.3f} +- {err:.3f}, truth 1"
-    assert err < 0.25, f"{c.context}: exponent {value:.3f} +- {err:.3f}: the sines should pin it"
+    err = c.flexible.stderr["tau_cv_exponent"]
+    assert err < 0.25, f"{c.context}: exponent {c.flexible.values['tau_cv_exponent']:.3f} +- {err:.3f}: the sines should pin it"
+    # Its standard error is honest, judged on 20 fresh draws as the
+    # hp-core coverage test below judges its own: for honest errors the
+    # count of draws with the truth within 2 sigma is Binomial(20, 0.9545),
+    # fewer than 16 has probability 0.0017, and the mean z^2 is inside the
+    # chi-square(20)/20 band of probability 0.998. This was a one-draw test
+    # at 3 sigma until it failed in CI on FOREIGN_RIG_SEED=1696361428:
+    # 1.119 +- 0.028 (z = 4.3), a draw whose pressure noise is 39 %
+    # coloured with a 38 ms correlation time, sampled every 5 ms on the 1 Hz
+    # sine; the errors took the residuals as independent. 16 fresh noise
+    # draws on that unit gave 0.993 with a spread of 0.045: the error was
+    # 0.029, with the output noise's autocorrelation in the covariance
+    # (hpctl.identify.serial) 0.036, and on FOREIGN_RIG_SEED=100..129 29
+    # of 30 inside 2 sigma, z mean +0.41, spread 0.94, largest 2.09
+    # (2026-11-27; docs/foreign-rig.md).
+    base, draws = exponent_draws
+    n = len(draws)
+    z = np.array([(v - 1.0) / e for v, e in draws])
+    least = int(binom.ppf(0.002, n, 0.9545))
+    lo, hi = chi2.ppf(0.001, n) / n, chi2.ppf(0.999, n) / n
+    inside = int(np.sum(np.abs(z) <= 2.0))
+    context = (f"EXPONENT_SEED={base}: {inside}/{n} inside 2 sigma (need >= {least}), mean z^2 {np.mean(z**2):.2f} "
+               f"(band [{lo:.2f}, {hi:.2f}]), z {np.array2string(z, precision=2)}")
+    print(context)
+    assert inside >= least, context
+    assert lo <= float(np.mean(z**2)) <= hi, context
 
 
 #: Draws of the measured input's noise per record for the part of the

@@ -24,6 +24,7 @@ from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
+from hpctl.identify.serial import output_meat
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
@@ -447,7 +448,7 @@ def fit(
         else:
             message += "; the input noise's bias correction left out (the model is not linear over its step)"
     rss = float(r @ r)
-    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], rss, _output_share(datasets, fold), draws)
+    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], r, _output_share(datasets, fold), _blocks(datasets, fold), draws)
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
 
 
@@ -516,6 +517,17 @@ def _output_share(datasets: Sequence[Dataset], fold: int | None) -> FloatArray:
         for c in d.targets:
             parts.append(((d.sigma[c] / d.weight_sigma[c]) ** 2)[m])
     return np.concatenate(parts)
+
+
+def _blocks(datasets: Sequence[Dataset], fold: int | None) -> list[int]:
+    """The lengths of the residual vector's blocks, one per channel of each
+    record (with ``fold``, its samples of the record; the fold's blocks of
+    a record are taken as one, their joins being few)."""
+    out = []
+    for d in datasets:
+        n = len(d.times_s) if fold is None else int(fold_mask(d, fold).sum())
+        out += [n] * len(d.targets)
+    return out
 
 
 def _input_noise_residuals(
@@ -596,42 +608,44 @@ def _least_squares_step(j_data: FloatArray, j_prior: FloatArray, dr: FloatArray,
 
 
 def _stderr(
-    params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, rss: float,
-    output_share: FloatArray, input_draws: FloatArray | None,
+    params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, r: FloatArray,
+    output_share: FloatArray, blocks: Sequence[int], input_draws: FloatArray | None,
 ) -> dict[str, float]:
     """Standard errors from the Jacobian at the optimum, mapped through the
     log transform where there is one. The residuals' covariance is the
-    output noise's (independent, each sample's share of its weight, scaled
-    so that with the input's part it accounts for the residual sum of
-    squares) plus the input noise's, sampled by ``input_draws``; the
-    estimate's covariance is the sandwich (J'J)^-1 J' S J (J'J)^-1. The
-    prior rows are unit variance by construction. Without ``input_draws``:
-    (J'J)^-1 s^2, s^2 the residual variance (independent residuals)."""
+    output noise's (each sample's share of its weight, scaled so that with
+    the input's part it accounts for the residual sum of squares, and
+    correlated from sample to sample as the residuals of its record and
+    channel say: :mod:`hpctl.identify.serial`) plus the input noise's,
+    sampled by ``input_draws``; the estimate's covariance is the sandwich
+    (J'J)^-1 J' S J (J'J)^-1. The prior rows are unit variance by
+    construction. Without ``input_draws`` the output noise is all of the
+    residual."""
     k = len(params)
     if k == 0:
         return {}
+    rss = float(r @ r)
     if input_draws is None:
-        j = np.vstack([j_data, j_prior])
-        s2 = rss / max(len(output_share) - k, 1)
-        return _to_values(params, x, _diag_sd(lambda: np.asarray(np.linalg.inv(j.T @ j) * s2, float), k))
+        share = np.ones(len(r))
+        s2 = rss / max(len(r) - k, 1)
+        meat = s2 * output_meat(j_data, share, r, blocks, None) + j_prior.T @ j_prior
+        return _to_values(params, x, _diag_sd(j_data, j_prior, meat, k))
     m = input_draws.shape[1]
     # The input noise's part, plus the sampling error of the bias
     # correction that the same draws made (their mean: 1/m of it).
     g = j_data.T @ (input_draws - input_draws.mean(axis=1, keepdims=True)) * math.sqrt((1.0 + 1.0 / m) / max(m - 1, 1)) if m else np.zeros((k, 0))
     input_ss = float(np.sum(input_draws**2)) / m if m else 0.0
     kappa = max(rss - input_ss, 0.0) / max(float(np.sum(output_share)) - k, 1.0)
-    meat = kappa * (j_data.T * output_share) @ j_data + g @ g.T + j_prior.T @ j_prior
-
-    def cov() -> FloatArray:
-        bread = np.linalg.inv(j_data.T @ j_data + j_prior.T @ j_prior)
-        return np.asarray(bread @ meat @ bread)
-
-    return _to_values(params, x, _diag_sd(cov, k))
+    meat = kappa * output_meat(j_data, output_share, r, blocks, input_draws if m else None) + g @ g.T + j_prior.T @ j_prior
+    return _to_values(params, x, _diag_sd(j_data, j_prior, meat, k))
 
 
-def _diag_sd(cov: Callable[[], FloatArray], k: int) -> FloatArray:
+def _diag_sd(j_data: FloatArray, j_prior: FloatArray, meat: FloatArray, k: int) -> FloatArray:
+    """The square roots of the sandwich's diagonal (inf where the
+    parameters cannot be told apart: J'J singular)."""
     try:
-        return np.sqrt(np.clip(np.diag(cov()), 0, None))
+        bread = np.linalg.inv(j_data.T @ j_data + j_prior.T @ j_prior)
+        return np.asarray(np.sqrt(np.clip(np.diag(bread @ meat @ bread), 0, None)), float)
     except np.linalg.LinAlgError:
         return np.full(k, np.inf)
 
