@@ -3,6 +3,8 @@ determinism, progress and the GIL."""
 
 from __future__ import annotations
 
+import math
+
 import threading
 import time
 
@@ -154,6 +156,9 @@ def test_a_switch_lead_places_the_switch_between_samples_and_a_bad_one_is_refuse
         with pytest.raises(hpctl.ParameterError, match="switch_lead") as e:
             hpctl.run(seed_unit, rig, coarse, spring_hard=coarse < 0.2, switch_lead=lead)  # type: ignore[arg-type]
         assert isinstance(e.value, ValueError)
+        if isinstance(lead, float) and math.isfinite(lead):
+            # The range named is inclusive: its upper end is below 1.
+            assert "[0, 0.9999999999999999]" in str(e.value), e.value
         # run_many checks the argument's type up front and returns the
         # core's range error in the failed case's place.
         try:

@@ -376,13 +376,20 @@ pub fn run<'a>(
     run_with_lead(rig, times_s, max_dt_s, 0.0, valves_at, on_sample)
 }
 
+/// The largest valid switch lead: the largest `f64` below 1 (a lead of a
+/// whole interval would put the switch on the output before, which then
+/// shows the old valves: the switch would not be the first output's).
+/// [`Error::OutOfRange`]'s bounds are inclusive, so the error names this
+/// value, not 1.
+pub const MAX_SWITCH_LEAD: f64 = 1.0 - f64::EPSILON / 2.0;
+
 /// Checks a switch lead (the fraction of an output interval by which a
 /// valve switch precedes the first output that shows it): in [0, 1).
 pub(crate) fn check_lead(lead: f64) -> Result<f64> {
-    if lead.is_finite() && (0.0..1.0).contains(&lead) {
+    if (0.0..=MAX_SWITCH_LEAD).contains(&lead) {
         Ok(lead)
     } else {
-        Err(Error::OutOfRange { name: "switch_lead", value: lead, min: 0.0, max: 1.0 })
+        Err(Error::OutOfRange { name: "switch_lead", value: lead, min: 0.0, max: MAX_SWITCH_LEAD })
     }
 }
 

@@ -107,8 +107,12 @@ fn a_bad_lead_is_refused() {
     for lead in [-0.1, 1.0, 1.5, f64::NAN, f64::INFINITY] {
         let err = run_with_lead(&rig(&unit), c.iter().copied(), 1e-4, lead, |i, _| coarse(i), |_, _| true).unwrap_err();
         assert!(format!("{err}").contains("switch_lead"), "{err}");
+        // The range the message gives is inclusive and excludes 1.
+        assert!(format!("{err}").contains("[0, 0.9999999999999999]"), "{err}");
         let settings = Adaptive { switch_lead: lead, ..Adaptive::default() };
         let err = run_adaptive(&rig(&unit), &c, settings, SampleDetail::Full, Steps::Controlled, |i, _| coarse(i), |_, _| true).unwrap_err();
         assert!(format!("{err}").contains("switch_lead"), "{err}");
     }
+    // The range's upper end itself is valid.
+    assert!(run_with_lead(&rig(&unit), c.iter().copied(), 1e-4, hp_core::rig::MAX_SWITCH_LEAD, |i, _| coarse(i), |_, _| true).is_ok());
 }
