@@ -4,7 +4,6 @@ determinism, progress and the GIL."""
 from __future__ import annotations
 
 import math
-
 import threading
 import time
 
