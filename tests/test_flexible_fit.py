@@ -456,6 +456,10 @@ def test_flexible_model_identifies_valve6_where_the_records_open_it(monkeypatch:
     # rig did, and the first 20 ms after the switch leave 130-270 kPa in
     # the small accumulator's pressure, which a larger, smoother valve
     # partly makes up for (measured 2026-11-27; not fixed: see the issue).
+    # Seeds 11-32 (stop 26): 21 of 22 pass; 20 fails the residual's share
+    # (1.441 -> 1.325 x the noise, a third of the excess needs 1.318; the
+    # area, 3.37e-5 against 2.74e-5, passes). Fitting each switch's time
+    # within its sample interval would take the cause away.
     from hpctl.identify import fit as fit_module
 
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
