@@ -91,3 +91,12 @@ def test_the_carried_input_noise_is_not_counted_twice() -> None:
     assert rho_all.size > 3  # correlated on its own
     rho_out = output_autocorrelation(carried[:, 0], carried[:, 1:])
     assert rho_out.size <= 1, rho_out
+
+
+def test_the_autocovariance_through_the_fft_is_the_direct_sum() -> None:
+    from hpctl.identify.serial import _autocovariance
+
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=(997, 3))
+    direct = [float(np.sum(x[: 997 - lag] * x[lag:])) / 997 for lag in range(41)]
+    np.testing.assert_allclose(_autocovariance(x, 40), direct, rtol=1e-12, atol=1e-12)
