@@ -195,6 +195,28 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
 /// volume offset, the target's density); one controller after another,
 /// each chain waited for the last, side by side the core overlaps them.
 pub fn step_all(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: f64, outputs: &mut [Outputs]) {
+    step_all_in(params, states, inputs, dt_s, outputs);
+}
+
+/// [`step_all`] compiled for x86-64 processors with AVX2 (feature `wide`,
+/// host simulations only: the firmware never enables it): the same Rust
+/// code with VEX encoding (three-operand instructions, fewer register
+/// copies), so the same operations on the same values and the same
+/// outputs and states to the bit; the compiler neither fuses nor reorders
+/// floating-point operations. Safe to call only where the caller's own
+/// code is compiled for AVX2 (hp-vehicle's AVX2 drive loop, chosen at run
+/// time), which the compiler enforces. Kept out of line, as `step_all` is
+/// in the baseline loop (inlined, it made the loop longer).
+#[cfg(all(feature = "wide", target_arch = "x86_64"))]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+pub fn step_all_avx2(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: f64, outputs: &mut [Outputs]) {
+    step_all_in(params, states, inputs, dt_s, outputs);
+}
+
+/// [`step_all`]'s body, inlined into each of its compilations.
+#[inline(always)]
+fn step_all_in(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: f64, outputs: &mut [Outputs]) {
     const BATCH: usize = 8;
     for ((states, inputs), outputs) in states.chunks_mut(BATCH).zip(inputs.chunks(BATCH)).zip(outputs.chunks_mut(BATCH)) {
         let mut begun = [None; BATCH];
