@@ -19,7 +19,7 @@ use hp_ctrl::{input_group, step_all, DriverMode, Inputs, Outputs, Params, State}
 
 use crate::closed_loop::Sensors;
 use crate::track::Road;
-use crate::vehicle::{DriveInputs, Rate, StepMemory, Vehicle, VehicleSample, VehicleState, MAX_CORNERS};
+use crate::vehicle::{same_valves, DriveInputs, Rate, StepMemory, Vehicle, VehicleSample, VehicleState, MAX_CORNERS};
 
 /// What the driver does in one period, and what the bus carries of it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -248,7 +248,7 @@ fn run_loop(
         if !on_period(&DrivePeriod { index, sample: &sample, inputs: &inputs, outputs: &outputs, valves: &next_valves }) {
             break;
         }
-        if next_valves != valves {
+        if !same_valves(&next_valves, &valves) {
             // The new commands change the flows: the first stage must see them.
             valves = next_valves;
             vehicle.dynamics(road, driver.drive_inputs(), valves).rate_into(t_s, &x, None, memory.rebuilds(&valves), &mut rate);
