@@ -748,18 +748,15 @@ impl Dynamics<'_> {
     }
 
     /// Projects a step's result onto the units' constraints and checks it
-    /// ([`Unit::project`], [`Dynamics::check`]), each unit's state taken
-    /// out of the array once for both.
+    /// ([`Unit::project`], [`Dynamics::check`]), each unit's state in
+    /// place in the array ([`Unit::project_and_check`]).
     #[inline(always)]
     fn finish(&self, t_s: f64, y: &mut [f64; VEHICLE_STATES]) -> Result<()> {
         let v = self.vehicle;
         let (_, corner_y) = y.split_at_mut(BODY_STATES);
         for (unit, cy) in v.units.iter().take(v.corner_count()).zip(corner_y.chunks_exact_mut(CORNER_STATES)) {
             if let Some(a) = cy.first_chunk_mut::<UNIT_STATES>() {
-                let mut s = UnitState::from_array(a);
-                unit.project(&mut s, v.ambient_k);
-                unit.check_state(&s, t_s)?;
-                *a = s.to_array();
+                unit.project_and_check(a, v.ambient_k, t_s)?;
             }
         }
         finite(t_s, y)
