@@ -203,10 +203,15 @@ pub fn step_all(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: 
 /// code with VEX encoding (three-operand instructions, fewer register
 /// copies), so the same operations on the same values and the same
 /// outputs and states to the bit; the compiler neither fuses nor reorders
-/// floating-point operations. Safe to call only where the caller's own
-/// code is compiled for AVX2 (hp-vehicle's AVX2 drive loop, chosen at run
-/// time), which the compiler enforces. Kept out of line, as `step_all` is
-/// in the baseline loop (inlined, it made the loop longer).
+/// floating-point operations. Kept out of line, as `step_all` is in the
+/// baseline loop (inlined, it made the loop longer).
+///
+/// # Safety
+///
+/// A safe call needs the caller compiled for AVX2 itself (hp-vehicle's
+/// AVX2 drive loop, chosen at run time when the processor has AVX2); the
+/// compiler enforces it, and any other caller would need an `unsafe`
+/// block and the processor's AVX2 checked first.
 #[cfg(all(feature = "wide", target_arch = "x86_64"))]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
