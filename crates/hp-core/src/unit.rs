@@ -562,6 +562,37 @@ fn volume_ok(v: f64, m: f64) -> bool {
     m > 0.0 && v * DENSITY_RANGE_KG_M3.1 > m && v < 10.0
 }
 
+/// [`Unit::check_state`]'s test: the four temperatures (gas S, gas L,
+/// wall, oil) in range, the two gas volumes with their masses plausible,
+/// and the sum of the other checked states (strut pressure, void, the
+/// three sensors) finite. One cheap test on the hot path; the error is
+/// built only on failure.
+#[inline(always)]
+fn values_ok(temperatures: [f64; 4], volumes: [(f64, f64); 2], finite: [f64; 5]) -> bool {
+    let (t_min, t_max) = TEMPERATURE_RANGE_K;
+    let temperature_ok = |t: f64| t >= t_min && t <= t_max;
+    let [t_gas, t_gas2, t_wall, t_oil] = temperatures;
+    let [(v_gas, m_small), (v_gas2, m_large)] = volumes;
+    let [p_strut, v_void, force_sensor, p_small_sensor, p_large_sensor] = finite;
+    temperature_ok(t_gas)
+        && temperature_ok(t_gas2)
+        && temperature_ok(t_wall)
+        && temperature_ok(t_oil)
+        && volume_ok(v_gas, m_small)
+        && volume_ok(v_gas2, m_large)
+        && (p_strut + v_void + force_sensor + p_small_sensor + p_large_sensor).is_finite()
+}
+
+/// [`values_ok`] for a state.
+#[inline(always)]
+fn state_ok(s: &UnitState) -> bool {
+    values_ok(
+        [s.t_gas_k, s.t_gas2_k, s.t_wall_k, s.t_oil_k],
+        [(s.v_gas_m3, s.m_small_kg), (s.v_gas2_m3, s.m_large_kg)],
+        [s.p_strut_pa, s.v_void_m3, s.force_sensor_n, s.p_small_sensor_pa, s.p_large_sensor_pa],
+    )
+}
+
 impl Unit {
     /// Checks every parameter and derives the gas masses from the static
     /// state. Errors name the parameter, its value and the valid range.
@@ -720,21 +751,52 @@ impl Unit {
     /// Checks that a state is one the model can evaluate.
     #[inline]
     pub fn check_state(&self, s: &UnitState, time_s: f64) -> Result<()> {
-        let (t_min, t_max) = TEMPERATURE_RANGE_K;
-        let temperature_ok = |t: f64| t >= t_min && t <= t_max;
-        // One cheap test on the hot path; the error is built only on failure.
-        let ok = temperature_ok(s.t_gas_k)
-            && temperature_ok(s.t_gas2_k)
-            && temperature_ok(s.t_wall_k)
-            && temperature_ok(s.t_oil_k)
-            && volume_ok(s.v_gas_m3, s.m_small_kg)
-            && volume_ok(s.v_gas2_m3, s.m_large_kg)
-            && (s.p_strut_pa + s.v_void_m3 + s.force_sensor_n + s.p_small_sensor_pa + s.p_large_sensor_pa).is_finite();
-        if ok {
+        if state_ok(s) {
             Ok(())
         } else {
             Err(self.state_error(s, time_s))
         }
+    }
+
+    /// [`Unit::project`] and then [`Unit::check_state`] on a state in its
+    /// array form ([`UnitState::to_array`]), in place: the same operations,
+    /// the same state and the same result. For a plain unit
+    /// ([`Unit::is_plain`]) with no vapour void to close (the usual step)
+    /// the projection only clamps the valve fractions and sets the oil and
+    /// wall temperatures to ambient: those four elements are written and
+    /// the others read where they are, instead of the whole state copied
+    /// out and back (on the 8x8, eight units a step: about 300
+    /// instructions of a period's 20k). Any other case goes through
+    /// [`UnitState`].
+    #[inline(always)]
+    pub fn project_and_check(&self, a: &mut [f64; UNIT_STATES], ambient_k: f64, time_s: f64) -> Result<()> {
+        let [_, _, _, _, _, _, v_void_m3, ..] = *a;
+        // As in `project`: a NaN void is not below zero either.
+        let closes_void = v_void_m3 < 0.0;
+        if self.plain && !closes_void {
+            // `project` for a plain unit: no oil compliance, no oil node,
+            // a time constant (not isothermal).
+            let [_, _, _, _, _, _, _, _, t_oil_k, t_wall_k, valve5_open_frac, valve6_open_frac, ..] = a;
+            *valve5_open_frac = valve5_open_frac.clamp(0.0, 1.0);
+            *valve6_open_frac = valve6_open_frac.clamp(0.0, 1.0);
+            *t_oil_k = ambient_k;
+            *t_wall_k = ambient_k;
+            // `check_state`'s test on the projected state; the state is
+            // built only for the error.
+            let [t_gas_k, t_gas2_k, v_gas_m3, v_gas2_m3, m_small_kg, m_large_kg, v_void_m3, p_strut_pa, t_oil_k, t_wall_k, _, _, force_sensor_n, p_small_sensor_pa, p_large_sensor_pa, ..] =
+                *a;
+            let ok = values_ok(
+                [t_gas_k, t_gas2_k, t_wall_k, t_oil_k],
+                [(v_gas_m3, m_small_kg), (v_gas2_m3, m_large_kg)],
+                [p_strut_pa, v_void_m3, force_sensor_n, p_small_sensor_pa, p_large_sensor_pa],
+            );
+            return if ok { Ok(()) } else { Err(self.state_error(&UnitState::from_array(a), time_s)) };
+        }
+        let mut s = UnitState::from_array(a);
+        self.project(&mut s, ambient_k);
+        self.check_state(&s, time_s)?;
+        *a = s.to_array();
+        Ok(())
     }
 
     /// The first state variable out of range, as an error.

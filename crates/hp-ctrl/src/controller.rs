@@ -177,7 +177,7 @@ impl Default for State {
 /// assert_ne!(out.diag & hp_ctrl::diag::SAFE_STATE, 0);
 /// ```
 pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> Outputs {
-    let mut begun = begin(params, state, inputs, dt_s);
+    let mut begun = begin(params, state, inputs, dt_s, monitor::step);
     estimate_height(params, state, inputs, &mut begun);
     finish(params, state, inputs, &begun)
 }
@@ -195,11 +195,49 @@ pub fn step(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> O
 /// volume offset, the target's density); one controller after another,
 /// each chain waited for the last, side by side the core overlaps them.
 pub fn step_all(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: f64, outputs: &mut [Outputs]) {
+    step_all_in(params, states, inputs, dt_s, outputs, monitor::step);
+}
+
+/// [`step_all`] compiled for x86-64 processors with AVX2 (feature `wide`,
+/// host simulations only: the firmware never enables it): the same Rust
+/// code with VEX encoding (three-operand instructions, fewer register
+/// copies), so the same operations on the same values and the same
+/// outputs and states to the bit; the compiler neither fuses nor reorders
+/// floating-point operations. Kept out of line, as `step_all` is in the
+/// baseline loop (inlined, it made the loop longer).
+///
+/// # Safety
+///
+/// A safe call needs the caller compiled for AVX2 itself (hp-vehicle's
+/// AVX2 drive loop, chosen at run time when the processor has AVX2); the
+/// compiler enforces it, and any other caller would need an `unsafe`
+/// block and the processor's AVX2 checked first.
+#[cfg(all(feature = "wide", target_arch = "x86_64"))]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+pub fn step_all_avx2(params: &Params, states: &mut [State], inputs: &[Inputs], dt_s: f64, outputs: &mut [Outputs]) {
+    // The monitor in its AVX2 compilation too (a closure here inherits
+    // this function's target features).
+    let monitor_step = |p: &MonitorParams, s: &mut MonitorState, i: &Inputs, dt_us: Option<u32>| monitor::step_avx2(p, s, i, dt_us);
+    step_all_in(params, states, inputs, dt_s, outputs, monitor_step);
+}
+
+/// [`step_all`]'s body, inlined into each of its compilations, with the
+/// monitor's step of the same compilation.
+#[inline(always)]
+fn step_all_in(
+    params: &Params,
+    states: &mut [State],
+    inputs: &[Inputs],
+    dt_s: f64,
+    outputs: &mut [Outputs],
+    monitor_step: impl Fn(&MonitorParams, &mut MonitorState, &Inputs, Option<u32>) -> monitor::Health,
+) {
     const BATCH: usize = 8;
     for ((states, inputs), outputs) in states.chunks_mut(BATCH).zip(inputs.chunks(BATCH)).zip(outputs.chunks_mut(BATCH)) {
         let mut begun = [None; BATCH];
         for ((b, state), i) in begun.iter_mut().zip(states.iter_mut()).zip(inputs) {
-            *b = Some(begin(params, state, i, dt_s));
+            *b = Some(begin(params, state, i, dt_s, &monitor_step));
         }
         for ((b, state), i) in begun.iter_mut().zip(states.iter_mut()).zip(inputs) {
             if let Some(b) = b {
@@ -232,11 +270,18 @@ impl Begun {
     }
 }
 
-/// The checks, the estimator and the load pressure.
+/// The checks (`monitor_step`: [`monitor::step`] or its AVX2
+/// compilation), the estimator and the load pressure.
 #[inline(always)]
-fn begin(params: &Params, state: &mut State, inputs: &Inputs, dt_s: f64) -> Begun {
+fn begin(
+    params: &Params,
+    state: &mut State,
+    inputs: &Inputs,
+    dt_s: f64,
+    monitor_step: impl Fn(&MonitorParams, &mut MonitorState, &Inputs, Option<u32>) -> monitor::Health,
+) -> Begun {
     let dt_us = clock::dt_us(dt_s, params.monitor.dt_max_s);
-    let health = monitor::step(&params.monitor, &mut state.monitor, inputs, dt_us);
+    let health = monitor_step(&params.monitor, &mut state.monitor, inputs, dt_us);
     let dt_us = dt_us.unwrap_or(0);
     let usable = |group: u16| health.usable & group != 0;
     let mut flags = health.diag;

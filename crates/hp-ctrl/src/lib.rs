@@ -54,4 +54,6 @@ pub mod vehicle;
 
 pub use config::{Config, ParamError};
 pub use controller::{step, step_all, Params, State};
+#[cfg(all(feature = "wide", target_arch = "x86_64"))]
+pub use controller::step_all_avx2;
 pub use io::{input_group, DamperMode, DriveMode, DriverMode, Inputs, Outputs, SequencerState, SpringMode};

@@ -326,6 +326,22 @@ fn value_faults(p: &MonitorParams, i: &Inputs) -> [u32; GROUPS] {
 
 /// Checks this period's inputs; `dt_us` is `None` when `dt_s` was invalid.
 pub fn step(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
+    step_in(p, s, inputs, dt_us)
+}
+
+/// [`step`] compiled for x86-64 with AVX2, for
+/// [`crate::controller::step_all_avx2`] (feature `wide`): the same code,
+/// the same verdicts and states.
+#[cfg(all(feature = "wide", target_arch = "x86_64"))]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+pub(crate) fn step_avx2(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
+    step_in(p, s, inputs, dt_us)
+}
+
+/// [`step`]'s body, inlined into each of its compilations.
+#[inline(always)]
+fn step_in(p: &MonitorParams, s: &mut MonitorState, inputs: &Inputs, dt_us: Option<u32>) -> Health {
     let mut faults = if all_in_range(p, inputs) { [0; GROUPS] } else { value_faults(p, inputs) };
     let mut flags = 0;
     match dt_us {

@@ -19,7 +19,7 @@ use hp_ctrl::{input_group, step_all, DriverMode, Inputs, Outputs, Params, State}
 
 use crate::closed_loop::Sensors;
 use crate::track::Road;
-use crate::vehicle::{DriveInputs, Rate, StepMemory, Vehicle, VehicleSample, VehicleState, MAX_CORNERS};
+use crate::vehicle::{same_valves, DriveInputs, Rate, StepMemory, Vehicle, VehicleSample, VehicleState, MAX_CORNERS};
 
 /// What the driver does in one period, and what the bus carries of it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -148,10 +148,12 @@ pub fn run(
         // for (checked at run time just now).
         return unsafe { run_wide(vehicle, road, suspension, sensors, states, periods, dt_s, max_dt_s, driver_at, on_period) };
     }
-    run_loop(vehicle, road, suspension, sensors, states, periods, dt_s, max_dt_s, driver_at, on_period)
+    run_loop(vehicle, road, suspension, sensors, states, periods, dt_s, max_dt_s, driver_at, on_period, step_all)
 }
 
-/// [`run`] compiled for the processors [`crate::wide`] names.
+/// [`run`] compiled for the processors [`crate::wide`] names, with the
+/// controllers' own AVX2 compilation (`hp_ctrl::step_all_avx2`, out of
+/// line as `step_all` is).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
@@ -167,11 +169,15 @@ fn run_wide(
     driver_at: impl FnMut(usize, f64) -> Driver,
     on_period: impl FnMut(&DrivePeriod<'_>) -> bool,
 ) -> Result<()> {
-    run_loop(vehicle, road, suspension, sensors, states, periods, dt_s, max_dt_s, driver_at, on_period)
+    // The closure is compiled for AVX2 as well (it inherits `run_wide`'s
+    // target features), so it may call `step_all_avx2`.
+    let controllers = |p: &Params, s: &mut [State], i: &[Inputs], dt: f64, o: &mut [Outputs]| hp_ctrl::step_all_avx2(p, s, i, dt, o);
+    run_loop(vehicle, road, suspension, sensors, states, periods, dt_s, max_dt_s, driver_at, on_period, controllers)
 }
 
 /// [`run`]'s loop, inlined into each of its two compilations (with it the
-/// plant's evaluation, steps and checks, all `inline(always)`).
+/// plant's evaluation, steps and checks, all `inline(always)`); `step_all`
+/// is [`hp_ctrl::step_all`] or its AVX2 compilation.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn run_loop(
@@ -185,6 +191,7 @@ fn run_loop(
     max_dt_s: f64,
     mut driver_at: impl FnMut(usize, f64) -> Driver,
     mut on_period: impl FnMut(&DrivePeriod<'_>) -> bool,
+    step_all: impl Fn(&Params, &mut [State], &[Inputs], f64, &mut [Outputs]),
 ) -> Result<()> {
     check_range("dt_s", dt_s, 1e-6, 10.0)?;
     check_range("t_gas_tau_s", sensors.t_gas_tau_s, 0.0, 1e3)?;
@@ -241,7 +248,7 @@ fn run_loop(
         if !on_period(&DrivePeriod { index, sample: &sample, inputs: &inputs, outputs: &outputs, valves: &next_valves }) {
             break;
         }
-        if next_valves != valves {
+        if !same_valves(&next_valves, &valves) {
             // The new commands change the flows: the first stage must see them.
             valves = next_valves;
             vehicle.dynamics(road, driver.drive_inputs(), valves).rate_into(t_s, &x, None, memory.rebuilds(&valves), &mut rate);
@@ -287,7 +294,7 @@ mod tests {
                     if wide {
                         run(&v, &road, suspension, &Sensors::default(), &mut states, periods, 1e-3, 1e-3, driver, on_period).unwrap();
                     } else {
-                        run_loop(&v, &road, suspension, &Sensors::default(), &mut states, periods, 1e-3, 1e-3, driver, on_period).unwrap();
+                        run_loop(&v, &road, suspension, &Sensors::default(), &mut states, periods, 1e-3, 1e-3, driver, on_period, step_all).unwrap();
                     }
                     seen
                 };
