@@ -477,6 +477,7 @@ def test_flexible_model_identifies_valve6_where_the_records_open_it(monkeypatch:
     area = with_valve.values["valve6_flow_area_scale"] * nominal
     context = (f"FOREIGN_RIG_SEED={seed}: RMS/noise {without.rms_ratio:.3f} -> {with_valve.rms_ratio:.3f}, Cd A {area:.3e} against {true_area:.3e}, "
                f"valve tau {with_valve.values['valve_time_constant_s']:.4f} against {g.truth['hpctl_params']['valve_time_constant_s']:.4f}")
+    print(context)
     assert with_valve.rms_ratio**2 - 1.0 <= 2.0 / 3.0 * (without.rms_ratio**2 - 1.0), context
     assert abs(area - true_area) <= abs(nominal - true_area) / 1.5, context
 

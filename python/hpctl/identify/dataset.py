@@ -56,6 +56,12 @@ class Dataset:
     #: or the base's on the SDOF rig), m: the fit's covariance carries it
     #: through the model (:func:`with_input_noise`).
     input_noise_m: float = 0.0
+    #: Where each valve switch fell, one per switch the flags show (in
+    #: order), as the share of the interval before the first sample that
+    #: shows it; empty: midway for every switch
+    #: (:data:`hpctl.data.records.LOGGED_SWITCH_LEAD`). The fit estimates
+    #: them (:mod:`hpctl.identify.switching`).
+    switch_leads: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def name(self) -> str:

@@ -25,6 +25,7 @@ from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
 from hpctl.identify.serial import output_meat
+from hpctl.identify.switching import ROUND_SPANS, estimate_leads, switch_samples, timeline
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
@@ -88,16 +89,26 @@ class Model:
         return tuple(e for e in self.effects if not LIBRARY[e].on_outputs)
 
 
-def _case(model: Model, d: Dataset, values: Mapping[str, float], steps_s: FloatArray | None = None, record_steps: bool = False) -> Case:
+def _case(
+    model: Model, d: Dataset, values: Mapping[str, float], steps_s: FloatArray | None = None, record_steps: bool = False
+) -> tuple[Case, NDArray[np.bool_] | None]:
+    """The run of ``d`` at ``values``, and which of its outputs are the
+    record's samples (None: all; the others place valve switches the fit
+    has estimated, :mod:`hpctl.identify.switching`)."""
     channels = ["time_s", "disp_m", "force_n", "p_gas_pa", "p_gas2_pa", "body_disp_m", "t_gas_k", "damper_force_n", "friction_force_n"]
     # The core's error-controlled steps at its default tolerance (the one
     # rule for step sizes): no step size to pick per model. The reference
     # gas through the table: a fit is hundreds of runs, each about twice as
     # fast so (the bundled heat run: 0.24 -> 0.11 s), the pressures within
     # about 1 Pa of the equation's (the rigs' noise: kPa).
-    return Case(model.unit_for(d, values), d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on,
-                ambient_k=d.ambient_k, channels=channels, steps_s=steps_s, record_steps=record_steps, gas_table=True,
-                switch_lead=LOGGED_SWITCH_LEAD)
+    unit = model.unit_for(d, values)
+    placed = timeline(d)
+    if placed is None:
+        return Case(unit, d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on, ambient_k=d.ambient_k, channels=channels,
+                    steps_s=steps_s, record_steps=record_steps, gas_table=True, switch_lead=LOGGED_SWITCH_LEAD), None
+    times, hard, on, keep = placed
+    return Case(unit, d.rig, times, spring_hard=hard, damper_on=on, ambient_k=d.ambient_k, channels=channels,
+                steps_s=steps_s, record_steps=record_steps, gas_table=True, switch_lead=0.0), keep
 
 
 def values_from_x(params: Sequence[Param], x: Sequence[float] | FloatArray) -> dict[str, float]:
@@ -117,20 +128,21 @@ def simulate_all(
     """Simulates every dataset for every parameter set, in parallel. With
     ``record_steps`` each result has the adaptive steps' end times under
     ``step_end_s``; ``steps`` (one per dataset) replays such lists."""
-    cases = [
+    made = [
         _case(model, d, v, None if steps is None else steps[j], record_steps)
         for v in value_sets for j, d in enumerate(datasets)
     ]
-    flat = run_many(cases)
+    flat = run_many([c for c, _ in made])
+    keeps = [k for _, k in made]
     n = len(datasets)
     out: list[list[dict[str, FloatArray] | Exception]] = []
     for i, values in enumerate(value_sets):
         row: list[dict[str, FloatArray] | Exception] = []
-        for d, r in zip(datasets, flat[i * n:(i + 1) * n]):
+        for d, r, keep in zip(datasets, flat[i * n:(i + 1) * n], keeps[i * n:(i + 1) * n]):
             if isinstance(r, Exception):
                 row.append(r)
                 continue
-            ch = dict(r.channels)
+            ch = dict(r.channels) if keep is None else {c: np.asarray(v)[keep] for c, v in r.channels.items()}
             if r.step_end_s is not None:
                 ch["step_end_s"] = r.step_end_s
             if "sensor_lag" in model.effects:
@@ -243,6 +255,7 @@ def fit(
     ftol: float = 1e-8,
     jacobian: str = "finite_difference",
     errors: bool = True,
+    place_switches: bool = True,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -289,7 +302,16 @@ def fit(
     noise not carried through, for a fit read only for its prediction or
     its cost (cross-validation's folds, screening fits): a fit stopped by
     ``stop`` or its evaluation limit on a Broyden update then needs no
-    finite differences at its end."""
+    finite differences at its end.
+
+    ``place_switches`` (with ``errors``): where the records switch valves,
+    each switch is placed within the sample interval before the first
+    sample that shows it, estimated at the optimum from the residual just
+    after it, and the model fitted again from there
+    (:mod:`hpctl.identify.switching`); the result's datasets carry the
+    places (:attr:`Dataset.switch_leads`). Without, or for datasets that
+    carry places already, the switches stay where they are (midway where
+    none is given)."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
         raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
     if jacobian not in JACOBIANS:
@@ -403,6 +425,29 @@ def fit(
         if sol.status == -2:
             # scipy's own message for a callback's StopIteration says nothing of why.
             message = "stopped by the caller's test (stop)"
+        if errors and place_switches and any(d.switch_leads.size == 0 and switch_samples(d).size for d in datasets):
+            # Each logged switch placed within its interval at this
+            # optimum, then the fit again from it with the switches there
+            # (its errors and outputs are the result's).
+            at = values_from_x(params, x)
+            placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0])
+            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, stop=stop, ftol=ftol,
+                         jacobian=jacobian, place_switches=False)
+            # The places found at the optimum of the midway model shift the
+            # optimum, which shifts the places: a switch whose segment tells
+            # its place weakly (a closing with little flow) moved from 0.65
+            # to 0.3 of its interval between the two on the virtual rig.
+            # Alternated until the places settle.
+            for _ in range(PLACE_PASSES - 1):
+                at = fit(placed, effects, initial=at, input_noise=False, errors=False, **again).values  # type: ignore[arg-type]
+                settled = estimate_leads(placed, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:])
+                shift = max((float(np.max(np.abs(a.switch_leads - b.switch_leads))) for a, b in zip(settled, placed) if a.switch_leads.size), default=0.0)
+                placed = settled
+                if shift <= PLACE_SETTLED:
+                    break
+            refit = fit(placed, effects, initial=at, input_noise=input_noise, errors=errors, **again)  # type: ignore[arg-type]
+            refit.message += "; each logged valve switch placed within its sample interval"
+            return refit
         if errors and not secant.exact_at(x):
             # A Broyden update is good enough to step with, not to judge
             # the estimate by: the errors need the sensitivities themselves.
@@ -496,6 +541,13 @@ def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArr
         if isinstance(sim, Exception):
             cls = type(sim) if isinstance(sim, HpctlError) else SimulationError
             raise cls(f"record {d.name}: the model cannot be simulated on it: {sim}") from sim
+
+
+#: Passes of placing the logged valve switches and fitting again
+#: (:func:`fit`'s ``place_switches``), at most, and the largest change of a
+#: place (share of its interval) at which they count as settled.
+PLACE_PASSES = 4
+PLACE_SETTLED = 0.02
 
 
 #: Draws of the input displacement's noise carried through the model for

@@ -1,0 +1,114 @@
+"""Each logged valve switch placed within its sample interval
+(hpctl.identify.switching): the outputs inserted for it, the parabola that
+places it, and the places found on records whose switches were made at
+known places between their samples."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hpctl.identify import virtual_rig
+from hpctl.identify.dataset import prepare
+from hpctl.identify.fit import fit, model_for, simulate_all, values_from_x
+from hpctl.identify.switching import PROBE_LEADS, best_lead, switch_samples, timeline
+
+
+@pytest.fixture(scope="module")
+def switching_dataset() -> object:
+    unit = virtual_rig.truth_unit((), {})
+    test = virtual_rig.effect_tests()["switching"]
+    return prepare([virtual_rig.record_test(unit, test, virtual_rig.Noise(), np.random.default_rng(4))])[0]
+
+
+def test_the_switches_are_the_samples_where_a_flag_changes(switching_dataset: object) -> None:
+    d = switching_dataset
+    ks = switch_samples(d)  # type: ignore[arg-type]
+    hard = np.asarray(d.spring_hard)  # type: ignore[attr-defined]
+    assert ks.size == 7  # 10 s switched every 1.3 s
+    assert np.all(hard[ks] != hard[ks - 1])
+    assert np.count_nonzero(hard[1:] != hard[:-1]) == ks.size
+
+
+def test_the_timeline_inserts_an_output_at_each_placed_switch(switching_dataset: object) -> None:
+    d = switching_dataset
+    ks = switch_samples(d)  # type: ignore[arg-type]
+    leads = np.linspace(0.0, 0.9, ks.size)  # the first at its sample: nothing inserted
+    placed = timeline(d, leads)  # type: ignore[arg-type]
+    assert placed is not None
+    times, hard, on, keep = placed
+    t = d.times_s  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(times[keep], t)
+    assert np.count_nonzero(~keep) == ks.size - 1
+    extra = times[~keep]
+    np.testing.assert_allclose(extra, t[ks[1:]] - leads[1:] * (t[ks[1:]] - t[ks[1:] - 1]), rtol=0, atol=1e-12)
+    assert np.all(np.diff(times) > 0)
+    # Each inserted output has the new valve state: the switch is there.
+    np.testing.assert_array_equal(hard[~keep], np.asarray(d.spring_hard)[ks[1:]])  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(hard[keep], np.asarray(d.spring_hard))  # type: ignore[attr-defined]
+    assert on.shape == times.shape
+    assert timeline(d) is None  # type: ignore[arg-type]  # no places of its own: midway, as the core does it
+    with pytest.raises(ValueError, match="switch leads"):
+        timeline(d, np.zeros(3))  # type: ignore[arg-type]
+
+
+def test_midway_by_an_inserted_output_is_the_cores_midway(switching_dataset: object) -> None:
+    # The same run to the bit: the core's own midway switch and one placed
+    # at the half by an inserted output.
+    d = switching_dataset
+    model = model_for([d], ("heat_transfer", "real_gas"))  # type: ignore[list-item]
+    v = values_from_x(model.params, [p.to_x(p.initial) for p in model.params])
+    a = simulate_all(model, [d], [v])[0][0]  # type: ignore[list-item]
+    b = simulate_all(model, [replace(d, switch_leads=np.full(7, 0.5))], [v])[0][0]  # type: ignore[type-var]
+    assert not isinstance(a, Exception) and not isinstance(b, Exception)
+    for c in ("p_gas_pa", "p_gas2_pa", "force_n"):
+        np.testing.assert_array_equal(a[c], b[c])
+
+
+def test_the_parabola_finds_the_vertex_and_keeps_to_the_probes() -> None:
+    for truth in (0.2, 0.5, 0.77):
+        costs = [3.0 * (x - truth) ** 2 + 1.0 for x in PROBE_LEADS]
+        assert best_lead(costs) == pytest.approx(truth, abs=1e-12)
+    assert best_lead([(x - 2.0) ** 2 for x in PROBE_LEADS]) == PROBE_LEADS[-1]  # beyond the span: its end
+    assert best_lead([2.0, 1.0, 2.0 + 1e-9]) == pytest.approx(0.5, abs=1e-6)
+    assert best_lead([-1.0, 0.0, -2.0]) == PROBE_LEADS[2]  # opens downward: the cheapest probe
+    assert best_lead([np.inf, 1.0, 2.0]) == PROBE_LEADS[1]  # a failed probe: the cheapest of the others
+    assert best_lead([np.inf, np.inf, np.inf]) == 0.5
+
+
+@pytest.mark.parametrize("true_lead", [0.15, 0.85])
+def test_the_fit_places_switches_made_between_samples(monkeypatch: pytest.MonkeyPatch, true_lead: float) -> None:
+    # The virtual rig switches valve 6 at ``true_lead`` of the interval
+    # before the sample that logs it (not midway, where the fit puts a
+    # logged switch by default): the fit finds each switch's place within
+    # 0.15 of an interval, and the residual falls towards the noise.
+    monkeypatch.setattr(virtual_rig, "LOGGED_SWITCH_LEAD", true_lead)
+    unit = virtual_rig.truth_unit((), {})
+    rec = virtual_rig.record_test(unit, virtual_rig.effect_tests()["switching"], virtual_rig.Noise(), np.random.default_rng(7))
+    datasets = prepare([rec])
+    model = ("heat_transfer", "real_gas")
+    midway = fit(datasets, model, input_noise=False, place_switches=False)
+    placed = fit(datasets, model, input_noise=False)
+    leads = placed.datasets[0].switch_leads
+    context = f"true {true_lead}: places {np.round(leads, 3)}, RMS/noise {midway.rms_ratio:.3f} -> {placed.rms_ratio:.3f}"
+    print(context)
+    assert leads.size == 7
+    # A place off by more than 0.15 is one the data cannot tell (a valve
+    # closing with next to no flow through it): its segment fits no worse
+    # than with the true place (chi-square, one degree: 4 is 2 sigma).
+    d = placed.datasets[0]
+    at_truth = simulate_all(placed.model, [replace(d, switch_leads=np.full(7, true_lead))], [placed.values])[0][0]
+    assert not isinstance(at_truth, Exception)
+    ks = switch_samples(d)
+    for s, (k, nxt) in enumerate(zip(ks, [*ks[1:], len(d.times_s)])):
+        if abs(leads[s] - true_lead) <= 0.15:
+            continue
+        seg = slice(int(k), int(nxt))
+        cost = {name: sum(float(np.sum(((sim[c][seg] - y[seg]) / d.weight_sigma[c][seg]) ** 2)) for c, y in d.targets.items())
+                for name, sim in (("found", placed.sims[0]), ("true", at_truth))}  # type: ignore[index]
+        assert cost["found"] <= cost["true"] + 4.0, (context, s, cost)
+    assert np.count_nonzero(np.abs(leads - true_lead) <= 0.15) >= 5, context
+    assert placed.rms_ratio < midway.rms_ratio and placed.rms_ratio < 1.1, context
+    assert "placed within its sample interval" in placed.message
