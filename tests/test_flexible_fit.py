@@ -449,17 +449,15 @@ def test_flexible_model_identifies_valve6_where_the_records_open_it(monkeypatch:
     # excess cut by a third at least, and Cd A nearer the truth than the
     # nominal valve by a factor 1.5 at least (the worst corner of the
     # foreign rig's draws, a truth at 3.25e-5 m^2 and +27 %: 1.85).
-    # Known to fail on seed 1981622276 (Cd A +37 %, the bound +35 %): the
-    # foreign rig switches valve 6 exactly on a nominal sample time and the
-    # sample-time jitter decides which sample logs the switch; where the
-    # late one does, hpctl opens the valve one sample (5 ms) after the
-    # rig did, and the first 20 ms after the switch leave 130-270 kPa in
-    # the small accumulator's pressure, which a larger, smoother valve
-    # partly makes up for (measured 2026-11-27; not fixed: see the issue).
-    # Seeds 11-32 (stop 26): 21 of 22 pass; 20 fails the residual's share
-    # (1.441 -> 1.325 x the noise, a third of the excess needs 1.318; the
-    # area, 3.37e-5 against 2.74e-5, passes). Fitting each switch's time
-    # within its sample interval would take the cause away.
+    # It failed on seeds 1981622276 (Cd A +37 %, the bound +35 %) and 20
+    # (1.441 -> 1.325 x the noise, a third of the excess needs 1.318), 2 of
+    # about 25 draws: the foreign rig switches valve 6 exactly on a nominal
+    # sample time and the sample-time jitter decides which sample logs the
+    # switch, so midway was half a sample early or late at every switch,
+    # which a larger, smoother valve partly made up for. Since the fit
+    # places each logged switch within its interval (hpctl.identify.
+    # switching): 1981622276 1.046 -> 0.928, Cd A +24 %; 20 1.340 -> 1.041,
+    # Cd A +5 %, valve tau 0.0256 against 0.0256 (2026-11-27, stop 26).
     from hpctl.identify import fit as fit_module
 
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))

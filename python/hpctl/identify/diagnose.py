@@ -613,7 +613,7 @@ def _with_errors(datasets: Sequence[Dataset], c: Candidate) -> None:
     if r.stderr or not r.model.params:
         return
     # One evaluation: the optimiser stops at the start, with the Jacobian there.
-    at = fit(datasets, r.model.effects, initial=r.values, input_noise=False, flexible=r.model.flexible, max_nfev=1)
+    at = fit(datasets, r.model.effects, initial=r.values, input_noise=False, flexible=r.model.flexible, max_nfev=1, place_switches=False)
     c.result = replace(r, stderr=at.stderr)
 
 
@@ -760,6 +760,10 @@ def _diagnose(
     clock.say(f"fitting the declared model ({declared}{', the damper characteristic identified' if flexible else ''})")
     t0 = time.perf_counter()
     current = fit(datasets, effects, flexible=flexible)
+    # The records' valve switches where that fit placed them: every
+    # screening fit and candidate is then compared at the same places
+    # (each accepted model places them again, from there).
+    datasets = current.datasets
     # A fit with the input noise is about two screening fits.
     clock.first_fit_s = (time.perf_counter() - t0) / 2
     rounds: list[Round] = []
@@ -795,6 +799,7 @@ def _diagnose(
             # rest of the way (see Candidate.shows_itself).
             accepted.result = fit(datasets, effects + accepted.effects, initial=accepted.result.values, flexible=flexible,
                                   max_nfev=ACCEPTED_MAX_NFEV)
+            datasets = accepted.result.datasets
             judgement = judge(accepted.result)
             clock.say(f"round {clock.round}/{max_rounds}: added {accepted.effect}: {judgement.describe(1)}")
         rounds.append(Round(current, analysis, tried, accepted, judgement))

@@ -309,9 +309,9 @@ def fit(
     sample that shows it, estimated at the optimum from the residual just
     after it, and the model fitted again from there
     (:mod:`hpctl.identify.switching`); the result's datasets carry the
-    places (:attr:`Dataset.switch_leads`). Without, or for datasets that
-    carry places already, the switches stay where they are (midway where
-    none is given)."""
+    places (:attr:`Dataset.switch_leads`); datasets that carry places
+    already start from them. Without, the switches stay where they are
+    (midway where none is given)."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
         raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
     if jacobian not in JACOBIANS:
@@ -425,12 +425,15 @@ def fit(
         if sol.status == -2:
             # scipy's own message for a callback's StopIteration says nothing of why.
             message = "stopped by the caller's test (stop)"
-        if errors and place_switches and any(d.switch_leads.size == 0 and switch_samples(d).size for d in datasets):
+        if errors and place_switches and any(switch_samples(d).size for d in datasets):
             # Each logged switch placed within its interval at this
-            # optimum, then the fit again from it with the switches there
-            # (its errors and outputs are the result's).
+            # optimum (from the places the datasets carry, closer, where
+            # they carry them: a model fitted before put them there), then
+            # the fit again from it with the switches there (its errors and
+            # outputs are the result's).
             at = values_from_x(params, x)
-            placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0])
+            known = all(d.switch_leads.size for d in datasets if switch_samples(d).size)
+            placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:] if known else ROUND_SPANS)
             again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, stop=stop, ftol=ftol,
                          jacobian=jacobian, place_switches=False)
             # The places found at the optimum of the midway model shift the
