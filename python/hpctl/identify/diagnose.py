@@ -287,8 +287,16 @@ class Candidate:
 
     @property
     def score(self) -> float:
-        """BIC improvement per added parameter (at least one)."""
-        return self.delta_bic / max(1, self.added_params)
+        """BIC improvement per parameter of the effect as the library
+        defines it (at least one). Not per parameter added: the flexible
+        model adds the friction's smoothing and Stribeck term and the
+        leak's pressure exponent with it, regularised toward their nominal
+        values and already paid for in the BIC; counting them again ranked
+        a sensor offset (three offsets, BIC -4,881) above friction (two
+        parameters and three of shape, BIC -7,684) on the foreign rig's
+        friction case FOREIGN_RIG_SEED=99509019, and the diagnosis named the
+        offset first. The same for the assumed shape, which adds none."""
+        return self.delta_bic / max(1, sum(len(LIBRARY[e].params) for e in self.effects))
 
     @property
     def null_z(self) -> dict[str, float]:

@@ -236,7 +236,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         if not rnd.candidates:
             continue
         lines += ["", f"### Candidates tried at step {k}", "",
-                  "| effect | added parameters | BIC gain | per parameter | share of the excess residual explained | residual RMS / noise |",
+                  "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | residual RMS / noise |",
                   "|---|---|---|---|---|---|"]
         for c in rnd.candidates:
             lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {100 * c.explained:.1f} % | {c.result.rms_ratio:.3g} |")
