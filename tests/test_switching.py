@@ -5,7 +5,9 @@ known places between their samples."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -112,3 +114,35 @@ def test_the_fit_places_switches_made_between_samples(monkeypatch: pytest.Monkey
     assert np.count_nonzero(np.abs(leads - true_lead) <= 0.15) >= 5, context
     assert placed.rms_ratio < midway.rms_ratio and placed.rms_ratio < 1.1, context
     assert "placed within its sample interval" in placed.message
+
+
+def test_hpctl_fit_reports_where_it_placed_each_switch(tmp_path: Path) -> None:
+    # The places are part of the result: in fit.md (a table) and in --json
+    # (per record: the first sample with the new state, the place, the
+    # switch's time), each switch inside its interval.
+    from click.testing import CliRunner
+
+    from hpctl.cli import main
+    from hpctl.data.records import write_record
+
+    monkey_lead = 0.3
+    unit = virtual_rig.truth_unit((), {})
+    old = virtual_rig.LOGGED_SWITCH_LEAD
+    virtual_rig.LOGGED_SWITCH_LEAD = monkey_lead
+    try:
+        rec = virtual_rig.record_test(unit, virtual_rig.effect_tests()["switching"], virtual_rig.Noise(), np.random.default_rng(2))
+    finally:
+        virtual_rig.LOGGED_SWITCH_LEAD = old
+    csv, toml = write_record(rec, tmp_path / "rec" / "valve_switching")
+    r = CliRunner().invoke(main, ["fit", str(toml), "--model", "seed", "--out", str(tmp_path / "out"), "--json", "--quiet"])
+    assert r.exit_code == 0, r.stderr
+    s = json.loads(r.stdout)
+    rows = s["switch_places"]["valve_switching"]
+    assert len(rows) == 7
+    for row in rows:
+        assert row["sample_s"] - 0.005 - 1e-12 <= row["switched_at_s"] <= row["sample_s"]
+        assert abs(row["place"] - monkey_lead) <= 0.15, rows
+        assert row["switched_at_s"] == pytest.approx(row["sample_s"] - row["place"] * 0.005, abs=1e-12)
+    md = (tmp_path / "out" / "fit.md").read_text()
+    section = md.split("## Valve switches")[1].split("## Plots")[0]
+    assert section.count("| valve_switching |") == 7, section

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,6 +56,32 @@ def switch_samples(d: Dataset) -> NDArray[np.int64]:
         return np.zeros(0, np.int64)
     changed = (hard[1:] != hard[:-1]) | (on[1:] != on[:-1])
     return np.asarray(np.flatnonzero(changed) + 1, np.int64)
+
+
+class SwitchPlace(TypedDict):
+    """Where the fit placed one logged valve switch (JSON)."""
+
+    #: The first sample that shows the new state, s.
+    sample_s: float
+    #: The share of the interval before that sample by which the switch
+    #: precedes it (0: at the sample).
+    place: float
+    #: The switch's time, s.
+    switched_at_s: float
+
+
+def places(datasets: Sequence[Dataset]) -> dict[str, list[SwitchPlace]]:
+    """Per record with placed switches, where each one went (for the
+    reports and ``--json``)."""
+    out: dict[str, list[SwitchPlace]] = {}
+    for d in datasets:
+        ks = switch_samples(d)
+        if not ks.size or d.switch_leads.size != ks.size:
+            continue
+        t = d.times_s
+        out[d.name] = [SwitchPlace(sample_s=float(t[k]), place=float(lead), switched_at_s=float(t[k] - lead * (t[k] - t[k - 1])))
+                       for k, lead in zip(ks, d.switch_leads)]
+    return out
 
 
 def timeline(d: Dataset, leads: FloatArray | None = None) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]] | None:

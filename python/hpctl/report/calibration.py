@@ -19,6 +19,7 @@ from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
+from hpctl.identify.switching import places  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
 from hpctl.report.plots import save, valve_states  # noqa: E402
 
@@ -134,6 +135,21 @@ def error_table(before: FitResult, after: FitResult | None = None) -> list[str]:
     return lines
 
 
+def switch_table(result: FitResult) -> list[str]:
+    """Where the fit placed each logged valve switch (nothing for records
+    that do not switch)."""
+    placed = places(result.datasets)
+    if not placed:
+        return []
+    lines = ["## Valve switches", "",
+             "Each switch a record's flag columns show, placed within the interval before the first sample with the new state "
+             "(0: at that sample), estimated from the residual up to the next switch.", "",
+             "| record | first sample with the new state [s] | place in the interval before | switched at [s] |", "|---|---|---|---|"]
+    for name, rows in placed.items():
+        lines += [f"| {name} | {r['sample_s']:.6g} | {r['place']:.2f} | {r['switched_at_s']:.6g} |" for r in rows]
+    return [*lines, ""]
+
+
 def warnings_section(caveats: Sequence[Caveat]) -> list[str]:
     """A report's "Warnings" section (nothing when there are none)."""
     if not caveats:
@@ -165,6 +181,7 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
         "",
         *error_table(result),
         "",
+        *switch_table(result),
         "## Plots",
         "",
         *[f"![{p.stem}]({p.name})" for p in plots],
@@ -281,5 +298,6 @@ def fit_summary(result: FitResult) -> dict[str, Any]:
         "rms_ratio": result.rms_ratio,
         "bic": result.bic,
         "converged": result.success,
+        "switch_places": places(result.datasets),
         "channels": [vars(s) for s in result.stats],
     }
