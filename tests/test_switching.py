@@ -146,3 +146,29 @@ def test_hpctl_fit_reports_where_it_placed_each_switch(tmp_path: Path) -> None:
     md = (tmp_path / "out" / "fit.md").read_text()
     section = md.split("## Valve switches")[1].split("## Plots")[0]
     assert section.count("| valve_switching |") == 7, section
+
+
+def test_the_places_uncertainty_goes_into_the_parameters_errors() -> None:
+    # The places as nuisance columns of the covariance, each with the prior
+    # of a uniform place in its interval: the parameters' errors are the
+    # corresponding block of the sandwich over parameters and places (here
+    # white residuals: the independent case), and never smaller than with
+    # the places held, where the places and the parameters are correlated.
+    from hpctl.identify.fit import PLACE_PRIOR_SD, _stderr
+    from hpctl.model.effects import Param
+
+    rng = np.random.default_rng(8)
+    n, k, m = 600, 3, 4
+    params = [Param(f"p{i}", -1.0, 1.0, 0.0, 0.0, (-1.0, 1.0)) for i in range(k)]
+    j = rng.normal(size=(n, k))
+    nuisance = 0.6 * j[:, [0, 0, 1, 2]] + rng.normal(size=(n, m))
+    r = rng.normal(size=n)
+    held = _stderr(params, np.zeros(k), j, np.zeros((0, k)), r, np.ones(n), [n], None)
+    free = _stderr(params, np.zeros(k), j, np.zeros((0, k)), r, np.ones(n), [n], None, nuisance)
+    a = np.hstack([j, nuisance])
+    prior = np.hstack([np.zeros((m, k)), np.eye(m) / PLACE_PRIOR_SD])
+    s2 = float(r @ r) / (n - k - m)
+    bread = np.linalg.inv(a.T @ a + prior.T @ prior)
+    expected = np.sqrt(np.diag(bread @ (s2 * a.T @ a + prior.T @ prior) @ bread))[:k]
+    np.testing.assert_allclose([free[p.name] for p in params], expected, rtol=1e-10)
+    assert all(free[p.name] > held[p.name] for p in params), (held, free)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -25,7 +25,7 @@ from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
 from hpctl.identify.serial import output_meat
-from hpctl.identify.switching import ROUND_SPANS, estimate_leads, switch_samples, timeline
+from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, switch_samples, timeline
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
@@ -496,7 +496,8 @@ def fit(
         else:
             message += "; the input noise's bias correction left out (the model is not linear over its step)"
     rss = float(r @ r)
-    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], r, _output_share(datasets, fold), _blocks(datasets, fold), draws)
+    places = _place_columns(model, datasets, values, sims, r, fold)
+    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], r, _output_share(datasets, fold), _blocks(datasets, fold), draws, places)
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
 
 
@@ -610,6 +611,45 @@ def _input_noise_residuals(
     return np.column_stack(cols) if cols else np.zeros((len(r0), 0))
 
 
+#: The place of a logged valve switch as a nuisance quantity of the
+#: covariance (:func:`_stderr`'s ``nuisance``): a share of its interval,
+#: uniform over it a priori (standard deviation 1/sqrt(12)), its
+#: sensitivities by a forward difference of a twentieth of the interval
+#: (a place moved by 0.25 ms at 5 ms samples: the runs choose their own
+#: steps, and a smaller difference would read their choice).
+PLACE_PARAM = Param("switch_place", 0.0, 1.0, 0.5, 0.5, (0.0, 1.0))
+PLACE_PRIOR_SD = 1.0 / math.sqrt(12.0)
+PLACE_STEP = 0.05
+
+
+def _place_columns(
+    model: Model, datasets: Sequence[Dataset], values: Mapping[str, float], sims: Sequence[dict[str, FloatArray] | Exception],
+    r: FloatArray, fold: int | None,
+) -> FloatArray | None:
+    """The residuals' sensitivities to each placed switch's place (noise
+    units per share of its interval), one run per switch; None where the
+    datasets carry no places."""
+    variants, where = [], []
+    for i, d in enumerate(datasets):
+        for s, lead in enumerate(d.switch_leads):
+            step = PLACE_STEP if lead + PLACE_STEP <= 1.0 - EDGE else -PLACE_STEP
+            leads = d.switch_leads.copy()
+            leads[s] += step
+            variants.append(replace(d, switch_leads=leads))
+            where.append((i, step))
+    if not variants:
+        return None
+    runs = simulate_all(model, variants, [values])[0]
+    cols = []
+    for (i, step), run in zip(where, runs):
+        if isinstance(run, Exception):
+            return None  # a place the model cannot follow: its errors as they were
+        moved = list(sims)
+        moved[i] = run
+        cols.append((residual_vector(datasets, moved, fold) - r) / step)
+    return np.column_stack(cols)
+
+
 def _free(x: FloatArray, lo: FloatArray, hi: FloatArray) -> NDArray[np.bool_]:
     """The parameters not held at one of their bounds."""
     tol = 1e-6 * np.maximum(hi - lo, 1e-12)
@@ -664,7 +704,7 @@ def _least_squares_step(j_data: FloatArray, j_prior: FloatArray, dr: FloatArray,
 
 def _stderr(
     params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, r: FloatArray,
-    output_share: FloatArray, blocks: Sequence[int], input_draws: FloatArray | None,
+    output_share: FloatArray, blocks: Sequence[int], input_draws: FloatArray | None, nuisance: FloatArray | None = None,
 ) -> dict[str, float]:
     """Standard errors from the Jacobian at the optimum, mapped through the
     log transform where there is one. The residuals' covariance is the
@@ -675,10 +715,25 @@ def _stderr(
     sampled by ``input_draws``; the estimate's covariance is the sandwich
     (J'J)^-1 J' S J (J'J)^-1. The prior rows are unit variance by
     construction. Without ``input_draws`` the output noise is all of the
-    residual."""
+    residual.
+
+    ``nuisance``: the residuals' sensitivities to quantities estimated
+    beside the parameters and held in the fit (the places of the logged
+    valve switches, :func:`_place_columns`), each with a prior of the
+    uniform distribution's standard deviation over its range (the place is
+    known to lie in its interval): their uncertainty goes into the
+    parameters' errors, which are reported alone."""
     k = len(params)
     if k == 0:
         return {}
+    if nuisance is not None and nuisance.shape[1]:
+        m = nuisance.shape[1]
+        j_data = np.hstack([j_data, nuisance])
+        j_prior = np.vstack([np.hstack([j_prior, np.zeros((j_prior.shape[0], m))]),
+                             np.hstack([np.zeros((m, k)), np.eye(m) / PLACE_PRIOR_SD])])
+        x = np.concatenate([x, np.zeros(m)])
+        params = [*params, *([PLACE_PARAM] * m)]
+        return dict(list(_stderr(params, x, j_data, j_prior, r, output_share, blocks, input_draws).items())[:k])
     rss = float(r @ r)
     if input_draws is None:
         share = np.ones(len(r))
