@@ -306,8 +306,8 @@ def fit(
 
     ``place_switches`` (with ``errors``): where the records switch valves,
     each switch is placed within the sample interval before the first
-    sample that shows it, estimated at the optimum from the residual just
-    after it, and the model fitted again from there
+    sample that shows it, estimated at the optimum from the residual up to
+    the next switch, and the model fitted again from there
     (:mod:`hpctl.identify.switching`); the result's datasets carry the
     places (:attr:`Dataset.switch_leads`); datasets that carry places
     already start from them. Without, the switches stay where they are
@@ -496,7 +496,9 @@ def fit(
         else:
             message += "; the input noise's bias correction left out (the model is not linear over its step)"
     rss = float(r @ r)
-    places = _place_columns(model, datasets, values, sims, r, fold)
+    places = _place_columns(model, datasets, values, sims, r, fold) if params else None
+    if params and places is None and any(d.switch_leads.size for d in datasets):
+        message += "; the valve switches' places left out of the errors (a run with a place moved failed)"
     stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], r, _output_share(datasets, fold), _blocks(datasets, fold), draws, places)
     return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
 

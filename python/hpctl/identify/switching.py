@@ -92,8 +92,10 @@ def timeline(d: Dataset, leads: FloatArray | None = None) -> tuple[FloatArray, N
     places every switch midway) or no switches. The core is then run with
     a lead of 0: each switch at the first output that shows it."""
     leads = d.switch_leads if leads is None else leads
+    if leads.size == 0:  # every run of a record without places: nothing to look at
+        return None
     ks = switch_samples(d)
-    if leads.size == 0 or ks.size == 0:
+    if ks.size == 0:
         return None
     if leads.size != ks.size:
         raise ValueError(f"switch leads: {leads.size} given for {ks.size} switches of {d.name}")
