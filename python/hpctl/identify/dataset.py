@@ -14,8 +14,10 @@ from hpctl.data.records import RigRecord
 from hpctl.errors import HpctlError, RecordError
 from hpctl.identify.signals import (
     SMOOTH_NOISE_GAIN,
+    NoiseColour,
     derivative,
     local_sensitivities,
+    noise_colour,
     noise_sigma,
     smooth,
     velocity_noise_gain,
@@ -62,6 +64,10 @@ class Dataset:
     #: (:data:`hpctl.data.records.LOGGED_SWITCH_LEAD`). The fit estimates
     #: them (:mod:`hpctl.identify.switching`).
     switch_leads: FloatArray = field(default_factory=lambda: np.zeros(0))
+    #: The correlated part of a channel's noise, where the records of the
+    #: fit show one (its level in :attr:`sigma` includes what the fourth
+    #: difference misses of it).
+    noise_colour: dict[str, NoiseColour] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -83,15 +89,28 @@ def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
 
 
 def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[Dataset]:
-    """Checks that the records can be fitted and prepares them."""
+    """Checks that the records can be fitted and prepares them. Each
+    channel's noise is its fourth-difference level, plus what that level
+    misses of a correlated noise the records of the channel show when
+    sampled at different rates (:func:`hpctl.identify.signals.noise_colour`:
+    one transducer per channel name in one fit)."""
     if not records:
         raise HpctlError("no records to fit")
-    out = []
+    drives = []
+    levels: dict[str, list[tuple[float, int, float]]] = {}
     for rec in records:
         t = np.asarray(rec["time_s"], float)
         x_in = input_disp_m(rec)
         rig, xs, vs = _drive(rec, t, x_in)
         targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
+        level = {c: noise_sigma(y) for c, y in targets.items()}
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+        for c, s in level.items():
+            levels.setdefault(c, []).append((dt, len(t), s))
+        drives.append((rec, t, x_in, rig, xs, vs, targets, level, dt))
+    colours = {c: k for c, lv in levels.items() if (k := noise_colour(c, lv)) is not None}
+    out = []
+    for rec, t, x_in, rig, xs, vs, targets, level, dt in drives:
         sigma: dict[str, float] = {}
         weight_sigma: dict[str, FloatArray] = {}
         x_raw_noise = noise_sigma(x_in)
@@ -99,7 +118,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         v_noise = x_raw_noise * velocity_noise_gain(float(np.median(np.diff(t))))
         for c, y in targets.items():
             floor = 1e-4 * max(float(np.ptp(y)), 1e-12)
-            sigma[c] = max(noise_sigma(y), floor)
+            missed = colours[c].missed_var(dt) if c in colours else 0.0
+            sigma[c] = max(float(np.sqrt(level[c] ** 2 + missed)), floor)
             # An SDOF body filters the base's noise through its dynamics;
             # on the characterisation rig the outputs follow the input's
             # position (gas) and velocity (damper, friction) at once.
@@ -112,7 +132,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         hard, on = rec.spring_hard(), rec.damper_on()
         strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
         out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, weight_sigma,
-                           strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise))
+                           strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise,
+                           noise_colour={c: k for c, k in colours.items() if c in targets}))
     return out
 
 
