@@ -16,7 +16,7 @@ from scipy.linalg import toeplitz
 from scipy.signal import lfilter
 from scipy.stats import binom
 
-from hpctl.identify.signals import d4_share, noise_colour, noise_sigma
+from hpctl.identify.signals import NoiseLevel, difference_share, differences_are_noise, noise_colour, noise_level, noise_sigma
 
 # The foreign rig's five-sine sweep: two cycles of 0.01-1 Hz, 200 samples a cycle.
 SWEEP_DT_S = (0.5, 1 / 6, 0.05, 1 / 60, 0.005)
@@ -29,21 +29,25 @@ def ou(rng: np.random.Generator, n: int, dt_s: float, corr_time_s: float, sigma:
     return np.asarray(lfilter([1.0], [1.0, -a], e))[2000:]  # stationary after the burn-in
 
 
-def levels(rng: np.random.Generator, white: float, coloured: float, corr_time_s: float) -> list[tuple[float, int, float]]:
+def levels(rng: np.random.Generator, white: float, coloured: float, corr_time_s: float) -> list[tuple[float, int, NoiseLevel]]:
     out = []
     for dt in SWEEP_DT_S:
         y = rng.normal(0.0, white, SAMPLES) + (ou(rng, SAMPLES, dt, corr_time_s, coloured) if coloured > 0 else 0.0)
-        out.append((dt, SAMPLES, noise_sigma(y)))
+        out.append((dt, SAMPLES, noise_level(y)))
     return out
 
 
+@pytest.mark.parametrize("order", [4, 6, 8])
 @pytest.mark.parametrize("rho", [0.0, 0.3, 0.717, 0.95])
-def test_the_fourth_difference_reads_the_share_the_autocovariance_gives(rho: float) -> None:
-    # Var(c . x) = c^T R c for the fourth-difference weights c and the
-    # process's correlation matrix R (rho^|i-j|), over Var(c . white) = 70.
-    c = np.array([1.0, -4.0, 6.0, -4.0, 1.0])
-    r = toeplitz(rho ** np.arange(5))
-    assert float(d4_share(rho)) == pytest.approx(float(c @ r @ c) / 70.0, rel=1e-12)
+def test_the_differences_read_the_share_the_autocovariance_gives(rho: float, order: int) -> None:
+    # Var(c . x) = c^T R c for the difference weights c (binomial, signs
+    # alternating) and the process's correlation matrix R (rho^|i-j|), over
+    # Var(c . white) = c . c (70 for the fourth).
+    c = np.array([(-1.0) ** i * math.comb(order, i) for i in range(order + 1)])
+    r = toeplitz(rho ** np.arange(order + 1))
+    assert float(difference_share(rho, order)) == pytest.approx(float(c @ r @ c) / float(c @ c), rel=1e-12)
+    if order == 4:
+        assert float(difference_share(rho)) == pytest.approx((70 - 112 * rho + 56 * rho**2 - 16 * rho**3 + 2 * rho**4) / 70, rel=1e-12)
 
 
 def test_the_share_is_what_noise_sigma_reads_of_correlated_noise() -> None:
@@ -51,7 +55,7 @@ def test_the_share_is_what_noise_sigma_reads_of_correlated_noise() -> None:
     for corr_time_s in (0.005, 0.02):
         reads = np.array([noise_sigma(ou(rng, SAMPLES, 0.005, corr_time_s, 1.0)) ** 2 for _ in range(400)])
         # 400 draws of a level scattering by sqrt(5 / 400) = 11 %: the mean within 3 of its errors.
-        expected = float(d4_share(math.exp(-0.005 / corr_time_s)))
+        expected = float(difference_share(math.exp(-0.005 / corr_time_s)))
         assert abs(reads.mean() - expected) < 3 * expected * math.sqrt(5.0 / SAMPLES / 400), (corr_time_s, reads.mean(), expected)
 
 
@@ -75,7 +79,7 @@ def test_half_the_variance_correlated_is_found_and_the_fast_record_given_it_back
         k = noise_colour("p_gas2_pa", lv)
         found += k is not None
         dt, _, level = lv[-1]
-        fastest.append(math.sqrt(level**2 + (k.missed_var(dt) if k else 0.0)))
+        fastest.append(math.sqrt(level.sigma**2 + (k.missed_var(dt, level.order) if k else 0.0)))
     # Found in most campaigns (measured 0.77 and 0.94).
     assert found / 300 > 0.5, found
     # The fastest record's level, corrected, is the noise's (1): the median
@@ -87,7 +91,41 @@ def test_half_the_variance_correlated_is_found_and_the_fast_record_given_it_back
 
 def test_no_colour_from_records_sampled_alike_or_too_few() -> None:
     rng = np.random.default_rng(3)
-    same = [(0.005, SAMPLES, noise_sigma(rng.normal(0.0, s, SAMPLES))) for s in (1.0, 0.6, 0.4, 1.0)]
+    same = [(0.005, SAMPLES, noise_level(rng.normal(0.0, s, SAMPLES))) for s in (1.0, 0.6, 0.4, 1.0)]
     assert noise_colour("force_n", same) is None
-    assert noise_colour("force_n", [(0.5, SAMPLES, 1.0), (0.005, SAMPLES, 0.5)]) is None
-    assert noise_colour("force_n", [(0.5, SAMPLES, 1.0), (0.05, SAMPLES, math.nan), (0.005, SAMPLES, 0.5)]) is None
+    assert noise_colour("force_n", [(0.5, SAMPLES, NoiseLevel(1.0, 4, True)), (0.005, SAMPLES, NoiseLevel(0.5, 4, True))]) is None
+    nan = [(0.5, SAMPLES, NoiseLevel(1.0, 4, True)), (0.05, SAMPLES, NoiseLevel(math.nan, 4, True)), (0.005, SAMPLES, NoiseLevel(0.5, 4, True))]
+    assert noise_colour("force_n", nan) is None
+
+
+def test_noise_white_or_correlated_passes_for_noise() -> None:
+    rng = np.random.default_rng(8)
+    for corr_time_s in (0.0, 0.005, 0.05):
+        flagged = 0
+        for _ in range(500):
+            y = rng.normal(0.0, 0.7, SAMPLES) + (ou(rng, SAMPLES, 0.005, corr_time_s, 0.7) if corr_time_s else 0.0)
+            flagged += not differences_are_noise(y)
+        assert flagged <= 2, (corr_time_s, flagged)
+
+
+@pytest.mark.parametrize("ripple_pa", [5e5, 1e6])
+def test_a_signal_rough_on_the_sampling_scale_is_read_from_higher_differences_and_not_taken_for_colour(ripple_pa: float) -> None:
+    # A strut pressure whose compression half carries a 2 Hz component of
+    # 0.5 or 1 MPa (the damper's knee at work), 0.5 Hz sampled at 20 Hz as
+    # the foreign rig's heat run, 4 kPa of white noise: its fourth
+    # difference reads 6.8 or 11.7 kPa, the signal too (the heat run's read
+    # 11.6); the sixth and eighth still a little of it.
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 600.0, 0.05)
+    signal = 15e6 + 4e6 * np.sin(np.pi * t) + ripple_pa * np.maximum(np.sin(np.pi * t), 0.0) ** 2 * np.sin(4.0 * np.pi * t)
+    y = signal + rng.normal(0.0, 4e3, len(t))
+    assert noise_sigma(y) > 1.5 * 4e3 and not differences_are_noise(y)
+    # A higher order reads the noise within 5 %.
+    level = noise_level(y)
+    assert level.order > 4 and level.sigma == pytest.approx(4e3, rel=0.05), level
+    # Beside the sweep's five clean records, the fourth difference's level
+    # would pass for the slow part of a correlated noise; the level read does not.
+    clean = [(dt, SAMPLES, noise_level(rng.normal(0.0, 4e3, SAMPLES))) for dt in SWEEP_DT_S]
+    assert noise_colour("p_gas_pa", [*clean, (0.05, len(t), NoiseLevel(noise_sigma(y), 4, True))]) is not None
+    assert noise_colour("p_gas_pa", [*clean, (0.05, len(t), level)]) is None
+    assert noise_colour("p_gas_pa", [*clean, (0.05, len(t), NoiseLevel(noise_sigma(y), 4, False))]) is None

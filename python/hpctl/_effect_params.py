@@ -64,6 +64,12 @@ class OilNode:
     #: Time constant of the gas wall following ambient, s. Valid: [0.001,
     #: 1e+09] (``wall_to_ambient_tau_s``).
     wall_to_ambient_tau_s: float
+    #: Heat capacity of the gas accumulators' wall, J/K: the heat the gas gives
+    #: its wall (a working gas spring's hysteresis, hundreds of W on a heat
+    #: run) warms it. The default, 1e12, is a wall the gas cannot warm (the
+    #: seed's calibration, which lumps that heat into the wall's coupling to
+    #: the oil). Valid: [1, 1e+12] (``wall_heat_capacity_j_per_k``).
+    wall_heat_capacity_j_per_k: float = 1000000000000.0
 
 
 @dataclass(frozen=True)
@@ -175,6 +181,7 @@ class OilNodeDict(TypedDict):
     oil_to_ambient_tau_s: float
     wall_to_oil_tau_s: float
     wall_to_ambient_tau_s: float
+    wall_heat_capacity_j_per_k: float
 
 
 class LeakageDict(TypedDict):

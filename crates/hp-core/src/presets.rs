@@ -103,12 +103,15 @@ pub fn seed_unit() -> UnitParams {
 /// (the gas runs about 8 K above its wall on average: compression heats it
 /// more than expansion cools it while heat flows out); what the gas
 /// temperature then does to the spring rate and the ride height is the
-/// model's prediction.
+/// model's prediction. The calibration predates the wall's heat capacity:
+/// the gas's own heat is lumped into the wall's coupling to the oil, and
+/// the wall is one the gas cannot warm.
 pub fn seed_oil_node() -> OilNode {
     OilNode {
         heat_capacity_j_per_k: 18_000.0,
         oil_to_ambient_tau_s: 3_000.0,
         wall_to_oil_tau_s: 5_800.0,
         wall_to_ambient_tau_s: 20_000.0,
+        wall_heat_capacity_j_per_k: crate::unit::NO_WALL_WARMING_J_PER_K,
     }
 }

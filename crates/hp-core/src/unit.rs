@@ -28,6 +28,10 @@ use crate::thermal::{gas_temperature_k, temperature_rate_k_s, temperature_rate_p
 /// Standard gravity, m/s^2.
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.80665;
 
+/// The oil node's wall heat capacity at which the gas's heat does not warm
+/// the wall (the rate skips the term): the default, J/K.
+pub const NO_WALL_WARMING_J_PER_K: f64 = 1e12;
+
 effect_params! {
     /// Seal friction between strut piston and cylinder.
     Friction = "friction" {
@@ -105,6 +109,12 @@ effect_params! {
         wall_to_oil_tau_s: [Range::new("wall_to_oil_tau_s", 1e-3, 1e9)],
         /// Time constant of the gas wall following ambient, s.
         wall_to_ambient_tau_s: [Range::new("wall_to_ambient_tau_s", 1e-3, 1e9)],
+        /// Heat capacity of the gas accumulators' wall, J/K: the heat the
+        /// gas gives its wall (a working gas spring's hysteresis, hundreds
+        /// of W on a heat run) warms it. The default, 1e12, is a wall the
+        /// gas cannot warm (the seed's calibration, which lumps that heat
+        /// into the wall's coupling to the oil).
+        wall_heat_capacity_j_per_k: [Range::new("wall_heat_capacity_j_per_k", 1.0, NO_WALL_WARMING_J_PER_K), default NO_WALL_WARMING_J_PER_K],
     }
 }
 
@@ -959,7 +969,9 @@ impl Unit {
         // A time constant that moves with L's heat capacity needs L's c_v
         // whenever L's temperature relaxes.
         let conductance = e.wall_conductance.filter(|_| needs.rates && matches!(heat, HeatTransfer::TimeConstant(_)));
-        let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor || conductance.is_some();
+        // A wall the gas can warm takes the heat of both volumes (L's needs its c_v).
+        let warms_wall = needs.rates && e.oil_node.is_some_and(|n| n.wall_heat_capacity_j_per_k < NO_WALL_WARMING_J_PER_K);
+        let large_needed = needs.outputs || s6 > 0.0 || e.leakage.is_some() || lagging_sensor || conductance.is_some() || warms_wall;
         let props_l = if large_needed { gas(rho_l, t_l) } else { UNUSED_PROPS };
         let (p_s, p_l) = (props_s.p_pa, props_l.p_pa);
 
@@ -1077,6 +1089,16 @@ impl Unit {
             rate.t_oil_k = heat / n.heat_capacity_j_per_k + (ambient_k - state.t_oil_k) / n.oil_to_ambient_tau_s;
             rate.t_wall_k = (state.t_oil_k - state.t_wall_k) / n.wall_to_oil_tau_s
                 + (ambient_k - state.t_wall_k) / n.wall_to_ambient_tau_s;
+            if warms_wall {
+                // The heat each gas volume gives its wall: m c_v (T - T_wall) / tau,
+                // what its own temperature rate loses to the wall.
+                let given = |h: HeatTransfer, props: &GasProps, t: f64, m: f64| match h {
+                    HeatTransfer::TimeConstant(tau) => m * props.cv_j_per_kg_k * (t - t_wall) / tau,
+                    _ => 0.0,
+                };
+                let gas_heat_w = given(heat_s, &props_s, t_s, state.m_small_kg) + given(heat_l, &props_l, t_l, state.m_large_kg);
+                rate.t_wall_k += gas_heat_w / n.wall_heat_capacity_j_per_k;
+            }
         }
 
         // Transducers.

@@ -18,6 +18,7 @@ from hpctl.identify.signals import (
     derivative,
     local_sensitivities,
     noise_colour,
+    noise_level,
     noise_sigma,
     smooth,
     velocity_noise_gain,
@@ -90,7 +91,8 @@ def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
 
 def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[Dataset]:
     """Checks that the records can be fitted and prepares them. Each
-    channel's noise is its fourth-difference level, plus what that level
+    channel's noise is its level from the lowest order of differences that
+    holds noise only (:func:`hpctl.identify.signals.noise_level`), plus what that level
     misses of a correlated noise the records of the channel show when
     sampled at different rates (:func:`hpctl.identify.signals.noise_colour`:
     one transducer per channel name in one fit)."""
@@ -103,10 +105,10 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         x_in = input_disp_m(rec)
         rig, xs, vs = _drive(rec, t, x_in)
         targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
-        level = {c: noise_sigma(y) for c, y in targets.items()}
+        level = {c: noise_level(y) for c, y in targets.items()}
         dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-        for c, s in level.items():
-            levels.setdefault(c, []).append((dt, len(t), s))
+        for c, lv in level.items():
+            levels.setdefault(c, []).append((dt, len(t), lv))
         drives.append((rec, t, x_in, rig, xs, vs, targets, level, dt))
     colours = {c: k for c, lv in levels.items() if (k := noise_colour(c, lv)) is not None}
     out = []
@@ -118,8 +120,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         v_noise = x_raw_noise * velocity_noise_gain(float(np.median(np.diff(t))))
         for c, y in targets.items():
             floor = 1e-4 * max(float(np.ptp(y)), 1e-12)
-            missed = colours[c].missed_var(dt) if c in colours else 0.0
-            sigma[c] = max(float(np.sqrt(level[c] ** 2 + missed)), floor)
+            missed = colours[c].missed_var(dt, level[c].order) if c in colours else 0.0
+            sigma[c] = max(float(np.sqrt(level[c].sigma ** 2 + missed)), floor)
             # An SDOF body filters the base's noise through its dynamics;
             # on the characterisation rig the outputs follow the input's
             # position (gas) and velocity (damper, friction) at once.
@@ -135,6 +137,15 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise,
                            noise_colour={c: k for c, k in colours.items() if c in targets}))
     return out
+
+
+def noise_colours(datasets: Sequence[Dataset]) -> list[NoiseColour]:
+    """The correlated noise found per channel (each once)."""
+    seen: dict[str, NoiseColour] = {}
+    for d in datasets:
+        for c, k in d.noise_colour.items():
+            seen.setdefault(c, k)
+    return list(seen.values())
 
 
 def input_disp_m(rec: RigRecord) -> FloatArray:

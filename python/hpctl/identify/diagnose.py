@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
-from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, prepare, traits, uses_damper
+from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, noise_colours, prepare, traits, uses_damper
 from hpctl.identify.fit import FitResult, fit, residual_vector, rss_at
 from hpctl.identify.switching import places
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, Param, flexible_params
@@ -905,6 +905,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "final_params": diag.final.values,
         "final_stderr": diag.final.stderr,
         "final_switch_places": places(diag.final.datasets),
+        "noise_colour": [k.to_json() for k in noise_colours(diag.final.datasets)],
         "error_before": err(diag.initial),
         "error_after": err(diag.final),
         "loop_area_by_frequency": [vars(a) for a in loop_areas(diag.final)],

@@ -242,8 +242,12 @@ def _heat_buildup(u: Unit, p: Mapping[str, float]) -> Unit:
     # The oil's and the wall's coupling to ambient are the seed's (measured
     # after its heat run); the fit identifies the oil's heat capacity and
     # how fast the oil heats the gas wall.
+    # The gas's heat warms a wall of the fitted heat capacity (a working
+    # gas spring gives it hundreds of W on a heat run: the foreign rig's
+    # isolated accumulator ended 5 K above the oil that was to warm it).
     seed = _core.seed_oil_node()
-    return u.with_effects(oil_node=OilNode(p["oil_heat_capacity_j_per_k"], seed["oil_to_ambient_tau_s"], p["wall_to_oil_tau_s"], seed["wall_to_ambient_tau_s"]))
+    return u.with_effects(oil_node=OilNode(p["oil_heat_capacity_j_per_k"], seed["oil_to_ambient_tau_s"], p["wall_to_oil_tau_s"], seed["wall_to_ambient_tau_s"],
+                                           p["wall_heat_capacity_j_per_k"]))
 
 
 def _leakage(u: Unit, p: Mapping[str, float]) -> Unit:
@@ -323,9 +327,12 @@ LIBRARY: dict[str, Effect] = {
             applies=lambda t: t.damper_works and t.longest_damper_on_s > 0, max_step_s=_compliance_step,
         ),
         Effect(
-            "heat_buildup", "damper heat warming the oil and, slowly, the gas (lumped oil node)",
+            "heat_buildup", "damper heat warming the oil, the oil and the gas's own heat warming the gas's wall (lumped nodes)",
             (Param("oil_heat_capacity_j_per_k", 1e3, 1e6, 2e4, 2e4, (1.2e4, 3e4), log=True, null=1e6),
-             Param("wall_to_oil_tau_s", 100.0, 1e5, 5000.0, 5000.0, (2500.0, 8000.0), log=True)),
+             Param("wall_to_oil_tau_s", 100.0, 1e5, 5000.0, 5000.0, (2500.0, 8000.0), log=True),
+             # Steel around 1 L of gas: 5-20 kg at 460 J/(kg K). The upper
+             # bound is the core's wall the gas cannot warm.
+             Param("wall_heat_capacity_j_per_k", 300.0, 1e12, 5000.0, 5000.0, (3000.0, 1e4), log=True)),
             _heat_buildup, "long runs with the damper working", tests=("heat",),
             applies=lambda t: t.longest_damper_on_s > HEAT_BUILDUP_MIN_S,
         ),

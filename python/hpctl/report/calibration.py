@@ -17,6 +17,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
+from hpctl.identify.dataset import Dataset, noise_colours  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.switching import places  # noqa: E402
@@ -150,6 +151,17 @@ def switch_table(result: FitResult) -> list[str]:
     return [*lines, ""]
 
 
+def noise_section(datasets: Sequence[Dataset]) -> list[str]:
+    """The correlated noise found per channel (nothing when none was)."""
+    found = noise_colours(datasets)
+    if not found:
+        return []
+    return ["## Coloured noise", "",
+            "Channels whose records, sampled at different rates, show a noise correlated from sample to sample: the fourth "
+            "difference of a fast record reads only part of it, so each record's noise level above includes what it missed.", "",
+            *[f"- {k.describe()}" for k in found], ""]
+
+
 def warnings_section(caveats: Sequence[Caveat]) -> list[str]:
     """A report's "Warnings" section (nothing when there are none)."""
     if not caveats:
@@ -182,6 +194,7 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
         *error_table(result),
         "",
         *switch_table(result),
+        *noise_section(result.datasets),
         "## Plots",
         "",
         *[f"![{p.stem}]({p.name})" for p in plots],
@@ -260,7 +273,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
     lines += ["", "## Final parameters", "", *params_table(final), "",
               "## Error before and after", "",
               f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units).", "",
-              *error_table(initial, final), ""]
+              *error_table(initial, final), "", *noise_section(final.datasets)]
     # Thermal versus friction hysteresis.
     areas_initial, areas_final = loop_areas(initial), loop_areas(final)
     if areas_final:
@@ -299,5 +312,6 @@ def fit_summary(result: FitResult) -> dict[str, Any]:
         "bic": result.bic,
         "converged": result.success,
         "switch_places": places(result.datasets),
+        "noise_colour": [k.to_json() for k in noise_colours(result.datasets)],
         "channels": [vars(s) for s in result.stats],
     }
