@@ -15,6 +15,7 @@ from hpctl.errors import HpctlError, RecordError
 from hpctl.identify.signals import (
     SMOOTH_NOISE_GAIN,
     NoiseColour,
+    NoiseLevel,
     derivative,
     local_sensitivities,
     noise_colour,
@@ -99,7 +100,7 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     if not records:
         raise HpctlError("no records to fit")
     drives = []
-    levels: dict[str, list[tuple[float, int, float]]] = {}
+    levels: dict[str, list[tuple[float, int, NoiseLevel]]] = {}
     for rec in records:
         t = np.asarray(rec["time_s"], float)
         x_in = input_disp_m(rec)
