@@ -19,6 +19,7 @@ from scipy.stats import binom, chi2
 import coverage
 import hpctl
 from foreign_rig import generate, sweep_tests
+from foreign_rig.programs import extra_tests
 from foreign_rig.sensors import ChannelNoise, measure
 from hpctl.data.records import read_record
 from hpctl.identify.dataset import _drive, input_disp_m, prepare
@@ -499,3 +500,38 @@ def test_flexible_model_finds_a_pressure_driven_leak() -> None:
     assert abs(tau / truth - 1.0) <= 0.1, context
     assert abs(n - 1.0) <= 0.1, context
     assert r.rms_ratio <= 1.1, context
+
+
+def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
+    # The foreign rig's heat build-up: the gas cylinders' walls one node
+    # (3,000-10,000 J/K) warmed by the oil and by the gas's own heat, which
+    # on the 10-minute heat run (0.5 Hz, 60 mm, the damper on) is hundreds
+    # of W: on seed 7 the sealed large accumulator ended 5 K above the oil
+    # that was to warm it. hpctl's wall followed the oil and ambient only:
+    # the flexible diagnosis put the wall's time constant on its bound and
+    # left 7.1 x the noise (the large accumulator's pressure 17-26 x). With
+    # the wall's heat capacity fitted (seed 7: 7,583 against 7,582 J/K) the
+    # residual is at the noise. The wall-to-oil time constant is not
+    # asserted: the foreign oil node also feeds the wall and cools as
+    # dT^0.48, hpctl's at the seed's fixed 3,000 s (measured: 5,404 +- 1,033
+    # against 2,848 s on seed 7).
+    seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
+    g = generate("heat_buildup", seed, tests=[*[t for t in sweep_tests() if t.name in SHORT], *extra_tests()["heat"]])
+    datasets = prepare([read_record(p) for p in g.records])
+    r = fit(datasets, ("heat_transfer", "real_gas", "heat_buildup"), flexible=True)
+    truth = g.truth["hpctl_params"]
+    c, sc = r.values["wall_heat_capacity_j_per_k"], r.stderr["wall_heat_capacity_j_per_k"]
+    context = (f"FOREIGN_RIG_SEED={seed}: wall {c:.5g} +- {sc:.2g} against {truth['wall_heat_capacity_j_per_k']:.5g} J/K, oil "
+               f"{r.values['oil_heat_capacity_j_per_k']:.5g} against {truth['oil_heat_capacity_j_per_k']:.5g} J/K, RMS/noise {r.rms_ratio:.3f}; "
+               + ", ".join(f"{s.record}/{s.channel} {s.rms / s.noise:.2f}" for s in r.stats))
+    assert abs(c / truth["wall_heat_capacity_j_per_k"] - 1.0) <= max(0.1, 2.0 * sc / c), context
+    assert abs(r.values["oil_heat_capacity_j_per_k"] / truth["oil_heat_capacity_j_per_k"] - 1.0) <= 0.1, context
+    # Every record's channel at the noise, against hpctl's level and the truth's.
+    heat = next(d for d in r.datasets if d.name == "heat_run")
+    for s in r.stats:
+        assert s.rms / s.noise <= 1.3, context
+    true_sigma = g.truth["noise"]["p_pa"]["sigma"]
+    for c_name in ("p_gas_pa", "p_gas2_pa"):
+        # The heat run's pressure level from differences that hold noise only
+        # (its fourth difference read 2.7 x the noise on seed 7).
+        assert heat.sigma[c_name] <= 1.25 * true_sigma, (c_name, heat.sigma[c_name], true_sigma, context)
