@@ -51,3 +51,27 @@ def test_spring_rate_rises_with_gas_temperature(run: Experiment) -> None:
     s = run.summary
     assert s.static_spring_rate_end_n_per_m > s.static_spring_rate_start_n_per_m
     assert s.dynamic_force_range_end_n > s.dynamic_force_range_start_n
+
+
+def test_the_oil_cools_as_the_seed_measured_after_its_heat_run() -> None:
+    # The seed (section 4.5): oil-to-ambient time constants of 3000 s at a
+    # 100 C difference and 6500 s below 20 C, fitted to its cool-down after
+    # the heat run. The built-in unit's oil is heated by 30 minutes of a
+    # 1 Hz, 50 mm sine with the damper on, then left to cool; the local
+    # time constant -dT / (d dT/dt) is read from the cooling curve.
+    from hpctl.sim.experiments import seed_oil_node
+
+    unit = hpctl.Unit.seed().with_effects(oil_node=seed_oil_node())
+    stop_s, f, a = 1800.0, 1.0, 0.05
+    t = np.concatenate((np.arange(0.0, stop_s, 0.01), np.arange(stop_s, 20000.0, 5.0)))
+    w = 2.0 * np.pi * f
+    x = np.where(t < stop_s, a * np.sin(w * t), 0.0)
+    v = np.where(t < stop_s, a * w * np.cos(w * t), 0.0)
+    r = hpctl.run_characterisation(unit, hpctl.Sampled(t, x, v), 20000.0, sample_dt_s=5.0, damper_on=True)
+    above = r["t_oil_k"] - unit.static_temperature_k
+    rate = np.gradient(above, r["time_s"])
+    cooling = r["time_s"] > stop_s + 100.0
+    assert above.max() > 110.0
+    for difference_k, tau_s in ((100.0, 3000.0), (20.0, 6500.0)):
+        i = np.flatnonzero(cooling)[np.argmin(np.abs(above[cooling] - difference_k))]
+        assert -above[i] / rate[i] == pytest.approx(tau_s, rel=0.01), difference_k

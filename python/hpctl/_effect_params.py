@@ -55,7 +55,8 @@ class OilNode:
     #: Heat capacity of the oil and the steel around it, J/K. Valid: [1, 1e+09]
     #: (``oil_heat_capacity_j_per_k``).
     heat_capacity_j_per_k: float
-    #: Oil-to-ambient time constant, s. Valid: [0.001, 1e+09]
+    #: Oil-to-ambient time constant, s (at a 100 K difference when
+    #: `oil_to_ambient_exponent` is not 0). Valid: [0.001, 1e+09]
     #: (``oil_to_ambient_tau_s``).
     oil_to_ambient_tau_s: float
     #: Time constant of the gas wall following the oil, s. Valid: [0.001,
@@ -66,10 +67,17 @@ class OilNode:
     wall_to_ambient_tau_s: float
     #: Heat capacity of the gas accumulators' wall, J/K: the heat the gas gives
     #: its wall (a working gas spring's hysteresis, hundreds of W on a heat
-    #: run) warms it. The default, 1e12, is a wall the gas cannot warm (the
-    #: seed's calibration, which lumps that heat into the wall's coupling to
-    #: the oil). Valid: [1, 1e+12] (``wall_heat_capacity_j_per_k``).
+    #: run) warms it, and the wall and the oil exchange heat both ways. The
+    #: default, 1e12, is a wall the gas cannot warm and that follows the oil
+    #: without cooling it (the seed's calibration, which lumps the gas's heat
+    #: into that coupling). Valid: [1, 1e+12] (``wall_heat_capacity_j_per_k``).
     wall_heat_capacity_j_per_k: float = 1000000000000.0
+    #: How the oil's time constant to ambient grows as the difference falls
+    #: (natural convection: the seed measured 3000 s at 100 K and 6500 s below
+    #: 20 K, an exponent of 0.48): at a difference dT it is
+    #: `oil_to_ambient_tau_s (100 K / |dT|)^n`. 0, the default: constant.
+    #: Valid: [0, 3] (``oil_to_ambient_exponent``).
+    oil_to_ambient_exponent: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -182,6 +190,7 @@ class OilNodeDict(TypedDict):
     wall_to_oil_tau_s: float
     wall_to_ambient_tau_s: float
     wall_heat_capacity_j_per_k: float
+    oil_to_ambient_exponent: float
 
 
 class LeakageDict(TypedDict):

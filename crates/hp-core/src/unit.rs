@@ -32,6 +32,10 @@ pub const STANDARD_GRAVITY_M_S2: f64 = 9.80665;
 /// the wall (the rate skips the term): the default, J/K.
 pub const NO_WALL_WARMING_J_PER_K: f64 = 1e12;
 
+/// The temperature difference at which `OilNode::oil_to_ambient_tau_s`
+/// holds when its exponent is not 0, K.
+pub const OIL_COOLING_REFERENCE_K: f64 = 100.0;
+
 effect_params! {
     /// Seal friction between strut piston and cylinder.
     Friction = "friction" {
@@ -103,7 +107,8 @@ effect_params! {
     OilNode = "oil_node" {
         /// Heat capacity of the oil and the steel around it, J/K.
         heat_capacity_j_per_k: [Range::new("oil_heat_capacity_j_per_k", 1.0, 1e9)],
-        /// Oil-to-ambient time constant, s.
+        /// Oil-to-ambient time constant, s (at a 100 K difference when
+        /// `oil_to_ambient_exponent` is not 0).
         oil_to_ambient_tau_s: [Range::new("oil_to_ambient_tau_s", 1e-3, 1e9)],
         /// Time constant of the gas wall following the oil, s.
         wall_to_oil_tau_s: [Range::new("wall_to_oil_tau_s", 1e-3, 1e9)],
@@ -111,10 +116,16 @@ effect_params! {
         wall_to_ambient_tau_s: [Range::new("wall_to_ambient_tau_s", 1e-3, 1e9)],
         /// Heat capacity of the gas accumulators' wall, J/K: the heat the
         /// gas gives its wall (a working gas spring's hysteresis, hundreds
-        /// of W on a heat run) warms it. The default, 1e12, is a wall the
-        /// gas cannot warm (the seed's calibration, which lumps that heat
-        /// into the wall's coupling to the oil).
+        /// of W on a heat run) warms it, and the wall and the oil exchange
+        /// heat both ways. The default, 1e12, is a wall the gas cannot warm
+        /// and that follows the oil without cooling it (the seed's
+        /// calibration, which lumps the gas's heat into that coupling).
         wall_heat_capacity_j_per_k: [Range::new("wall_heat_capacity_j_per_k", 1.0, NO_WALL_WARMING_J_PER_K), default NO_WALL_WARMING_J_PER_K],
+        /// How the oil's time constant to ambient grows as the difference
+        /// falls (natural convection: the seed measured 3000 s at 100 K and
+        /// 6500 s below 20 K, an exponent of 0.48): at a difference dT it is
+        /// `oil_to_ambient_tau_s (100 K / |dT|)^n`. 0, the default: constant.
+        oil_to_ambient_exponent: [Range::new("oil_to_ambient_exponent", 0.0, 3.0), default 0.0],
     }
 }
 
@@ -1086,7 +1097,13 @@ impl Unit {
         // Heat build-up.
         if let Some(n) = e.oil_node {
             let heat = damper_power + friction_power + valve6_power;
-            rate.t_oil_k = heat / n.heat_capacity_j_per_k + (ambient_k - state.t_oil_k) / n.oil_to_ambient_tau_s;
+            let above = state.t_oil_k - ambient_k;
+            let convection = if n.oil_to_ambient_exponent == 0.0 {
+                1.0
+            } else {
+                libm::pow(libm::fabs(above) / OIL_COOLING_REFERENCE_K, n.oil_to_ambient_exponent)
+            };
+            rate.t_oil_k = heat / n.heat_capacity_j_per_k - above * convection / n.oil_to_ambient_tau_s;
             rate.t_wall_k = (state.t_oil_k - state.t_wall_k) / n.wall_to_oil_tau_s
                 + (ambient_k - state.t_wall_k) / n.wall_to_ambient_tau_s;
             if warms_wall {
@@ -1098,6 +1115,11 @@ impl Unit {
                 };
                 let gas_heat_w = given(heat_s, &props_s, t_s, state.m_small_kg) + given(heat_l, &props_l, t_l, state.m_large_kg);
                 rate.t_wall_k += gas_heat_w / n.wall_heat_capacity_j_per_k;
+                // A wall of finite capacity gives the oil what the oil gives
+                // it (an unbounded one would give it without limit: its
+                // coupling is then one-way, the seed's calibration).
+                let wall_to_oil_w = n.wall_heat_capacity_j_per_k * (state.t_wall_k - state.t_oil_k) / n.wall_to_oil_tau_s;
+                rate.t_oil_k += wall_to_oil_w / n.heat_capacity_j_per_k;
             }
         }
 

@@ -163,7 +163,7 @@ fn every_effect_agrees_with_rk4() {
     let unit = unit_with(|p| {
         p.effects.friction = Some(Friction::new(400.0, 300.0, 2e-3));
         p.effects.oil_compliance = Some(OilCompliance { bulk_modulus_pa: 1.2e9, oil_volume_m3: 0.3e-3 });
-        p.effects.oil_node = Some(OilNode { heat_capacity_j_per_k: 2000.0, oil_to_ambient_tau_s: 300.0, wall_to_oil_tau_s: 60.0, wall_to_ambient_tau_s: 600.0, wall_heat_capacity_j_per_k: hp_core::unit::NO_WALL_WARMING_J_PER_K });
+        p.effects.oil_node = Some(OilNode { heat_capacity_j_per_k: 2000.0, oil_to_ambient_tau_s: 300.0, wall_to_oil_tau_s: 60.0, wall_to_ambient_tau_s: 600.0, wall_heat_capacity_j_per_k: hp_core::unit::NO_WALL_WARMING_J_PER_K, oil_to_ambient_exponent: 0.0 });
         p.effects.leakage = Some(Leakage { time_constant_s: 50.0, pressure_exponent: 0.0 });
         p.effects.valve_lag = Some(ValveLag { time_constant_s: 0.02 });
         p.effects.sensor = Some(Sensor { force_offset_n: 50.0, pressure_offset_pa: 2e4, pressure2_offset_pa: -1.5e4, time_constant_s: 0.01 });

@@ -512,6 +512,7 @@ pub fn seed_oil_node(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         d.set_item("wall_to_oil_tau_s", n.wall_to_oil_tau_s)?;
         d.set_item("wall_to_ambient_tau_s", n.wall_to_ambient_tau_s)?;
         d.set_item("wall_heat_capacity_j_per_k", n.wall_heat_capacity_j_per_k)?;
+        d.set_item("oil_to_ambient_exponent", n.oil_to_ambient_exponent)?;
         Ok(d)
     })
 }
