@@ -23,6 +23,7 @@ from foreign_rig.programs import extra_tests
 from foreign_rig.sensors import ChannelNoise, measure
 from hpctl.data.records import read_record
 from hpctl.identify.dataset import _drive, input_disp_m, prepare
+from hpctl.identify.diagnose import NOISE_CEILING
 from hpctl.identify.fit import FitResult, damper_branches, fit, simulate_all
 from hpctl.model.effects import (
     CORE_RANGES,
@@ -529,13 +530,18 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
                f"{r.values['oil_heat_capacity_j_per_k']:.5g} against {truth['oil_heat_capacity_j_per_k']:.5g} J/K, RMS/noise {r.rms_ratio:.3f}; "
                + ", ".join(f"{s.record}/{s.channel} {s.rms / s.noise:.2f}" for s in r.stats))
     assert abs(c / truth["wall_heat_capacity_j_per_k"] - 1.0) <= max(0.1, 2.0 * sc / c), context
-    # The residual at the noise, and the heat run's every channel (seed 8:
-    # the 0.3 Hz sine's strut pressure at 1.37 x, not the heat's doing).
-    assert r.rms_ratio <= 1.1, context
+    # The residual at the noise as the issue puts it (at most 1.3 x), and
+    # the heat run's every channel (seeds 7-9: pooled 1.01-1.08, the heat
+    # run's channels 1.02-1.21; seed 8's 0.3 Hz sine's strut pressure at
+    # 1.37 x, not the heat's doing).
+    assert r.rms_ratio <= NOISE_CEILING, context
     for s in r.stats:
-        assert s.record != "heat_run" or s.rms / s.noise <= 1.3, context
-    # (The heat run's noise levels are read from differences of a higher
-    # order where the fourth holds the signal too, test_noise_colour.py:
-    # seed 7's pressure reads 4.26 kPa against 4.24, seed 10's still 6.3
-    # against 3.2, the damper's knees showing in the eighth too; its
-    # channels' ratios above are against those levels.)
+        assert s.record != "heat_run" or s.rms / s.noise <= NOISE_CEILING, context
+    # The heat run's noise levels: no order of differences holds only the
+    # force's noise there (seed 7: 99, 41 and 33 N from the fourth, sixth and
+    # eighth, against 16), nor on seed 10 the pressure's (6.3 kPa from the
+    # eighth against 3.2); the channel's noise from the sines is taken.
+    heat = next(d for d in r.datasets if d.name == "heat_run")
+    for c_name, key in (("force_n", "force_n"), ("p_gas_pa", "p_pa"), ("p_gas2_pa", "p_pa")):
+        true_sigma = g.truth["noise"][key]["sigma"]
+        assert 0.75 * true_sigma <= heat.sigma[c_name] <= 1.25 * true_sigma, (c_name, heat.sigma[c_name], true_sigma, context)
