@@ -539,9 +539,12 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
         assert s.record != "heat_run" or s.rms / s.noise <= NOISE_CEILING, context
     # The heat run's noise levels: no order of differences holds only the
     # force's noise there (seed 7: 99, 41 and 33 N from the fourth, sixth and
-    # eighth, against 16), nor on seed 10 the pressure's (6.3 kPa from the
-    # eighth against 3.2); the channel's noise from the sines is taken.
+    # eighth, against 16); the channel's noise from the sines is taken. The
+    # noise a record holds is the transducer's and the sample-time jitter's,
+    # the rate times the jitter (seed 488147967: the heat run's strut
+    # pressure 5.7 kPa, the transducer's 2.6; with the jitter 5.5).
     heat = next(d for d in r.datasets if d.name == "heat_run")
     for c_name, key in (("force_n", "force_n"), ("p_gas_pa", "p_pa"), ("p_gas2_pa", "p_pa")):
-        true_sigma = g.truth["noise"][key]["sigma"]
-        assert 0.75 * true_sigma <= heat.sigma[c_name] <= 1.25 * true_sigma, (c_name, heat.sigma[c_name], true_sigma, context)
+        rate = np.gradient(heat.targets[c_name], heat.times_s)
+        noise = math.hypot(g.truth["noise"][key]["sigma"], g.truth["noise"]["jitter_s"] * float(np.sqrt(np.mean(rate**2))))
+        assert 0.75 * noise <= heat.sigma[c_name] <= 1.25 * noise, (c_name, heat.sigma[c_name], noise, context)
