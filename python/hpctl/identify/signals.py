@@ -54,7 +54,6 @@ def noise_sigma(y: FloatArray, order: int = 4) -> float:
     return s / math.sqrt(math.comb(2 * order, order))
 
 
-
 # Coloured noise. A transducer's noise is often partly correlated from
 # sample to sample (an anti-alias or bridge filter, a drifting amplifier):
 # white plus an exponentially correlated part, autocorrelation rho^k at lag
@@ -71,18 +70,22 @@ def noise_sigma(y: FloatArray, order: int = 4) -> float:
 # and gives each record back what its fourth difference missed.
 
 #: n * var(s^2) / s^4 of the level's variance estimate on n samples, by
-#: the order of the differences (white or correlated noise alike; 5.0 and
-#: 6.3 measured on 2,000-3,000 draws of 400-2,000 samples; 8th: 7.5).
-LEVEL_REL_VAR = {4: 5.0, 6: 6.3, 8: 7.5}
+#: the order of the differences that were checked to hold noise (white or
+#: correlated noise alike; 5.0 and 6.3 measured on 2,000-3,000 draws of
+#: 400-2,000 samples).
+LEVEL_REL_VAR = {4: 5.0, 6: 6.3}
 #: The sum of squares a correlated part must remove (weighted by the
 #: levels' scatter) before it is believed: a likelihood-ratio statistic with
 #: two parameters more (one searched): 2 false alarms in 4,000 campaigns of
 #: white noise sampled as the foreign rig's sweep; half the variance
 #: correlated over 15 / 50 ms is found in 77 / 94 % (tests/test_noise_colour.py).
 COLOUR_EVIDENCE = 12.0
-#: The most the levels may scatter about the colour's fit: the 99.9 %
-#: point of chi-square with the levels less the three parameters.
-def COLOUR_CONSISTENT(levels: int) -> float:  # noqa: N802 - a threshold, named as one
+
+
+def _colour_consistent(levels: int) -> float:
+    """The most the levels may scatter about the colour's fit (weighted sum
+    of squares): the 99.9 % point of chi-square with the levels less the
+    three parameters."""
     return float(chi2.ppf(0.999, max(levels - 3, 1)))
 
 
@@ -107,8 +110,8 @@ def difference_share(rho: float | FloatArray, order: int = 4) -> FloatArray:
 @dataclass(frozen=True)
 class NoiseColour:
     """One channel's noise as white plus exponentially correlated,
-    identified from its fourth-difference levels in records sampled at
-    different rates (:func:`noise_colour`)."""
+    identified from its levels in records sampled at different rates
+    (:func:`noise_colour`)."""
 
     channel: str
     white_var: float
@@ -232,7 +235,7 @@ def noise_colour(channel: str, levels: Sequence[tuple[float, int, NoiseLevel]]) 
     # sampled alike, read 27.7) looks like the slow part of a noise, but
     # not one the other records agree with (weighted sum of squares 62 on
     # 3 degrees of freedom; a real colour on the foreign rig: 0.2-2.5).
-    if best[0] > COLOUR_CONSISTENT(len(levels)):
+    if best[0] > _colour_consistent(len(levels)):
         return None
     return NoiseColour(channel, best[1], best[2], best[3], sse0 - best[0])
 
