@@ -67,8 +67,8 @@ class Dataset:
     #: them (:mod:`hpctl.identify.switching`).
     switch_leads: FloatArray = field(default_factory=lambda: np.zeros(0))
     #: The correlated part of a channel's noise, where the records of the
-    #: fit show one (its level in :attr:`sigma` includes what the fourth
-    #: difference misses of it).
+    #: fit show one (its level in :attr:`sigma` includes what the record's
+    #: differences miss of it).
     noise_colour: dict[str, NoiseColour] = field(default_factory=dict)
 
     @property
@@ -115,8 +115,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         drives.append((rec, t, x_in, rig, xs, vs, targets, level, dt))
     colours = {c: k for c, lv in levels.items() if (k := noise_colour(c, lv)) is not None}
     # Where no order of differences holds a record's noise only (a sine
-    # sampled 20 times a cycle with the damper's knees: the foreign heat
-    # run's force read 178 N from the eighth where the rig drew 58), the
+    # sampled 20-40 times a cycle with the damper's knees: the foreign heat
+    # run's force read 33 N from the eighth where the rig drew 16), the
     # channel's noise from its other records, whose differences were checked.
     checked_var = {c: _channel_var(lv, colours.get(c)) for c, lv in levels.items()}
     out = []

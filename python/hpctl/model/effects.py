@@ -240,8 +240,9 @@ def _oil_compliance(u: Unit, p: Mapping[str, float]) -> Unit:
 
 def _heat_buildup(u: Unit, p: Mapping[str, float]) -> Unit:
     # The oil's and the wall's coupling to ambient are the seed's (measured
-    # after its heat run: 3,000 s at 100 K, 6,500 s at 20 K); the fit identifies the oil's heat capacity and
-    # how fast the oil heats the gas wall.
+    # after its heat run: 3,000 s at 100 K, 6,500 s at 20 K); the fit
+    # identifies the oil's heat capacity and how fast the oil heats the gas
+    # wall.
     # The flexible model's wall (WALL_SHAPE) is warmed by the gas's heat;
     # otherwise the seed's wall, which the gas cannot warm.
     seed = _core.seed_oil_node()
