@@ -61,6 +61,9 @@ def markdown() -> str:
         "`WallConductance`: n = 0 the seed's constant time constant, 1 a constant wall",
         "conductance h A). With `leakage`, the exponent n of the gauge-pressure ratio its",
         "rate goes with (0 a decay at one time constant, 1 a leak driven by the pressure).",
+        "With `heat_buildup`, the heat capacity of the gas's wall, which the gas's own heat",
+        "warms (hp-core's `wall_heat_capacity_j_per_k`; the prior's centre, 1e12, is the",
+        "seed's wall that the gas cannot warm).",
         "With `friction`, its smoothing velocity and a Stribeck",
         "peak are fitted too. Each has a Gaussian prior centred on the nominal value",
         "(regularisation: what the records cannot see stays nominal, with the prior's width",
@@ -69,7 +72,7 @@ def markdown() -> str:
         "| parameter | fit bounds | fit start | nominal (prior centre) | prior sigma | scale |",
         "|---|---|---|---|---|---|",
     ]
-    for p in flexible_params(("heat_transfer", "friction", "leakage"), DAMPER_BRANCHES, valve6=True):
+    for p in flexible_params(("heat_transfer", "friction", "leakage", "heat_buildup"), DAMPER_BRANCHES, valve6=True):
         lines.append(f"| `{p.name}` | [{_num(p.lower)}, {_num(p.upper)}] | {_num(p.initial)} | {_num(p.typical)} | "
                      f"{_num(p.prior_sigma or 0.0)} | {'log' if p.log else 'linear'} |")
     return "\n".join(lines) + "\n"
