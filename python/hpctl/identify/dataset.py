@@ -125,7 +125,7 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         weight_sigma: dict[str, FloatArray] = {}
         x_raw_noise = noise_sigma(x_in)
         x_noise = x_raw_noise * SMOOTH_NOISE_GAIN
-        v_noise = x_raw_noise * velocity_noise_gain(float(np.median(np.diff(t))))
+        v_noise = x_raw_noise * velocity_noise_gain(dt)
         for c, y in targets.items():
             floor = 1e-4 * max(float(np.ptp(y)), 1e-12)
             missed = colours[c].missed_var(dt, level[c].order) if c in colours else 0.0
