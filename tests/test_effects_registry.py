@@ -6,6 +6,7 @@ controller's own values."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ from hpctl.control.controller import DamperMode, Diag, DriveMode, DriverMode, In
 from hpctl.identify import virtual_rig
 from hpctl.model import effects
 from hpctl.model.effects import LIBRARY, Param, RecordTraits
-from hpctl.model.unit import Unit
+from hpctl.model.unit import Damper, Unit
 from hpctl.report.effects import markdown
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -78,6 +79,18 @@ def test_max_step_is_the_fastest_time_constant_of_the_units_effects() -> None:
     compliant = LIBRARY["oil_compliance"].apply(u, v)
     bleed = min(c.bleed_pa_s_per_m3 for c in vars(u.damper).values())
     assert effects.max_step_s(compliant) == pytest.approx(effects.OIL_VOLUME_M3 * bleed / 3e8)
+    # A bleed beside the orifice lowers the no-flow resistance to R / (1 + R G)
+    # (the oil relaxes through both passages): the step follows it. The
+    # flexible model's parallel share moves conductance from the series
+    # bleed to the parallel one and leaves the no-flow resistance, and so
+    # the step, where it was.
+    shares = {f"damper_{b}_parallel_share": 0.6 for b in effects.DAMPER_BRANCHES}
+    shaped = compliant.replace(damper=effects.shaped_damper(compliant.damper, shares))
+    assert all(c.bleed_parallel_m3_per_s_pa > 0 for c in vars(shaped.damper).values())
+    assert min(c.bleed_pa_s_per_m3 for c in vars(shaped.damper).values()) == pytest.approx(bleed / 0.4)
+    assert effects.max_step_s(shaped) == pytest.approx(effects.OIL_VOLUME_M3 * bleed / 3e8)
+    added = compliant.replace(damper=Damper(*(replace(c, bleed_parallel_m3_per_s_pa=1.0 / c.bleed_pa_s_per_m3) for c in vars(compliant.damper).values())))
+    assert effects.max_step_s(added) == pytest.approx(0.5 * effects.OIL_VOLUME_M3 * bleed / 3e8)
 
 
 def test_effects_doc_is_generated_from_the_registry() -> None:

@@ -62,7 +62,7 @@ def test_nominal_shape_values_give_the_nominal_damper_and_friction() -> None:
         for name in ("valve6_flow_area_m2", "valve6_transition_pa"):
             lo, hi = CORE_RANGES[name]
             assert lo <= getattr(u, name) <= hi, (name, getattr(u, name))
-    assert len(damper_shape_params(("off_compression",))) == 7
+    assert len(damper_shape_params(("off_compression",))) == 8
     assert CORE_RANGES["blowoff_knee"][0] <= DAMPER_KNEE_BOUNDS[0] < DAMPER_KNEE_BOUNDS[1] <= CORE_RANGES["blowoff_knee"][1]
     for p in FRICTION_SHAPE:
         lo, hi = CORE_RANGES[p.name]
@@ -147,6 +147,64 @@ def test_a_bad_second_stage_is_refused_and_a_curve_without_one_still_reads() -> 
             del d["damper"][branch][key]  # type: ignore[misc]
     old = hpctl.Unit.from_dict(d)
     assert old == unit and old.damper.off_compression.blowoff2_pa == 0.0
+
+
+def test_a_parallel_bleed_adds_its_flow_at_the_drop_through_a_simulation() -> None:
+    # The flexible model's parallel share through shaped_damper and the
+    # core's plant: at every sample the strut's flow q is the parallel
+    # bleed's G dp plus what the series bleed and orifice pass at dp
+    # (R y + K y^2 = dp), found here by bisection on that definition; above
+    # the (sharp) blow-off, p_b + S (q - q_b) with q_b the flow at p_b. The
+    # share leaves the no-flow resistance R / (1 + R G) at the nominal R.
+    from hpctl.errors import ParameterError
+    from hpctl.sim.run import characterisation_rig, uniform_times
+
+    unit = hpctl.Unit.seed()
+    values = {f"damper_{b}_{k}": v for b in ("off_compression", "off_rebound") for k, v in (("knee", 0.0), ("parallel_share", 0.5))}
+    shaped = shaped_damper(unit.damper, values)
+    for b in ("off_compression", "off_rebound"):
+        nominal, c = getattr(unit.damper, b), getattr(shaped, b)
+        assert c.bleed_parallel_m3_per_s_pa == pytest.approx(0.5 / nominal.bleed_pa_s_per_m3)
+        assert c.bleed_pa_s_per_m3 / (1 + c.bleed_pa_s_per_m3 * c.bleed_parallel_m3_per_s_pa) == pytest.approx(nominal.bleed_pa_s_per_m3)
+    times = uniform_times(2.0, 0.002)
+    r = hpctl.run(unit.replace(damper=shaped), characterisation_rig(hpctl.Sine(0.06, 1.5)), times, spring_hard=True, damper_on=False)
+    area = unit.piston_area_m2
+
+    def passes(b: object, dp: float) -> float:
+        rr, kk, g = b.bleed_pa_s_per_m3, b.orifice_pa_s2_per_m6, b.bleed_parallel_m3_per_s_pa  # type: ignore[attr-defined]
+        lo, hi = 0.0, 1.0
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if mid * (rr + kk * mid) < dp else (lo, mid)
+        return g * dp + 0.5 * (lo + hi)
+
+    expected, below, above = [], 0, 0
+    for qi in np.asarray(r["vel_m_s"]) * area:
+        b = shaped.off_compression if qi >= 0 else shaped.off_rebound
+        m, q_b = abs(qi), passes(b, b.blowoff_pa)
+        if m <= q_b:
+            lo, hi = 0.0, b.blowoff_pa
+            for _ in range(200):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if passes(b, mid) < m else (lo, mid)
+            dp, below = 0.5 * (lo + hi), below + 1
+        else:
+            dp, above = b.blowoff_pa + b.blowoff_slope_pa_s_per_m3 * (m - q_b), above + 1
+        expected.append(math.copysign(dp, qi) * area)
+    assert below > 100 and above > 100, (below, above)  # both regimes driven
+    np.testing.assert_allclose(r["damper_force_n"], expected, rtol=1e-7, atol=1e-6)
+    # Refused with the field named (a ValueError, never a panic); a unit
+    # written before the parallel bleed existed reads with none.
+    from dataclasses import replace as dc_replace
+
+    for bad in (-1e-12, float("nan"), float("inf")):
+        d = dc_replace(unit.damper, off_rebound=dc_replace(unit.damper.off_rebound, bleed_parallel_m3_per_s_pa=bad))
+        with pytest.raises(ParameterError, match="bleed_parallel_m3_per_s_pa = .* outside the valid range"):
+            hpctl.run(unit.replace(damper=d), characterisation_rig(hpctl.Sine(0.01, 1.0)), uniform_times(0.1, 0.01), spring_hard=True, damper_on=False)
+    old = unit.to_dict()
+    for branch in DAMPER_BRANCHES:
+        del old["damper"][branch]["bleed_parallel_m3_per_s_pa"]  # type: ignore[misc]
+    assert hpctl.Unit.from_dict(old) == unit and unit.damper.on_rebound.bleed_parallel_m3_per_s_pa == 0.0
 
 
 def test_stribeck_friction_in_the_core_matches_the_formula() -> None:

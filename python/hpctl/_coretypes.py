@@ -29,6 +29,7 @@ class DamperCurveDict(TypedDict):
     blowoff_knee: float
     blowoff2_pa: float
     blowoff2_slope_pa_s_per_m3: float
+    bleed_parallel_m3_per_s_pa: float
 
 
 class DamperDict(TypedDict):

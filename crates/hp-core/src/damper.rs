@@ -63,6 +63,9 @@ pub struct DamperCurve {
     /// Slope above the second blow-off S2, Pa s/m^3 (used only with a
     /// second stage).
     pub blowoff2_slope_pa_s_per_m3: f64,
+    /// Laminar conductance G of a bleed in parallel with the orifice,
+    /// m^3/(s Pa) (0 = none: the bleed `R` in series only).
+    pub bleed_parallel_m3_per_s_pa: f64,
 }
 
 impl DamperCurve {
@@ -87,6 +90,7 @@ impl DamperCurve {
             blowoff_knee: 0.0,
             blowoff2_pa: 0.0,
             blowoff2_slope_pa_s_per_m3: 0.0,
+            bleed_parallel_m3_per_s_pa: 0.0,
         }
     }
 
@@ -97,6 +101,7 @@ impl DamperCurve {
         check_range("blowoff_pa", self.blowoff_pa, 0.0, 1e9)?;
         check_range("blowoff_slope_pa_s_per_m3", self.blowoff_slope_pa_s_per_m3, 1e3, 1e14)?;
         crate::ranges::DAMPER_BLOWOFF_KNEE.check(self.blowoff_knee)?;
+        check_range("bleed_parallel_m3_per_s_pa", self.bleed_parallel_m3_per_s_pa, 0.0, 1e-3)?;
         if self.bleed_pa_s_per_m3 == 0.0 && self.orifice_pa_s2_per_m6 == 0.0 {
             // A curve with no resistance below blow-off cannot be inverted.
             check_range("bleed_pa_s_per_m3", self.bleed_pa_s_per_m3, 1e3, 1e14)?;
@@ -116,9 +121,35 @@ impl DamperCurve {
         self.blowoff2_pa > 0.0
     }
 
+    /// True when a bleed in parallel with the orifice is set.
+    #[inline]
+    fn parallel(&self) -> bool {
+        self.bleed_parallel_m3_per_s_pa > 0.0
+    }
+
     /// Flow at which the orifice branch reaches the blow-off pressure, m^3/s.
     fn blowoff_flow_m3_s(&self) -> f64 {
-        solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, self.blowoff_pa)
+        self.orifice_flow_m3_s(self.blowoff_pa)
+    }
+
+    /// Flow the branch below blow-off (bleed and orifice) passes at a
+    /// pressure drop `dp_pa >= 0`, m^3/s.
+    fn orifice_flow_m3_s(&self, dp_pa: f64) -> f64 {
+        solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa) + self.bleed_parallel_m3_per_s_pa * libm::fmax(dp_pa, 0.0)
+    }
+
+    /// The branch below blow-off `g(q)` and its slope, at a flow magnitude
+    /// `q >= 0` (see the type's description).
+    #[inline]
+    fn below_blowoff(&self, q: f64) -> (f64, f64) {
+        let (r, k, g) = (self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, self.bleed_parallel_m3_per_s_pa);
+        if g > 0.0 {
+            let b = 1.0 + r * g;
+            let y = 2.0 * q / (b + sqrt(b * b + 4.0 * k * g * q));
+            (y * (r + k * y), (r + 2.0 * k * y) / (b + 2.0 * k * g * y))
+        } else {
+            (q * (r + k * q), r + 2.0 * k * q)
+        }
     }
 
     /// Pressure drop for a flow magnitude `q_m3_s >= 0`, Pa.
@@ -126,7 +157,7 @@ impl DamperCurve {
         if self.staged() {
             return self.staged_pressure_drop_pa(q_m3_s).0;
         }
-        if self.blowoff_knee > 0.0 {
+        if self.blowoff_knee > 0.0 || self.parallel() {
             return self.smooth_pressure_drop_pa(q_m3_s).0;
         }
         let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
@@ -144,7 +175,7 @@ impl DamperCurve {
         if self.staged() {
             return self.staged_pressure_drop_pa(q_m3_s).1;
         }
-        if self.blowoff_knee > 0.0 {
+        if self.blowoff_knee > 0.0 || self.parallel() {
             return self.smooth_pressure_drop_pa(q_m3_s).1;
         }
         let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
@@ -155,33 +186,36 @@ impl DamperCurve {
         }
     }
 
+    /// [`DamperCurve::below_blowoff`] odd in `q` (the ramp may leave the
+    /// orifice's share a rounding error below zero).
+    #[inline]
+    fn below_blowoff_signed(&self, q: f64) -> (f64, f64) {
+        let (dp, slope) = self.below_blowoff(libm::fabs(q));
+        (libm::copysign(dp, q), slope)
+    }
+
     /// The smooth-knee curve (see the type's description) and its slope
     /// `d(dp)/dq`, at flow `q_m3_s >= 0`.
     fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
-        let (r, k, s) = (self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, self.blowoff_slope_pa_s_per_m3);
+        let s = self.blowoff_slope_pa_s_per_m3;
         let q_b = self.blowoff_flow_m3_s();
         let (ramp_q, ramp_slope) = rounded_ramp(q_m3_s, q_b, self.blowoff_knee * q_b);
-        let inner = q_m3_s - ramp_q;
-        let dp = inner * (r + k * libm::fabs(inner)) + s * ramp_q;
-        let slope = (r + 2.0 * k * libm::fabs(inner)) * (1.0 - ramp_slope) + s * ramp_slope;
-        (dp, slope)
+        let (g, g_slope) = self.below_blowoff_signed(q_m3_s - ramp_q);
+        (g + s * ramp_q, g_slope * (1.0 - ramp_slope) + s * ramp_slope)
     }
 
     /// The two-stage curve (see the type's description) and its slope, at
     /// flow `q_m3_s >= 0`; a knee of 0 gives the sharp ramps (the rounded
     /// ramp's formula is exact at zero width).
     fn staged_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
-        let (r, k) = (self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6);
         let (s, s2) = (self.blowoff_slope_pa_s_per_m3, self.blowoff2_slope_pa_s_per_m3);
         let q_b = self.blowoff_flow_m3_s();
         let (r1, r1_slope) = rounded_ramp(q_m3_s, q_b, self.blowoff_knee * q_b);
         let x_2 = (self.blowoff2_pa - self.blowoff_pa) / s;
         let (r2, rho_slope) = rounded_ramp(r1, x_2, self.blowoff_knee * x_2);
         let r2_slope = rho_slope * r1_slope;
-        let inner = q_m3_s - r1;
-        let dp = inner * (r + k * libm::fabs(inner)) + s * (r1 - r2) + s2 * r2;
-        let slope = (r + 2.0 * k * libm::fabs(inner)) * (1.0 - r1_slope) + s * (r1_slope - r2_slope) + s2 * r2_slope;
-        (dp, slope)
+        let (g, g_slope) = self.below_blowoff_signed(q_m3_s - r1);
+        (g + s * (r1 - r2) + s2 * r2, g_slope * (1.0 - r1_slope) + s * (r1_slope - r2_slope) + s2 * r2_slope)
     }
 
     /// Flow magnitude for a pressure drop `dp_pa >= 0`, m^3/s (the inverse of
@@ -200,7 +234,7 @@ impl DamperCurve {
         if self.staged() {
             return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_pressure_drop_pa(q));
         }
-        if self.blowoff_knee > 0.0 {
+        if self.blowoff_knee > 0.0 || self.parallel() {
             return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_pressure_drop_pa(q));
         }
         if dp_pa <= self.blowoff_pa {
@@ -220,7 +254,7 @@ impl DamperCurve {
         let mut lo = 0.0;
         // A first guess from both limbs; the smooth curve can lie below it
         // (the knee's offset), so double the upper end until it brackets.
-        let mut hi = self.blowoff_flow_m3_s() + dp_pa / self.slowest_slope_pa_s_per_m3() + solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa);
+        let mut hi = self.blowoff_flow_m3_s() + dp_pa / self.slowest_slope_pa_s_per_m3() + self.orifice_flow_m3_s(dp_pa);
         for _ in 0..64 {
             if curve(hi).0 >= dp_pa {
                 break;

@@ -19,7 +19,7 @@ fn end_state(unit: &Unit, dt_s: f64) -> (f64, f64, f64) {
 
 #[test]
 fn rk4_error_falls_sixteen_fold_per_halving() {
-    let linear = DamperCurve { bleed_pa_s_per_m3: 5e9, orifice_pa_s2_per_m6: 0.0, blowoff_pa: 1e9, blowoff_slope_pa_s_per_m3: 5e9, blowoff_knee: 0.0, blowoff2_pa: 0.0, blowoff2_slope_pa_s_per_m3: 0.0 };
+    let linear = DamperCurve { bleed_pa_s_per_m3: 5e9, orifice_pa_s2_per_m6: 0.0, blowoff_pa: 1e9, blowoff_slope_pa_s_per_m3: 5e9, blowoff_knee: 0.0, blowoff2_pa: 0.0, blowoff2_slope_pa_s_per_m3: 0.0, bleed_parallel_m3_per_s_pa: 0.0 };
     let unit = unit_with(|p| {
         p.damper = Damper { on_compression: linear, on_rebound: linear, off_compression: linear, off_rebound: linear };
         p.valve6.flow_area_m2 *= 0.2;

@@ -85,7 +85,7 @@ fn small_step_frequency_matches_linearised_gas_spring_from_coolprop() {
     // Linearised adiabatic gas spring: k = A^2 rho c^2 / V with the speed of
     // sound c from CoolProp, f = sqrt(k / m) / (2 pi). Adiabatic gas and an
     // almost undamped strut isolate the spring.
-    let light = DamperCurve { bleed_pa_s_per_m3: 2e7, orifice_pa_s2_per_m6: 0.0, blowoff_pa: 1e9, blowoff_slope_pa_s_per_m3: 2e7, blowoff_knee: 0.0, blowoff2_pa: 0.0, blowoff2_slope_pa_s_per_m3: 0.0 };
+    let light = DamperCurve { bleed_pa_s_per_m3: 2e7, orifice_pa_s2_per_m6: 0.0, blowoff_pa: 1e9, blowoff_slope_pa_s_per_m3: 2e7, blowoff_knee: 0.0, blowoff2_pa: 0.0, blowoff2_slope_pa_s_per_m3: 0.0, bleed_parallel_m3_per_s_pa: 0.0 };
     let unit = unit_with(|p| {
         p.heat = HeatTransfer::Adiabatic;
         p.damper = Damper { on_compression: light, on_rebound: light, off_compression: light, off_rebound: light };

@@ -107,6 +107,8 @@ fn curve(r: &mut Reader<'_>, key: &str) -> PyResult<DamperCurve> {
         // The second stage came later: curves written without it have none.
         blowoff2_pa: if c.get_opt("blowoff2_pa")?.is_some() { c.f64("blowoff2_pa")? } else { 0.0 },
         blowoff2_slope_pa_s_per_m3: if c.get_opt("blowoff2_slope_pa_s_per_m3")?.is_some() { c.f64("blowoff2_slope_pa_s_per_m3")? } else { 0.0 },
+        // The parallel bleed too: curves written without it have none.
+        bleed_parallel_m3_per_s_pa: if c.get_opt("bleed_parallel_m3_per_s_pa")?.is_some() { c.f64("bleed_parallel_m3_per_s_pa")? } else { 0.0 },
     };
     c.finish()?;
     Ok(curve)
@@ -328,6 +330,7 @@ pub fn unit_to_dict<'py>(py: Python<'py>, p: &UnitParams) -> PyResult<Bound<'py,
         cd.set_item("blowoff_knee", c.blowoff_knee)?;
         cd.set_item("blowoff2_pa", c.blowoff2_pa)?;
         cd.set_item("blowoff2_slope_pa_s_per_m3", c.blowoff2_slope_pa_s_per_m3)?;
+        cd.set_item("bleed_parallel_m3_per_s_pa", c.bleed_parallel_m3_per_s_pa)?;
         Ok(cd)
     };
     d.set_item("piston_area_m2", p.piston_area_m2)?;

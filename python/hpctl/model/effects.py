@@ -280,11 +280,13 @@ def _valve_lag_step(u: Unit) -> float | None:
 
 def _compliance_step(u: Unit) -> float | None:
     # The oil volume's pressure relaxes through the damper's bleed:
-    # tau = V R / B, R the smallest bleed resistance of the damper pack.
+    # tau = V R / B, R the smallest no-flow resistance of the damper pack
+    # (a bleed in series, R, and one beside the orifice, G: R / (1 + R G)).
     c = u.effects.oil_compliance
     if c is None:
         return None
-    bleed = min(k.bleed_pa_s_per_m3 for k in (u.damper.on_compression, u.damper.on_rebound, u.damper.off_compression, u.damper.off_rebound))
+    bleed = min(k.bleed_pa_s_per_m3 / (1.0 + k.bleed_pa_s_per_m3 * k.bleed_parallel_m3_per_s_pa)
+                for k in (u.damper.on_compression, u.damper.on_rebound, u.damper.off_compression, u.damper.off_rebound))
     return c.oil_volume_m3 * bleed / c.bulk_modulus_pa
 
 
@@ -402,6 +404,18 @@ DAMPER_KNEE_BOUNDS = (0.0, 2.0)
 #: pressure is moot, held by its own prior); the pressure ratio starts at 3.
 DAMPER_STAGE2_PRESSURE_BOUNDS = (1.05, 30.0)
 DAMPER_STAGE2_PRESSURE_START = 3.0
+#: A bleed beside the orifice (hp-core's `bleed_parallel_m3_per_s_pa`), as
+#: the share of the no-flow conductance that passes beside it: the bleed
+#: coefficient R (its scale) still sets the slope at no flow, the share
+#: moves ``share / R`` of that conductance from in series with the orifice
+#: to beside it (series R / (1 - share)), so the two do not trade. A real
+#: valve's bleed hole is beside its orifice: the series form R q + K q^2
+#: leaves 17-30 N RMS on the foreign rig's rebound curves at 0-0.19 m/s, the
+#: parallel form 1-7 N (docs/foreign-rig.md). The prior is centred on no
+#: parallel bleed, half the range a sigma (the records decide).
+DAMPER_PARALLEL_SHARE_BOUNDS = (0.0, 0.99)
+DAMPER_PARALLEL_SHARE_START = 0.05
+DAMPER_PARALLEL_SHARE_PRIOR = 0.5
 
 
 def _damper_shape_params(branch: str) -> tuple[Param, ...]:
@@ -413,7 +427,9 @@ def _damper_shape_params(branch: str) -> tuple[Param, ...]:
     stage2 = (Param(f"damper_{branch}_blowoff2_scale", *DAMPER_STAGE2_PRESSURE_BOUNDS, DAMPER_STAGE2_PRESSURE_START, DAMPER_STAGE2_PRESSURE_START,
                     (2.0, 5.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES),
               Param(f"damper_{branch}_slope2_scale", 0.01, 100.0, 1.0, 1.0, (0.3, 3.0), log=True, prior_sigma=DAMPER_SCALE_PRIOR_DECADES))
-    return scales + (knee,) + stage2
+    parallel = Param(f"damper_{branch}_parallel_share", *DAMPER_PARALLEL_SHARE_BOUNDS, DAMPER_PARALLEL_SHARE_START, 0.0, (0.1, 0.9),
+                     prior_sigma=DAMPER_PARALLEL_SHARE_PRIOR)
+    return scales + (knee,) + stage2 + (parallel,)
 
 
 #: The damper-shape parameters per branch.
@@ -439,7 +455,13 @@ def shaped_damper(damper: Damper, values: Mapping[str, float]) -> Damper:
         else:
             pressure2 = values.get(f"damper_{branch}_blowoff2_scale", DAMPER_STAGE2_PRESSURE_START)
             stage2 = {"blowoff2_pa": kw["blowoff_pa"] * pressure2, "blowoff2_slope_pa_s_per_m3": kw["blowoff_slope_pa_s_per_m3"] * slope2}
-        return DamperCurve(**kw, blowoff_knee=values.get(f"damper_{branch}_knee", c.blowoff_knee), **stage2)
+        share = values.get(f"damper_{branch}_parallel_share")
+        g = c.bleed_parallel_m3_per_s_pa
+        if share is not None and kw["bleed_pa_s_per_m3"] > 0.0:
+            # The no-flow conductance 1/R split: share beside the orifice.
+            g = share / kw["bleed_pa_s_per_m3"]
+            kw["bleed_pa_s_per_m3"] /= 1.0 - share
+        return DamperCurve(**kw, blowoff_knee=values.get(f"damper_{branch}_knee", c.blowoff_knee), **stage2, bleed_parallel_m3_per_s_pa=g)
 
     return Damper(*(shape(b, getattr(damper, b)) for b in DAMPER_BRANCHES))
 

@@ -36,7 +36,9 @@ class DamperCurve:
     flow without touching the low-speed curve (``hp_core::damper::DamperCurve``;
     0 = sharp). ``blowoff2_pa`` > 0 adds a second blow-off stage: above that
     pressure drop the slope is ``blowoff2_slope_pa_s_per_m3`` (a bypass or a
-    second washer stack lifting later; 0 = none)."""
+    second washer stack lifting later; 0 = none). ``bleed_parallel_m3_per_s_pa``
+    > 0 puts a laminar bleed of that conductance beside the orifice (a real
+    valve's bleed hole) rather than in series with it (0 = none)."""
 
     bleed_pa_s_per_m3: float
     orifice_pa_s2_per_m6: float
@@ -45,6 +47,7 @@ class DamperCurve:
     blowoff_knee: float = 0.0
     blowoff2_pa: float = 0.0
     blowoff2_slope_pa_s_per_m3: float = 0.0
+    bleed_parallel_m3_per_s_pa: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -61,7 +64,7 @@ class Damper:
 
         def s(c: DamperCurve) -> DamperCurve:
             return DamperCurve(c.bleed_pa_s_per_m3 * gain, c.orifice_pa_s2_per_m6 * gain, c.blowoff_pa * gain, c.blowoff_slope_pa_s_per_m3 * gain,
-                               c.blowoff_knee, c.blowoff2_pa * gain, c.blowoff2_slope_pa_s_per_m3 * gain)
+                               c.blowoff_knee, c.blowoff2_pa * gain, c.blowoff2_slope_pa_s_per_m3 * gain, c.bleed_parallel_m3_per_s_pa / gain)
 
         return Damper(s(self.on_compression), s(self.on_rebound), s(self.off_compression), s(self.off_rebound))
 
