@@ -589,9 +589,13 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
                + ", ".join(f"{s.record}/{s.channel} {s.rms / s.noise:.2f}" for s in r.stats))
     assert abs(c / truth["wall_heat_capacity_j_per_k"] - 1.0) <= max(0.1, 2.0 * sc / c), context
     # The residual at the noise as the issue puts it (at most 1.3 x), and
-    # the heat run's every channel (seeds 7-9: pooled 1.01-1.08, the heat
-    # run's channels 1.02-1.21; seed 8's 0.3 Hz sine's strut pressure at
-    # 1.37 x, not the heat's doing).
+    # the heat run's every channel (seeds 7-10, 100, 106, 109, 1942323016:
+    # pooled 0.96-1.08, the heat run's channels 0.96-1.24). The heat run
+    # samples the damper-on curve at 11 speeds a direction 300 times: with
+    # the bleed only in series with the orifice its force stayed at 1.50
+    # and 1.61 x on 1942323016 and 100 (the residual a function of the
+    # rebound speed alone), the bleed beside it (`parallel_share`) 1.24 and
+    # 1.20 (docs/foreign-rig.md, "The bleed beside the orifice").
     assert r.rms_ratio <= NOISE_CEILING, context
     for s in r.stats:
         assert s.record != "heat_run" or s.rms / s.noise <= NOISE_CEILING, context
