@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.signal import welch
 
@@ -90,14 +90,24 @@ roads = st.one_of(
 
 @settings(max_examples=25, deadline=None)
 @given(roads, st.floats(-0.04, -0.01), st.integers(0, 2**31 - 1))
+# The two draws that end still finishing (below), every run.
+@example(("D", 7.667879671835465), -0.03679217716694156, 103540854)
+@example(("C", 20.0), -0.03, 2**31 - 1)
 def test_a_lowering_on_a_random_road_ends_within_tolerance_and_within_the_stroke(road_and_speed: tuple[str, float], target_m: float, seed: int) -> None:
     road_class, speed = road_and_speed
     scenario = closed_loop.Scenario(END_S, speed, requests=(closed_loop.HeightRequest(REQUEST_S, target_m),))
     r = closed_loop.run(closed_loop.Case(scenario, road_class, seed))
     s = closed_loop.height_change_summary(r, REQUEST_S, END_S)
-    # Done and holding, at the target within tolerance, measured on the
-    # plant: L's gas volume against its volume at the true static load.
-    assert s.sequencer_end == "holding"
+    # At the target within tolerance, measured on the plant: L's gas volume
+    # against its volume at the true static load. Done and holding, or
+    # still finishing: the sequencer lowers until its estimate crosses the
+    # request, and a pump-free unit moves the last millimetres only when the
+    # road presses S above L by the margin. Two draws in about 60 runs of
+    # this test ended so, within tolerance (road D at 7.7 m/s: 2.9 mm
+    # short, no such peak in the 42 s after the last opening; road C at
+    # 20 m/s, seed 2147483647: 0.7 mm short by its estimate, valve 6 still
+    # opening at 55.9 s); hp-ctrl's `ride_height::step` keeps waiting.
+    assert s.sequencer_end == "holding" or (s.sequencer_end == "lowering" and 0.0 < s.estimate_m - target_m <= TOLERANCE_M), s
     assert abs(s.held_offset_m - target_m) < TOLERANCE_M, s
     # Never past the stroke limits.
     assert np.all(np.abs(r.plant["disp_m"]) < STROKE_M), (s.strut_disp_min_m, s.strut_disp_max_m)
