@@ -121,10 +121,11 @@ impl DamperCurve {
         self.blowoff2_pa > 0.0
     }
 
-    /// True when a bleed in parallel with the orifice is set.
+    /// True when the curve takes the smooth code path: a rounded knee, or a
+    /// parallel bleed (whose knee of 0 that path gives exactly).
     #[inline]
-    fn parallel(&self) -> bool {
-        self.bleed_parallel_m3_per_s_pa > 0.0
+    fn smooth(&self) -> bool {
+        self.blowoff_knee > 0.0 || self.bleed_parallel_m3_per_s_pa > 0.0
     }
 
     /// Flow at which the orifice branch reaches the blow-off pressure, m^3/s.
@@ -157,10 +158,10 @@ impl DamperCurve {
         if self.staged() {
             return self.staged_pressure_drop_pa(q_m3_s).0;
         }
-        if self.blowoff_knee > 0.0 || self.parallel() {
+        if self.smooth() {
             return self.smooth_pressure_drop_pa(q_m3_s).0;
         }
-        let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
+        let (orifice, _) = self.below_blowoff(q_m3_s);
         if orifice <= self.blowoff_pa {
             orifice
         } else {
@@ -175,12 +176,12 @@ impl DamperCurve {
         if self.staged() {
             return self.staged_pressure_drop_pa(q_m3_s).1;
         }
-        if self.blowoff_knee > 0.0 || self.parallel() {
+        if self.smooth() {
             return self.smooth_pressure_drop_pa(q_m3_s).1;
         }
-        let orifice = q_m3_s * (self.bleed_pa_s_per_m3 + self.orifice_pa_s2_per_m6 * q_m3_s);
+        let (orifice, slope) = self.below_blowoff(q_m3_s);
         if orifice <= self.blowoff_pa {
-            self.bleed_pa_s_per_m3 + 2.0 * self.orifice_pa_s2_per_m6 * q_m3_s
+            slope
         } else {
             self.blowoff_slope_pa_s_per_m3
         }
@@ -234,11 +235,11 @@ impl DamperCurve {
         if self.staged() {
             return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_pressure_drop_pa(q));
         }
-        if self.blowoff_knee > 0.0 || self.parallel() {
+        if self.smooth() {
             return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_pressure_drop_pa(q));
         }
         if dp_pa <= self.blowoff_pa {
-            solve_quadratic_flow(self.bleed_pa_s_per_m3, self.orifice_pa_s2_per_m6, dp_pa)
+            self.orifice_flow_m3_s(dp_pa)
         } else {
             self.blowoff_flow_m3_s() + (dp_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3
         }
