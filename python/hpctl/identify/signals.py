@@ -1,6 +1,6 @@
 """Signal processing for measured records: noise levels, smoothing that
 never distorts the excitation, fourth-order derivatives on irregular
-samples and local sensitivities. (The first-order sensor lag of a
+samples. (The first-order sensor lag of a
 sampled signal is the core's: :func:`hpctl._core.sensor_lag`.)"""
 
 from __future__ import annotations
@@ -267,32 +267,6 @@ def smooth(t: FloatArray, x: FloatArray) -> FloatArray:
     # Keep the raw samples around distortions too (the filter's reach).
     distorted = np.convolve(distorted.astype(float), np.ones(SMOOTH_WINDOW), "same") > 0
     return np.where(distorted, x, smooth)
-
-
-def local_sensitivities(x: FloatArray, v: FloatArray, y: FloatArray, window: int = 21) -> tuple[FloatArray, FloatArray]:
-    """dy/dx and dy/dv along a trajectory: the least-squares coefficients
-    of ``y ~ a + b x + c v`` in a sliding window (well defined through
-    turning points, where x alone would barely change)."""
-    n = len(x)
-    w = min(window, n)
-    k = np.ones(w) / w
-
-    def mean(a: FloatArray) -> FloatArray:
-        return np.asarray(np.convolve(a, k, "same"))
-
-    mx, mv, my = mean(x), mean(v), mean(y)
-    sxx, svv, sxv = mean(x * x) - mx * mx, mean(v * v) - mv * mv, mean(x * v) - mx * mv
-    sxy, svy = mean(x * y) - mx * my, mean(v * y) - mv * my
-    det = sxx * svv - sxv * sxv
-    ok = det > 1e-12 * np.maximum(sxx * svv, 1e-300)
-    safe = np.where(ok, det, 1.0)
-    b = np.where(ok, (sxy * svv - svy * sxv) / safe, np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), 0.0))
-    c = np.where(ok, (svy * sxx - sxy * sxv) / safe, 0.0)
-    half = w // 2
-    if n > 2 * half + 1:
-        for arr in (b, c):
-            arr[:half], arr[n - half:] = arr[half], arr[n - half - 1]
-    return np.asarray(b), np.asarray(c)
 
 
 FIVE_POINT = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
