@@ -6,6 +6,7 @@ core's exported ranges, an analytic sine speed."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -250,6 +251,38 @@ def test_fit_and_diagnose_warn_about_what_their_model_misses(tmp_path: Path) -> 
     assert "residual_structured" in codes(s) and s["rms_ratio"] > 1.5
     assert s == json.loads((tmp_path / "fit" / "fit.json").read_text())
     assert "## Warnings" in (tmp_path / "fit" / "fit.md").read_text()
+
+
+def test_a_fitted_parameter_on_its_bound_is_warned(tmp_path: Path) -> None:
+    # The rig's Coulomb friction (8 kN) is beyond the fit's range (0-5 kN):
+    # the estimate stops on the bound, where its standard error means
+    # nothing. A bound where the parameter's feature is absent (no
+    # friction) is not warned about: the data may well say it is absent.
+    rig = tmp_path / "rig"
+    code, _, err = run("rig", "--out", str(rig), "--effect", "friction", "--set", "friction_coulomb_n=8000", "--quiet")
+    assert code == 0, err
+    code, stdout, err = run("fit", str(rig), "--model", "seed,friction", "--out", str(tmp_path / "fit"), "--json", "--strict")
+    assert code == 3, err
+    (w,) = [w for w in json.loads(stdout)["warnings"] if w["code"] == "param_at_bound"]
+    i = w["details"]["params"].index("friction_coulomb_n")
+    assert w["details"]["values"][i] == pytest.approx(5000.0) and w["details"]["bounds"][i] == 5000.0
+    assert "friction_coulomb_n = 5000" in w["message"] and "on its upper bound 5000" in w["message"]
+    assert "param_at_bound" in err
+
+    from hpctl.identify import virtual_rig
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.fit import fit
+
+    r = fit(prepare(virtual_rig.make_records(hpctl.Unit.seed(), "sweep", seed=3)), ("heat_transfer", "real_gas", "friction"))
+    assert not r.at_bounds(), r.at_bounds()  # no friction in the rig: Coulomb at its null bound 0 says so, no warning
+    tau = next(p for p in r.model.params if p.name == "tau_s")
+    lo = dataclasses.replace(r, values={**r.values, "tau_s": tau.lower * (1 + 1e-9)})
+    (b,) = lo.at_bounds()
+    assert (b.name, b.side, b.on, b.bound) == ("tau_s", "lower", True, tau.lower)
+    near = dataclasses.replace(r, values={**r.values, "tau_s": tau.upper - 15.0}, stderr={**r.stderr, "tau_s": 10.0})
+    (b,) = near.at_bounds()
+    assert (b.name, b.side, b.on) == ("tau_s", "upper", False)
+    assert not dataclasses.replace(near, stderr={**r.stderr, "tau_s": 7.0}).at_bounds()  # 2.1 standard errors away
 
 
 def test_record_gas_states_outside_the_range_are_warned(tmp_path: Path) -> None:

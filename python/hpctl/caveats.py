@@ -57,6 +57,11 @@ class Code(StrEnum):
     NOT_CONVERGED = "not_converged"
     #: The residual is more than noise: the model misses something.
     RESIDUAL_STRUCTURED = "residual_structured"
+    #: A fitted parameter ended on a bound of its fit range, or within two
+    #: standard errors of it: the data ask for a value the model's range
+    #: does not hold, and the standard error (a Gaussian's) does not
+    #: describe an estimate cut off by a bound.
+    PARAM_AT_BOUND = "param_at_bound"
     #: A wheel left the ground (its tyre force reached zero): the vehicle
     #: results there depend on the lift-off model.
     WHEEL_LIFT_OFF = "wheel_lift_off"

@@ -73,6 +73,7 @@ def _fit_caveats(result: FitResult) -> list[Caveat]:
     out = []
     if not result.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}", {"message": result.message}))
+    out += _bound_caveats(result)
     analysis = diagnose.analyse(result)
     if analysis.structured:
         worst = [r for r in analysis.rows if r.structured]
@@ -84,6 +85,22 @@ def _fit_caveats(result: FitResult) -> list[Caveat]:
             {"rms_ratio": result.rms_ratio, "structured": [f"{r.record}/{r.channel}" for r in worst]},
         ))
     return out
+
+
+def _bound_caveats(result: FitResult) -> list[Caveat]:
+    """A fitted parameter on (or within two standard errors of) a bound of
+    its fit range."""
+    near = result.at_bounds()
+    if not near:
+        return []
+    said = "; ".join(f"{b.name} = {b.value:.4g} +- {b.stderr:.2g} {'on' if b.on else 'near'} its {b.side} bound {b.bound:g}" for b in near)
+    return [Caveat(
+        Code.PARAM_AT_BOUND,
+        f"fitted parameters at the edge of their range ({said}): the data ask for values the model's range may not hold, "
+        "and these standard errors do not describe an estimate cut off by a bound",
+        {"params": [b.name for b in near], "values": [b.value for b in near], "stderr": [b.stderr for b in near],
+         "bounds": [b.bound for b in near]},
+    )]
 
 
 def _model_gas(result: FitResult) -> str:
@@ -269,6 +286,7 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
     out = []
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
+    out += _bound_caveats(diag.final)
     j = diag.judgement
     if j is not None and j.structure_remains:
         found = f"after adding {', '.join(diag.found)} " if diag.found else "and no effect in the library explains it: "

@@ -185,6 +185,25 @@ class ChannelStats:
     loop_area_error_j: float | None = None
 
 
+#: How near a bound (share of the fit range, in the fit's coordinate) an
+#: estimate counts as on it.
+BOUND_TOUCH = 1e-6
+
+
+@dataclass(frozen=True)
+class AtBound:
+    """A fitted parameter at or near a bound of its fit range
+    (:meth:`FitResult.at_bounds`)."""
+
+    name: str
+    value: float
+    stderr: float
+    bound: float
+    side: str  # "lower" or "upper"
+    #: On the bound itself (else within two standard errors of it).
+    on: bool
+
+
 @dataclass
 class FitResult:
     """A fitted model: parameters with standard errors, residual statistics."""
@@ -213,6 +232,26 @@ class FitResult:
     def rms_ratio(self) -> float:
         """Residual RMS over the noise level, pooled (1 = only noise left)."""
         return math.sqrt(self.rss / self.n)
+
+    def at_bounds(self) -> list[AtBound]:
+        """The parameters whose estimate is on a bound of the fit range or
+        within two standard errors of it (:class:`AtBound`). A bound at
+        the value where the parameter's feature is absent (its
+        :attr:`~hpctl.model.effects.Param.null`, or the ``typical`` value a
+        flexible shape parameter's prior is centred on: no friction, a
+        sharp knee, no parallel bleed) is left out: an estimate there says
+        the feature is not seen, which the data may well say."""
+        out = []
+        for p in self.model.params:
+            v, se = self.values[p.name], self.stderr.get(p.name, math.nan)
+            span = abs(p.to_x(p.upper) - p.to_x(p.lower))
+            for b in (p.lower, p.upper):
+                if b == p.null or b == p.typical:
+                    continue
+                on = abs(p.to_x(v) - p.to_x(b)) <= BOUND_TOUCH * span
+                if on or (math.isfinite(se) and abs(v - b) <= 2.0 * se):
+                    out.append(AtBound(p.name, v, se, b, "lower" if b == p.lower else "upper", on))
+        return out
 
     def residuals(self, d_index: int, channel: str) -> FloatArray:
         d = self.datasets[d_index]
