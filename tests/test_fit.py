@@ -218,3 +218,16 @@ def test_the_weights_describe_the_residual_at_the_truth() -> None:
         assert 0.92 <= ratio <= 1.08, f"HPCTL_TEST_SEED={seed}: {c} residual at the truth over its weights {ratio:.3f}, carried {carried}"
         # The carried part grows with the sine's speed (0.01 -> 1 Hz).
         assert carried[-1] > carried[0] > 0.0, carried
+
+
+def test_a_record_shorter_than_the_weights_window_is_prepared() -> None:
+    # The carried input noise is a moving mean over 31 samples; a record of
+    # 12 still gets one weight per sample, each above its channel's noise.
+    from hpctl.data.records import RigRecord
+
+    r = virtual_rig.make_records(hpctl.Unit.seed(), "sweep", seed=1)[-1]
+    short = RigRecord(kind=r.kind, unit=r.unit, static=r.static, test=r.test, data={k: np.asarray(v)[:12] for k, v in r.data.items()},
+                      name="short")
+    (d,) = prepare([short])
+    for c, w in d.weight_sigma.items():
+        assert w.shape == (12,) and np.all(np.isfinite(w)) and np.all(w >= d.sigma[c]), (c, w)

@@ -182,7 +182,6 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     results = run_many(cases)
     out = list(datasets)
     k = CARRIED_DRAWS + 1
-    window = np.ones(CARRIED_WINDOW) / CARRIED_WINDOW
     for j, i in enumerate(chars):
         runs = results[j * k:(j + 1) * k]
         clean = runs[0]
@@ -193,6 +192,9 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
         for c in d.targets:
             sq = np.mean([(np.asarray(r.channels[c]) - np.asarray(clean.channels[c])) ** 2 for r in runs[1:]  # type: ignore[union-attr]
                           ], axis=0)
+            # (numpy's "same" is the longer input's length: the window no
+            # longer than the record.)
+            window = np.ones(min(CARRIED_WINDOW, len(sq)))
             carried2 = np.convolve(sq, window, "same") / np.convolve(np.ones(len(sq)), window, "same")
             weights[c] = np.sqrt(d.sigma[c] ** 2 + carried2)
         out[i] = replace(d, weight_sigma=weights)
