@@ -283,6 +283,12 @@ def test_a_fitted_parameter_on_its_bound_is_warned(tmp_path: Path) -> None:
     (b,) = near.at_bounds()
     assert (b.name, b.side, b.on) == ("tau_s", "upper", False)
     assert not dataclasses.replace(near, stderr={**r.stderr, "tau_s": 7.0}).at_bounds()  # 2.1 standard errors away
+    # A log parameter's error is judged in decades, where it is Gaussian:
+    # 0.5 +- 0.45 s is 0.45 s from the 0.05 s bound, but 2.6 errors of
+    # 0.39 decades.
+    assert not dataclasses.replace(r, values={**r.values, "tau_s": 0.5}, stderr={**r.stderr, "tau_s": 0.45}).at_bounds()
+    (b,) = dataclasses.replace(r, values={**r.values, "tau_s": 0.5}, stderr={**r.stderr, "tau_s": 0.6}).at_bounds()
+    assert (b.name, b.side, b.on) == ("tau_s", "lower", False)
 
 
 def test_record_gas_states_outside_the_range_are_warned(tmp_path: Path) -> None:

@@ -93,7 +93,8 @@ def _bound_caveats(result: FitResult) -> list[Caveat]:
     near = result.at_bounds()
     if not near:
         return []
-    said = "; ".join(f"{b.name} = {b.value:.4g} +- {b.stderr:.2g} {'on' if b.on else 'near'} its {b.side} bound {b.bound:g}" for b in near)
+    said = "; ".join(f"{b.name} = {b.value:.4g} +- {b.stderr:.2g} {'on' if b.on else 'near'} its {b.side} bound {b.bound:g}" for b in near[:6])
+    said += f"; {len(near) - 6} more in the details" if len(near) > 6 else ""
     return [Caveat(
         Code.PARAM_AT_BOUND,
         f"fitted parameters at the edge of their range ({said}): the data ask for values the model's range may not hold, "
