@@ -549,7 +549,12 @@ def test_flexible_model_finds_a_pressure_driven_leak() -> None:
     # and a sensor offset, 1.63 x the noise left). The flexible model fits
     # the exponent n of hp-core's dm/dt = -(m / tau_L) r^n: the foreign law
     # is n = 1 to first order in the gas lost. Seeds 1-7 on 2026-11-27:
-    # n 0.98-1.03, tau_L within 1.4 %, the residual 0.81-0.94 x the noise.
+    # n 0.98-1.03, tau_L within 1.4 %, the residual 0.81-0.94 x the noise
+    # as the weights then read it (they carried 3-7 x too much of the input's
+    # noise); with the input's noise from the model (stop 29), seeds 1-7 and
+    # 11-17: n 1.003-1.013, tau_L within 1.3 %, the residual 0.98-1.14 x
+    # (the 1 Hz force and the hold's pressure the worst channels, 1.2-1.5 x).
+    # The residual asserted at the "at the noise", as elsewhere.
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
     g = generate("leakage", seed)
     r = fit(prepare([read_record(p) for p in g.records]), ("heat_transfer", "real_gas", "leakage"), flexible=True)
@@ -558,7 +563,7 @@ def test_flexible_model_finds_a_pressure_driven_leak() -> None:
     context = f"FOREIGN_RIG_SEED={seed}: tau_L {tau:.4g} +- {r.stderr['leak_time_constant_s']:.2g} against {truth:.4g}, n {n:.3f}, RMS/noise {r.rms_ratio:.3f}"
     assert abs(tau / truth - 1.0) <= 0.1, context
     assert abs(n - 1.0) <= 0.1, context
-    assert r.rms_ratio <= 1.1, context
+    assert r.rms_ratio <= NOISE_CEILING, context
 
 
 def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
