@@ -231,3 +231,22 @@ def test_a_record_shorter_than_the_weights_window_is_prepared() -> None:
     (d,) = prepare([short])
     for c, w in d.weight_sigma.items():
         assert w.shape == (12,) and np.all(np.isfinite(w)) and np.all(w >= d.sigma[c]), (c, w)
+
+
+def test_a_record_its_unit_cannot_run_keeps_its_output_noise_as_weight() -> None:
+    # The carried input noise comes from running the record's unit; a
+    # record it refuses (times before zero) is still prepared, weighted by
+    # its channels' own noise, and the fit then says why it cannot run.
+    from hpctl.data.records import RecordStatic, RecordTest, RecordUnit, RigRecord
+
+    rng = np.random.default_rng(1)
+    t = np.linspace(-0.5, 20.0, 206)
+    x = 0.02 * np.sin(2 * np.pi * 0.1 * t) + rng.normal(0.0, 5e-6, t.size)
+    rec = RigRecord(kind="characterisation", unit=RecordUnit(2e-3, 0.3e-3, 0.7e-3), static=RecordStatic(14811300.0, 293.15, 293.15),
+                    test=RecordTest("hard", "off", "sine", 0.02, 0.1),
+                    data={"time_s": t, "disp_m": x, "force_n": 3e4 + 1e6 * x + rng.normal(0.0, 30.0, t.size)}, name="neg")
+    (d,) = prepare([rec])
+    assert d.input_noise_m > 0.0
+    np.testing.assert_array_equal(d.weight_sigma["force_n"], np.full(t.size, d.sigma["force_n"]))
+    with pytest.raises(hpctl.HpctlError, match="time_s = -0.5 is outside the valid range"):
+        fit([d], ("heat_transfer", "real_gas"))

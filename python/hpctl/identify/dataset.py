@@ -183,20 +183,20 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     out = list(datasets)
     k = CARRIED_DRAWS + 1
     for j, i in enumerate(chars):
-        runs = results[j * k:(j + 1) * k]
-        clean = runs[0]
-        if isinstance(clean, Exception) or any(isinstance(r, Exception) for r in runs):
+        done = [r for r in results[j * k:(j + 1) * k] if not isinstance(r, Exception)]
+        if len(done) < k:
             continue
+        clean, *noisy = done
         d = datasets[i]
+        # (numpy's "same" is the longer input's length: the window no
+        # longer than the record.)
+        n = len(d.times_s)
+        window = np.ones(min(CARRIED_WINDOW, n))
+        counts = np.convolve(np.ones(n), window, "same")
         weights = {}
         for c in d.targets:
-            sq = np.mean([(np.asarray(r.channels[c]) - np.asarray(clean.channels[c])) ** 2 for r in runs[1:]  # type: ignore[union-attr]
-                          ], axis=0)
-            # (numpy's "same" is the longer input's length: the window no
-            # longer than the record.)
-            window = np.ones(min(CARRIED_WINDOW, len(sq)))
-            carried2 = np.convolve(sq, window, "same") / np.convolve(np.ones(len(sq)), window, "same")
-            weights[c] = np.sqrt(d.sigma[c] ** 2 + carried2)
+            sq = np.mean([(np.asarray(r.channels[c]) - np.asarray(clean.channels[c])) ** 2 for r in noisy], axis=0)
+            weights[c] = np.sqrt(d.sigma[c] ** 2 + np.convolve(sq, window, "same") / counts)
         out[i] = replace(d, weight_sigma=weights)
     return out
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -199,7 +199,7 @@ class AtBound:
     value: float
     stderr: float
     bound: float
-    side: str  # "lower" or "upper"
+    side: Literal["lower", "upper"]
     #: On the bound itself (else within two standard errors of it).
     on: bool
 
