@@ -114,6 +114,23 @@ fn curve(r: &mut Reader<'_>, key: &str) -> PyResult<DamperCurve> {
     Ok(curve)
 }
 
+/// A damper description (`hpctl.model.unit.Damper`, as a dict), read at
+/// `path` (for the messages); the core checks the values.
+pub fn damper(obj: &Bound<'_, PyAny>, path: &str) -> PyResult<Damper> {
+    damper_from(Reader::new(obj, path)?)
+}
+
+fn damper_from(mut d: Reader<'_>) -> PyResult<Damper> {
+    let damper = Damper {
+        on_compression: curve(&mut d, "on_compression")?,
+        on_rebound: curve(&mut d, "on_rebound")?,
+        off_compression: curve(&mut d, "off_compression")?,
+        off_rebound: curve(&mut d, "off_rebound")?,
+    };
+    d.finish()?;
+    Ok(damper)
+}
+
 /// The gas model named `name`.
 pub fn gas(name: &str) -> PyResult<Gas> {
     Gas::from_name(name).ok_or_else(|| {
@@ -134,14 +151,7 @@ pub fn unit(obj: &Bound<'_, PyAny>) -> PyResult<UnitParams> {
         None => HeatTransfer::from_tau_s(tau_s).map_err(crate::errors::to_py)?,
     };
     let gas = gas(&r.string("gas")?)?;
-    let mut d = r.sub("damper")?;
-    let damper = Damper {
-        on_compression: curve(&mut d, "on_compression")?,
-        on_rebound: curve(&mut d, "on_rebound")?,
-        off_compression: curve(&mut d, "off_compression")?,
-        off_rebound: curve(&mut d, "off_rebound")?,
-    };
-    d.finish()?;
+    let damper = damper_from(r.sub("damper")?)?;
     let effects = match r.sub_opt("effects")? {
         Some(e) => effects(e)?,
         None => Effects::default(),

@@ -418,6 +418,36 @@ pub fn static_force_n(unit: &Bound<'_, PyAny>, disp_m: f64, t_k: f64, spring_har
     })
 }
 
+/// The damper's signed pressure drop, strut minus accumulator S, Pa, at
+/// each signed flow out of the strut `q_m3_s` (compression positive), with
+/// valve 5 open by the fraction `bypass_open` (0 = closed = the damper on):
+/// hp-core's `Damper::pressure_drop_pa`, for fitting a curve to measured
+/// force and pressure without running the model
+/// (`hpctl.identify.damper_start`).
+#[pyfunction]
+#[pyo3(signature = (damper, q_m3_s, bypass_open))]
+pub fn damper_pressure_drop_pa<'py>(
+    py: Python<'py>,
+    damper: &Bound<'py, PyAny>,
+    q_m3_s: &Bound<'py, PyAny>,
+    bypass_open: f64,
+) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    guard(|| {
+        let d = params::damper(damper, "damper")?;
+        d.validate().map_err(to_py)?;
+        if !(0.0..=1.0).contains(&bypass_open) {
+            return Err(parameter(format!("bypass_open = {bypass_open}: expected a fraction in [0, 1]")));
+        }
+        let q = f64_array(q_m3_s, "q_m3_s")?;
+        if let Some((i, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(parameter(format!("q_m3_s[{i}] = {v}: expected finite flows, m^3/s")));
+        }
+        let dp: Vec<f64> = q.iter().map(|&qi| d.pressure_drop_pa(qi, bypass_open)).collect();
+        Ok(dp)
+    })
+    .map(|dp| dp.into_pyarray(py))
+}
+
 /// The gas pressure that carries `load_n` at rest, Pa.
 #[pyfunction]
 pub fn load_pressure_pa(unit: &Bound<'_, PyAny>, load_n: f64) -> PyResult<f64> {
@@ -538,6 +568,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(seed_sprung_mass_kg, m)?)?;
     m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
     m.add_function(wrap_pyfunction!(load_pressure_pa, m)?)?;
+    m.add_function(wrap_pyfunction!(damper_pressure_drop_pa, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
     // The gas models by name, the default (the reference equation of state) first.
     m.add("GAS_MODELS", hp_core::gas::Gas::ALL.map(|g| g.name()).to_vec())?;

@@ -23,6 +23,7 @@ from scipy.optimize import least_squares
 from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
+from hpctl.identify.damper_start import static_damper_values
 from hpctl.identify.dataset import Dataset, fold_mask, loop_area_j, uses_damper, with_input_noise
 from hpctl.identify.serial import output_meat
 from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, switch_samples, timeline
@@ -32,6 +33,7 @@ from hpctl.model.effects import (
     LIBRARY,
     Param,
     build_unit,
+    damper_shape_params,
     flexible_params,
     model_params,
     shaped_damper,
@@ -436,6 +438,17 @@ def fit(
         if stop is not None and stop(values_from_x(params, x), float(r @ r)):
             raise StopIteration
 
+    started = ""
+    if model.flexible and not any(p.name in (initial or {}) for p in damper_shape_params(model.damper_branches)):
+        # No damper characteristic given: one fitted to the records'
+        # force and gas pressure statically, where that starts the fit
+        # closer than the nominal curve (hpctl.identify.damper_start).
+        static = static_damper_values(datasets, params, model.effects)
+        if static:
+            x_static = _start_x(params, {**(initial or {}), **static})
+            f_nominal, f_static = fun(x0), fun(x_static)
+            if float(f_static @ f_static) < float(f_nominal @ f_nominal):
+                x0, started = x_static, "; the damper characteristic started from a static fit to force and gas pressure"
     if params:
         # x_scale="jac": each variable scaled by its Jacobian column. With
         # unit scales a flexible fit whose knees sat on their bound (the
@@ -469,6 +482,7 @@ def fit(
         if sol.status == -2:
             # scipy's own message for a callback's StopIteration says nothing of why.
             message = "stopped by the caller's test (stop)"
+        message += started
         if errors and place_switches and any(switch_samples(d).size for d in datasets):
             # Each logged switch placed within its interval at this
             # optimum (from the places the datasets carry, closer, where
@@ -493,7 +507,7 @@ def fit(
                 if shift <= PLACE_SETTLED:
                     break
             refit = fit(placed, effects, initial=at, input_noise=input_noise, errors=errors, **again)  # type: ignore[arg-type]
-            refit.message += "; each logged valve switch placed within its sample interval"
+            refit.message += "; each logged valve switch placed within its sample interval" + started
             return refit
         if errors and not secant.exact_at(x):
             # A Broyden update is good enough to step with, not to judge

@@ -1,0 +1,205 @@
+"""Where a flexible fit's damper characteristic starts: each branch's shape
+fitted to the measured force and gas pressure, without running the model.
+
+On a characterisation rig the strut force less the gas pressure's force on
+the piston is the damper's pressure drop on the piston plus the seal's
+friction: ``F - A (p_S - p_amb) = A dp(A v) + F_friction`` (hp-core's
+``Unit``: the pack sits between the strut and accumulator S, whose pressure
+the record's ``p_gas_pa`` is). Each branch (valve 5's state, the direction
+of flow) is fitted to that per sample, with a constant of its own for the
+friction and the transducers' offsets (the sign of the speed is the
+branch's), by hp-core's own curve (``_core.damper_pressure_drop_pa``) and
+the flexible model's parameters and priors. That costs a fraction of a
+second, against seconds per evaluation of the dynamic fit, which then starts
+near the records' damper instead of the nominal one.
+
+Why: a damper far from the nominal curve left the dynamic fit crawling
+along a valley for its whole budget. The foreign rig's rebound orifice is
+all but closed beside its bleed (140-170 x hpctl's nominal coefficient);
+at ``FOREIGN_RIG_SEED=1197046202`` the heat run's force stayed at 3.3 x
+the noise after 60 evaluations from the nominal curve (1.3 x after 200),
+while the family follows that damper within 3 N statically
+(``scripts/foreign_damper_family.py``).
+
+What it cannot see: the gas's and the oil's dynamics between the piston
+and the transducer, the sensors' lag, the friction's shape. It is a start,
+judged by the dynamic fit (:func:`hpctl.identify.fit.fit` keeps the nominal
+start where this one's residual is larger).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import cast
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from hpctl import _core
+from hpctl._coretypes import DamperDict
+from hpctl.identify.dataset import Dataset
+from hpctl.model.effects import DAMPER_BRANCHES, Param, shaped_damper
+from hpctl.model.unit import Damper
+
+FloatArray = NDArray[np.float64]
+
+#: Samples slower than this are left out: there the friction's smoothing
+#: and Stribeck peak and the velocity estimate's noise (the damper's force
+#: near zero) say nothing of the damper, m/s.
+MIN_SPEED_M_S = 0.005
+#: Samples this close to a change of valve 5 (either side) are left out:
+#: the logged flag is up to one interval off the switch.
+SWITCH_GUARD_SAMPLES = 2
+#: A branch with fewer samples than this keeps its nominal start.
+MIN_SAMPLES = 50
+#: At most this many samples per branch, spread evenly over its speeds'
+#: order (a heat run has 10^5: the curve needs the range, not the count).
+MAX_SAMPLES = 2000
+#: Robust loss scale, in noise units: a sample further off (an end stop's
+#: force, a valve's transient) counts linearly, not squared.
+LOSS_SCALE = 3.0
+#: Starts of every branch's orifice and blow-off multipliers (the damper's
+#: shape may be far from nominal in either; the other parameters start
+#: where the flexible model starts them); the best end is taken.
+STARTS = ((1.0, 1.0), (30.0, 0.5), (30.0, 2.0))
+#: Evaluations per start (each costs a few milliseconds).
+MAX_NFEV = 200
+
+
+@dataclasses.dataclass(frozen=True)
+class _Samples:
+    """One branch's samples: the flow out of the strut, m^3/s (signed), the
+    force to explain, N, its noise, N, and the piston area, m^2 (per sample)."""
+
+    q_m3_s: FloatArray
+    force_n: FloatArray
+    sigma_n: FloatArray
+    area_m2: FloatArray
+
+
+def _branch_samples(datasets: Sequence[Dataset], branch: str) -> _Samples | None:
+    on, compression = branch.startswith("on_"), branch.endswith("_compression")
+    parts: list[tuple[FloatArray, ...]] = []
+    for d in datasets:
+        if d.record.kind != "characterisation" or "force_n" not in d.targets or "p_gas_pa" not in d.targets:
+            continue
+        v = d.strut_vel_m_s
+        near_switch = np.zeros(len(v), bool)
+        for i in np.flatnonzero(np.diff(d.damper_on.astype(np.int8))):
+            near_switch[max(i + 1 - SWITCH_GUARD_SAMPLES, 0):i + 1 + SWITCH_GUARD_SAMPLES] = True
+        area = d.base.piston_area_m2
+        y = d.targets["force_n"] - area * (d.targets["p_gas_pa"] - d.base.ambient_pressure_pa)
+        keep = ((d.damper_on == on) & ((v > MIN_SPEED_M_S) if compression else (v < -MIN_SPEED_M_S)) & ~near_switch
+                & np.isfinite(y) & np.isfinite(v))
+        if keep.any():
+            sigma = float(np.hypot(d.sigma["force_n"], area * d.sigma["p_gas_pa"]))
+            n = int(keep.sum())
+            parts.append((area * v[keep], y[keep], np.full(n, sigma), np.full(n, area)))
+    if not parts or sum(len(p[0]) for p in parts) < MIN_SAMPLES:
+        return None
+    q, y, s, a = (np.concatenate(c) for c in zip(*parts))
+    if len(q) > MAX_SAMPLES:
+        # Evenly over the speeds' order: each speed range as the records hold it.
+        pick = np.argsort(np.abs(q))[np.linspace(0, len(q) - 1, MAX_SAMPLES).astype(int)]
+        q, y, s, a = q[pick], y[pick], s[pick], a[pick]
+    return _Samples(q, y, s, a)
+
+
+def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
+    """The flexible model's damper-shape ``params`` fitted to the records'
+    force less the gas's (the module's docstring), every branch at once;
+    branches the characterisation records do not exercise at speed are left
+    out (they start where the model starts them). Beside the curves, what
+    the model with ``effects`` adds to that force at speed: a Coulomb
+    friction (``friction``: the same magnitude in every branch, against the
+    motion) and an offset (``sensor_offset``: the force transducer's less
+    the pressure transducer's on the piston), each shared by every branch.
+    Nothing else: a constant of its own per branch traded with a blow-off
+    reached at no flow (the curve ``p_b + S q`` over the records' speeds)
+    and started the model with a force it cannot make (foreign heat run,
+    seed 1197046202: the rebound curve 268 N off). With ``friction``, the
+    Coulomb force found is returned too (``friction_coulomb_n``, inside its
+    bounds). The first dataset's template curve is the nominal one the
+    multipliers scale (every dataset of a fit shares it)."""
+    if not datasets:
+        return {}
+    nominal = datasets[0].base.damper
+    found = [(b, mine, s) for b in DAMPER_BRANCHES
+             if (mine := [p for p in params if p.name.startswith(f"damper_{b}_")]) and (s := _branch_samples(datasets, b)) is not None]
+    if not found:
+        return {}
+    shape = [p for _, mine, _ in found for p in mine]
+    # The shared constants: (column per branch: +1 for the offset, +1 / -1
+    # in compression / rebound for the Coulomb friction).
+    constants = [c for c, on in (("offset", "sensor_offset" in effects), ("coulomb", "friction" in effects)) if on]
+    n_shape = len(shape)
+    lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants])
+    hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants))
+    prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in enumerate(shape) if p.prior_sigma is not None]
+    columns = [np.array([1.0 if c == "offset" else (1.0 if b.endswith("_compression") else -1.0) for c in constants]) for b, _, _ in found]
+
+    def residual(x: FloatArray) -> FloatArray:
+        values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
+        damper = shaped_damper(nominal, values)
+        rows = []
+        for (b, _, s), col in zip(found, columns):
+            force = s.area_m2 * _drop_pa(damper, s.q_m3_s, 0.0 if b.startswith("on_") else 1.0) + float(col @ x[n_shape:])
+            rows.append((force - s.force_n) / s.sigma_n)
+        return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
+
+    # Which residual rows each parameter moves: a branch's shape its own
+    # samples (and its prior row), the constants every sample. Finite
+    # differences then perturb the branches' columns together.
+    sizes = [len(s.q_m3_s) for _, _, s in found]
+    edges = np.concatenate([[0], np.cumsum(sizes)])
+    sparsity = np.zeros((int(edges[-1]) + len(prior), n_shape + len(constants)), bool)
+    col = 0
+    for k, (_, mine, _) in enumerate(found):
+        sparsity[edges[k]:edges[k + 1], col:col + len(mine)] = True
+        col += len(mine)
+    sparsity[:edges[-1], n_shape:] = True
+    for row, (i, _, _) in enumerate(prior):
+        sparsity[edges[-1] + row, i] = True
+
+    best = None
+    for orifice, blowoff in STARTS:
+        start = {p.name: orifice if p.name.endswith("_orifice_scale") else blowoff if p.name.endswith("_blowoff_scale") else p.initial
+                 for p in shape}
+        x0 = np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + [0.0] * len(constants))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                sol = least_squares(residual, x0, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=LOSS_SCALE, x_scale="jac",
+                                    jac_sparsity=sparsity, max_nfev=MAX_NFEV)
+        except (ValueError, _core.HpctlError):
+            continue
+        if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
+            best = sol
+    if best is None:
+        return {}
+    out = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, best.x[:n_shape])}
+    coulomb = next((p for p in params if p.name == "friction_coulomb_n"), None)
+    if coulomb is not None and "coulomb" in constants:
+        out[coulomb.name] = min(max(float(best.x[n_shape + constants.index("coulomb")]), coulomb.lower), coulomb.upper)
+    return out
+
+
+def _drop_pa(damper: Damper, q_m3_s: FloatArray, bypass_open: float) -> FloatArray:
+    return _core.damper_pressure_drop_pa(cast(DamperDict, dataclasses.asdict(damper)), q_m3_s, bypass_open)
+
+
+def branch_residual_n(datasets: Sequence[Dataset], values: Mapping[str, float], branch: str) -> float | None:
+    """RMS, N, of the branch's force less the gas's against the damper that
+    ``values`` shape plus its best constant (None where the records do not
+    exercise the branch at speed): how well a damper follows the records
+    statically, for reports and tests."""
+    s = _branch_samples(datasets, branch)
+    if s is None or not datasets:
+        return None
+    dp = _drop_pa(shaped_damper(datasets[0].base.damper, values), s.q_m3_s, 0.0 if branch.startswith("on_") else 1.0)
+    r = s.area_m2 * dp - s.force_n
+    r -= float(np.mean(r))
+    return float(np.sqrt(np.mean(r * r)))
