@@ -41,18 +41,23 @@ from scipy.optimize import least_squares
 from hpctl import _core
 from hpctl._coretypes import DamperDict
 from hpctl.identify.dataset import Dataset
-from hpctl.model.effects import DAMPER_BRANCHES, Param, shaped_damper
+from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
 from hpctl.model.unit import Damper
 
 FloatArray = NDArray[np.float64]
 
-#: Samples slower than this are left out: there the friction's smoothing
-#: and Stribeck peak and the velocity estimate's noise (the damper's force
-#: near zero) say nothing of the damper, m/s.
-MIN_SPEED_M_S = 0.005
+#: Samples slower than this are left out, m/s: the velocity estimate's
+#: noise and the gas's lag at a reversal. Down to it the samples show the
+#: friction's smoothed step (hp-core's, at the model's smoothing velocity),
+#: which pins the Coulomb force apart from a blow-off at no flow.
+MIN_SPEED_M_S = 0.001
 #: Samples this close to a change of valve 5 (either side) are left out:
 #: the logged flag is up to one interval off the switch.
 SWITCH_GUARD_SAMPLES = 2
+#: Samples at most this fast start the shared constants (the friction and
+#: the offset) where the model has them, m/s; at least this many of them.
+SLOW_SPEED_M_S = 0.005
+MIN_SLOW_SAMPLES = 10
 #: A branch with fewer samples than this keeps its nominal start.
 MIN_SAMPLES = 50
 #: At most this many samples per branch, spread evenly over its speeds'
@@ -115,7 +120,7 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     out (they start where the model starts them). Beside the curves, what
     the model with ``effects`` adds to that force at speed: a Coulomb
     friction (``friction``: the same magnitude in every branch, against the
-    motion) and an offset (``sensor_offset``: the force transducer's less
+    motion, smoothed as the model smooths it) and an offset (``sensor_offset``: the force transducer's less
     the pressure transducer's on the piston), each shared by every branch.
     Nothing else: a constant of its own per branch traded with a blow-off
     reached at no flow (the curve ``p_b + S q`` over the records' speeds)
@@ -132,21 +137,22 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     if not found:
         return {}
     shape = [p for _, mine, _ in found for p in mine]
-    # The shared constants: (column per branch: +1 for the offset, +1 / -1
-    # in compression / rebound for the Coulomb friction).
+    # The shared terms, a column each per branch: 1 for the offset, the
+    # model's smoothed sign of the speed for the Coulomb friction.
     constants = [c for c, on in (("offset", "sensor_offset" in effects), ("coulomb", "friction" in effects)) if on]
     n_shape = len(shape)
     lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants])
     hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants))
     prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in enumerate(shape) if p.prior_sigma is not None]
-    columns = [np.array([1.0 if c == "offset" else (1.0 if b.endswith("_compression") else -1.0) for c in constants]) for b, _, _ in found]
+    columns = [np.array([np.ones(len(s.q_m3_s)) if c == "offset" else np.tanh(s.q_m3_s / s.area_m2 / FRICTION_SMOOTHING_VELOCITY_M_S)
+                         for c in constants]).reshape(len(constants), len(s.q_m3_s)).T for _, _, s in found]
 
     def residual(x: FloatArray) -> FloatArray:
         values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
         damper = shaped_damper(nominal, values)
         rows = []
         for (b, _, s), col in zip(found, columns):
-            force = s.area_m2 * _drop_pa(damper, s.q_m3_s, 0.0 if b.startswith("on_") else 1.0) + float(col @ x[n_shape:])
+            force = s.area_m2 * _drop_pa(damper, s.q_m3_s, 0.0 if b.startswith("on_") else 1.0) + col @ x[n_shape:]
             rows.append((force - s.force_n) / s.sigma_n)
         return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
 
@@ -164,11 +170,23 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     for row, (i, _, _) in enumerate(prior):
         sparsity[edges[-1] + row, i] = True
 
+    # The constants start from the slowest samples, where the damper's
+    # force is small beside the friction's: started at zero, the curves
+    # took the friction up as a blow-off at no flow and kept it (foreign
+    # friction case, seed 7: 0 N Coulomb against the truth's 883 N).
+    c0 = np.zeros(len(constants))
+    if constants:
+        slow = [(abs(s.q_m3_s / s.area_m2) <= SLOW_SPEED_M_S) for _, _, s in found]
+        a = np.concatenate([col[m] for col, m in zip(columns, slow)])
+        if len(a) >= MIN_SLOW_SAMPLES:
+            y = np.concatenate([s.force_n[m] for (_, _, s), m in zip(found, slow)])
+            c0 = np.linalg.lstsq(a, y, rcond=None)[0]
+            c0 = np.maximum(c0, lo[n_shape:])
     best = None
     for orifice, blowoff in STARTS:
         start = {p.name: orifice if p.name.endswith("_orifice_scale") else blowoff if p.name.endswith("_blowoff_scale") else p.initial
                  for p in shape}
-        x0 = np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + [0.0] * len(constants))
+        x0 = np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

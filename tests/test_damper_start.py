@@ -1,0 +1,145 @@
+"""The flexible damper's static start (hpctl.identify.damper_start): hp-core's
+curve as Python sees it, and the curve fitted to the foreign rig's records
+against the foreign rig's own damper (which shares no code with hp-core)."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import secrets
+
+import numpy as np
+import pytest
+
+from foreign_rig import generate, sweep_tests
+from foreign_rig.damper import Damper as ForeignDamper
+from foreign_rig.draw import draw_case
+from hpctl import _core
+from hpctl.data.records import read_record
+from hpctl.errors import ParameterError
+from hpctl.identify import damper_start
+from hpctl.identify.dataset import prepare
+from hpctl.identify.fit import fit, model_for
+from hpctl.model.effects import FRICTION_SMOOTHING_VELOCITY_M_S, shaped_damper
+from hpctl.model.unit import Unit
+
+SHORT = ("sine_0.03hz", "sine_0.3hz", "sine_1hz")
+
+
+def _dict(damper: object) -> dict[str, object]:
+    return dataclasses.asdict(damper)  # type: ignore[call-overload, no-any-return]
+
+
+def test_the_core_drop_is_the_curve_per_branch_and_blend() -> None:
+    # Below the blow-off every branch is R q + K q^2 (hp_core::damper's
+    # definition, written out here); the sign of the flow picks the
+    # direction, valve 5 open by a fraction blends the two states' drops.
+    d = Unit.seed().damper
+    for bypass, (comp, reb) in ((0.0, (d.on_compression, d.on_rebound)), (1.0, (d.off_compression, d.off_rebound))):
+        for sign, c in ((1.0, comp), (-1.0, reb)):
+            # A flow well below the blow-off flow of the sharp curve.
+            q_b = 2.0 * c.blowoff_pa / (c.bleed_pa_s_per_m3 + np.sqrt(c.bleed_pa_s_per_m3**2 + 4.0 * c.orifice_pa_s2_per_m6 * c.blowoff_pa))
+            q = np.linspace(0.0, 0.5 * q_b, 7)
+            dp = _core.damper_pressure_drop_pa(_dict(d), sign * q, bypass)  # type: ignore[arg-type]
+            np.testing.assert_allclose(dp, sign * (c.bleed_pa_s_per_m3 * q + c.orifice_pa_s2_per_m6 * q * q), rtol=1e-12)
+    q = np.array([-2e-4, 3e-4])
+    on, off = (_core.damper_pressure_drop_pa(_dict(d), q, b) for b in (0.0, 1.0))  # type: ignore[arg-type]
+    np.testing.assert_allclose(_core.damper_pressure_drop_pa(_dict(d), q, 0.25), on + 0.25 * (off - on), rtol=1e-12)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("change", "names"), [
+    (lambda d, q, b: (d, [1e-4, float("nan")], b), ("q_m3_s[1]", "nan")),
+    (lambda d, q, b: (d, [1e-4, float("inf")], b), ("q_m3_s[1]", "inf")),
+    (lambda d, q, b: (d, q, 1.5), ("bypass_open", "1.5")),
+    (lambda d, q, b: ({**d, "on_compression": {**d["on_compression"], "bleed_pa_s_per_m3": -1.0}}, q, b), ("bleed_pa_s_per_m3", "-1")),
+    (lambda d, q, b: ({k: v for k, v in d.items() if k != "off_rebound"}, q, b), ("damper.off_rebound",)),
+    (lambda d, q, b: ({**d, "spare": {}}, q, b), ("damper.spare",)),
+])
+def test_the_core_drop_refuses_bad_input_naming_it(change: object, names: tuple[str, ...]) -> None:
+    args = change(_dict(Unit.seed().damper), [1e-4], 0.0)  # type: ignore[operator]
+    with pytest.raises(ParameterError) as e:
+        _core.damper_pressure_drop_pa(*args)
+    assert isinstance(e.value, ValueError)
+    for n in names:
+        assert n in str(e.value).lower(), str(e.value)
+
+
+@pytest.fixture
+def seed() -> int:
+    return int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
+
+
+def _true_force_n(effect: str | None, seed: int, branch: str, q_m3_s: np.ndarray, area_m2: np.ndarray) -> np.ndarray:
+    """The foreign rig's damper force plus its friction's (its own
+    formulas: a Stribeck peak, its own smoothing), at the flows given."""
+    unit = draw_case(effect, seed).unit
+    bypass = 0.0 if branch.startswith("on_") else 1.0
+    force = np.array([ForeignDamper(unit.damper).drop(float(q), bypass) for q in q_m3_s]) * area_m2
+    f = unit.effects.friction
+    if f is not None:
+        assert f.pressure_coefficient == 0.0  # the foreign rig's friction case draws none
+        v = q_m3_s / area_m2
+        stribeck = f.coulomb_n + (f.coulomb_n * f.static_ratio - f.coulomb_n) * np.exp(-((v / f.stribeck_velocity_m_s) ** 2))
+        force = force + stribeck * np.tanh(v / f.smoothing_velocity_m_s) + f.viscous_n_s_per_m * v
+    return np.asarray(force)
+
+
+#: The static fit's RMS distance from the foreign rig's force, in the
+#: samples' noise: measured 0.13-0.41 without friction (seeds 1, 2, 3, 7;
+#: 0.3 Hz sweeps and the heat run), 0.6-3.3 with it (the foreign friction's
+#: Stribeck peak is not the model's).
+STATIC_CEILING = 1.0
+FRICTION_STATIC_CEILING = 5.0
+#: The Coulomb force from the static fit over the truth's: measured
+#: +7 to +20 % (seeds 1, 2, 3, 7: the Stribeck peak at the low speeds
+#: that pin it raises it).
+COULOMB_TOLERANCE = 0.3
+
+
+@pytest.mark.parametrize(("effect", "effects"), [(None, ()), ("friction", ("friction",)), ("sensor_offset", ("sensor_offset",))])
+def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effects: tuple[str, ...], seed: int) -> None:
+    # The foreign rig's damper (two washer stacks opening progressively, a
+    # bleed hole, a bypass, its own line losses) against hpctl's family,
+    # fitted to the records' force less the gas's: over every branch's
+    # samples the curve (with the Coulomb friction where the model has it)
+    # within the records' noise of the foreign rig's true force, where the
+    # nominal curve is ten and more times the noise off. With friction in
+    # the model its Coulomb force is shared by the branches, with a sensor
+    # offset a constant; without, neither: the curves may not move to make
+    # up a force the model cannot make.
+    g = generate(effect, seed, tests=[t for t in sweep_tests() if t.name in SHORT])
+    datasets = prepare([read_record(p) for p in g.records])
+    model = model_for(datasets, ("heat_transfer", "real_gas", *effects), flexible=True)
+    values = damper_start.static_damper_values(datasets, model.params, model.effects)
+    context = f"FOREIGN_RIG_SEED={seed} ({effect}): "
+    assert {p.name for p in model.params if p.name.startswith("damper_")} <= set(values), context
+    coulomb = values.get("friction_coulomb_n", 0.0)
+    for branch in model.damper_branches:
+        s = damper_start._branch_samples(datasets, branch)
+        assert s is not None, context + branch
+        true = _true_force_n(effect, seed, branch, s.q_m3_s, s.area_m2)
+        bypass = 0.0 if branch.startswith("on_") else 1.0
+        errors = {}
+        for name, v, c in (("nominal", {}, 0.0), ("static", values, coulomb)):
+            force = s.area_m2 * _core.damper_pressure_drop_pa(_dict(shaped_damper(datasets[0].base.damper, v)), s.q_m3_s, bypass)  # type: ignore[arg-type]
+            force += c * np.tanh(s.q_m3_s / s.area_m2 / FRICTION_SMOOTHING_VELOCITY_M_S)
+            errors[name] = float(np.sqrt(np.mean((force - true) ** 2)) / np.median(s.sigma_n))
+        context += f"{branch} {errors['nominal']:.1f} -> {errors['static']:.2f} x the noise; "
+        assert errors["static"] <= (FRICTION_STATIC_CEILING if effect == "friction" else STATIC_CEILING), context
+        assert errors["nominal"] > 5.0 * errors["static"], context
+    if effect == "friction":
+        truth = g.truth["hpctl_params"]["friction_coulomb_n"]
+        assert abs(coulomb / truth - 1.0) <= COULOMB_TOLERANCE, context + f"Coulomb {coulomb:.0f} N against {truth:.0f}"
+    else:
+        assert "friction_coulomb_n" not in values, context
+
+
+def test_a_flexible_fit_says_where_its_damper_started(seed: int) -> None:
+    # Its message says so, and the start it took has the lower residual: a
+    # fit given a damper characteristic keeps it.
+    g = generate(None, seed, tests=[t for t in sweep_tests() if t.name == "sine_0.3hz"])
+    datasets = prepare([read_record(p) for p in g.records])
+    r = fit(datasets, ("heat_transfer", "real_gas"), flexible=True, max_nfev=2, errors=False)
+    assert "started from a static fit" in r.message, f"FOREIGN_RIG_SEED={seed}: {r.message}"
+    again = fit(datasets, ("heat_transfer", "real_gas"), flexible=True, max_nfev=2, errors=False, initial=r.values)
+    assert "static fit" not in again.message, f"FOREIGN_RIG_SEED={seed}: {again.message}"
