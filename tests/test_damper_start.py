@@ -132,6 +132,15 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
         assert abs(coulomb / truth - 1.0) <= COULOMB_TOLERANCE, context + f"Coulomb {coulomb:.0f} N against {truth:.0f}"
     else:
         assert "friction_coulomb_n" not in values, context
+    if effect == "sensor_offset":
+        # The constant the force less the gas's shows: the force
+        # transducer's offset less the pressure transducer's on the piston
+        # (measured within 2.4-5.1 N, 0.06-0.3 x the noise: seeds 1, 2, 7).
+        t, area = g.truth["hpctl_params"], datasets[0].base.piston_area_m2
+        offset = t["sensor_force_offset_n"] - area * t["sensor_pressure_offset_pa"]
+        noise = float(np.median(np.hypot([d.sigma["force_n"] for d in datasets], [area * d.sigma["p_gas_pa"] for d in datasets])))
+        assert abs(values["sensor_force_offset_n"] - offset) <= noise, context + f"offset {values['sensor_force_offset_n']:.1f} N against {offset:.1f}"
+    assert ("sensor_force_offset_n" in values) == (effect == "sensor_offset"), context
 
 
 def test_a_flexible_fit_says_where_its_damper_started(seed: int) -> None:

@@ -46,6 +46,9 @@ from hpctl.model.unit import Damper
 
 FloatArray = NDArray[np.float64]
 
+#: The effects whose force the static fit takes beside the curves, shared
+#: by the branches: a sensor offset's constant, the friction's Coulomb force.
+STATIC_TERMS = {"sensor_offset": "offset", "friction": "coulomb"}
 #: Samples slower than this are left out, m/s: the velocity estimate's
 #: noise and the gas's lag at a reversal. Down to it the samples show the
 #: friction's smoothed step (hp-core's, at the model's smoothing velocity),
@@ -125,9 +128,10 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     Nothing else: a constant of its own per branch traded with a blow-off
     reached at no flow (the curve ``p_b + S q`` over the records' speeds)
     and started the model with a force it cannot make (foreign heat run,
-    seed 1197046202: the rebound curve 268 N off). With ``friction``, the
-    Coulomb force found is returned too (``friction_coulomb_n``, inside its
-    bounds). The first dataset's template curve is the nominal one the
+    seed 1197046202: the rebound curve 268 N off). Those two are returned
+    too, inside their bounds: ``friction_coulomb_n`` and
+    ``sensor_force_offset_n`` (the whole offset taken as the force
+    transducer's). The first dataset's template curve is the nominal one the
     multipliers scale (every dataset of a fit shares it)."""
     if not datasets:
         return {}
@@ -139,7 +143,7 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     shape = [p for _, mine, _ in found for p in mine]
     # The shared terms, a column each per branch: 1 for the offset, the
     # model's smoothed sign of the speed for the Coulomb friction.
-    constants = [c for c, on in (("offset", "sensor_offset" in effects), ("coulomb", "friction" in effects)) if on]
+    constants = [c for e, c in STATIC_TERMS.items() if e in effects]
     n_shape = len(shape)
     lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants])
     hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants))
@@ -199,9 +203,13 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     if best is None:
         return {}
     out = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, best.x[:n_shape])}
-    coulomb = next((p for p in params if p.name == "friction_coulomb_n"), None)
-    if coulomb is not None and "coulomb" in constants:
-        out[coulomb.name] = min(max(float(best.x[n_shape + constants.index("coulomb")]), coulomb.lower), coulomb.upper)
+    # The shared terms as the model's parameters' starts: the Coulomb force;
+    # the offset as the force transducer's (the pressure transducer's part,
+    # A p_off, is the fit's to separate: the pressure channels show it).
+    for name, c in (("friction_coulomb_n", "coulomb"), ("sensor_force_offset_n", "offset")):
+        p = next((p for p in params if p.name == name), None)
+        if p is not None and c in constants:
+            out[name] = min(max(float(best.x[n_shape + constants.index(c)]), p.lower), p.upper)
     return out
 
 
