@@ -144,7 +144,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
     rep = Reporter(quiet, as_json)
     with errors(rep):
         from hpctl.identify.dataset import prepare
-        from hpctl.identify.fit import fit
+        from hpctl.identify.fit import at_own_noise, fit
         from hpctl.report import calibration as report
 
         effects = parse_model(model)
@@ -152,7 +152,9 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         datasets = prepare(recs)
         with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
             with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
-                result = fit(datasets, effects, flexible=flexible)
+                # Reported and judged in its own model's weights (the
+                # input's noise carried through it, not the template's).
+                result = at_own_noise(fit(datasets, effects, flexible=flexible))
             caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result)
             report.fit_report(result, out, caveats)
             document = with_warnings(report.fit_summary(result), caveats)

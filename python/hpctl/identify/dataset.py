@@ -3,11 +3,11 @@ the measured channels it is compared with, their noise levels and weights."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from hpctl.data.records import LOGGED_SWITCH_LEAD, RigRecord
 from hpctl.errors import HpctlError, RecordError
@@ -171,11 +171,10 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     the 1 Hz sine's pressure (stop 29). An SDOF body filters its base's noise
     through its dynamics: those records carry none. A record its unit cannot
     run keeps the output noise alone."""
-    chars = [i for i, d in enumerate(datasets) if d.record.kind == "characterisation" and d.input_noise_m > 0.0 and len(d.times_s) > 1]
+    chars = carried_records(datasets)
     if not chars:
         return datasets
-    rng = np.random.default_rng(CARRIED_SEED)
-    drives = [[datasets[i]] + [with_input_noise(datasets[i], rng) for _ in range(CARRIED_DRAWS)] for i in chars]
+    drives = carried_drives(datasets, chars)
     channels = ["time_s", *OUTPUTS["characterisation"]]
     cases = [Case(d.base, d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on, ambient_k=d.ambient_k, channels=channels,
                   gas_table=True, switch_lead=LOGGED_SWITCH_LEAD) for drive in drives for d in drive]
@@ -183,22 +182,38 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     out = list(datasets)
     k = CARRIED_DRAWS + 1
     for j, i in enumerate(chars):
-        done = [r for r in results[j * k:(j + 1) * k] if not isinstance(r, Exception)]
-        if len(done) < k:
-            continue
-        clean, *noisy = done
-        d = datasets[i]
-        # (numpy's "same" is the longer input's length: the window no
-        # longer than the record.)
-        n = len(d.times_s)
-        window = np.ones(min(CARRIED_WINDOW, n))
-        counts = np.convolve(np.ones(n), window, "same")
-        weights = {}
-        for c in d.targets:
-            sq = np.mean([(np.asarray(r.channels[c]) - np.asarray(clean.channels[c])) ** 2 for r in noisy], axis=0)
-            weights[c] = np.sqrt(d.sigma[c] ** 2 + np.convolve(sq, window, "same") / counts)
-        out[i] = replace(d, weight_sigma=weights)
+        done = [r.channels for r in results[j * k:(j + 1) * k] if not isinstance(r, Exception)]
+        if len(done) == k:
+            out[i] = with_carried_noise(datasets[i], done[0], done[1:])
     return out
+
+
+def carried_records(datasets: Sequence[Dataset]) -> list[int]:
+    """The indices of the records whose weights carry their input's noise:
+    characterisation records with a noise level on their input."""
+    return [i for i, d in enumerate(datasets) if d.record.kind == "characterisation" and d.input_noise_m > 0.0 and len(d.times_s) > 1]
+
+
+def carried_drives(datasets: Sequence[Dataset], chars: Sequence[int]) -> list[list[Dataset]]:
+    """Per record of ``chars``: the record and :data:`CARRIED_DRAWS` copies
+    with fresh draws of its input's noise (the same draws on every call)."""
+    rng = np.random.default_rng(CARRIED_SEED)
+    return [[datasets[i]] + [with_input_noise(datasets[i], rng) for _ in range(CARRIED_DRAWS)] for i in chars]
+
+
+def with_carried_noise(d: Dataset, clean: Mapping[str, ArrayLike], noisy: Sequence[Mapping[str, ArrayLike]]) -> Dataset:
+    """``d`` weighted by its channels' noise plus the moving mean square of
+    the outputs' change from the ``clean`` drive to the ``noisy`` ones."""
+    # (numpy's "same" is the longer input's length: the window no longer
+    # than the record.)
+    n = len(d.times_s)
+    window = np.ones(min(CARRIED_WINDOW, n))
+    counts = np.convolve(np.ones(n), window, "same")
+    weights = {}
+    for c in d.targets:
+        sq = np.mean([(np.asarray(r[c]) - np.asarray(clean[c])) ** 2 for r in noisy], axis=0)
+        weights[c] = np.sqrt(d.sigma[c] ** 2 + np.convolve(sq, window, "same") / counts)
+    return replace(d, weight_sigma=weights)
 
 
 def _channel_var(levels: Sequence[tuple[float, int, NoiseLevel]], colour: NoiseColour | None) -> float | None:

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, noise_colours, prepare, traits, uses_damper
-from hpctl.identify.fit import FitResult, fit, residual_vector, rss_at
+from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
 from hpctl.identify.switching import places
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, Param, flexible_params
 
@@ -824,7 +824,7 @@ def _diagnose(
             accepted = _accept(datasets, current, effects, rest, clock, pool)
         if accepted is not None:
             datasets = accepted.result.datasets
-            judgement = judge(accepted.result)
+            judgement = judge(at_own_noise(accepted.result))
             clock.say(f"round {clock.round}/{max_rounds}: added {accepted.effect}: {judgement.describe(1)}")
         rounds.append(Round(current, analysis, tried, accepted, judgement))
         if accepted is None:
@@ -832,6 +832,10 @@ def _diagnose(
         found += [e for e in LIBRARY if e in accepted.effects]
         effects = tuple(e for e in LIBRARY if e in effects + accepted.effects)
         current = accepted.result
+    # The verdict in the final model's own weights (its response to the
+    # input's noise, not the template's: fit.at_own_noise); the rounds
+    # compared their candidates in the weights they were fitted with.
+    current = at_own_noise(current)
     final_analysis = analyse(current)
     final_judgement = judge(current, final_analysis)
     if found:
