@@ -32,6 +32,7 @@ __all__ = [
     "PARAMETER_RANGES",
     "EFFECT_PARAMETERS",
     "load_pressure_pa",
+    "damper_pressure_drop_pa",
     "Plant",
     "__version__",
     "Controller",

@@ -892,7 +892,8 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         if rnd.accepted is None:
             continue
         c = rnd.accepted
-        after = rnd.judgement or judge(c.result)
+        # The model after it in its own weights, as the round judged it.
+        after = rnd.judgement or judge(at_own_noise(c.result))
         for e in c.effects:
             steps.append({
                 "effect": e,
@@ -906,7 +907,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
                 "offset_delta_bic": c.offset_delta_bic,
                 "null_delta_bic": c.null_delta_bic,
                 "rms_ratio_before": rnd.before.rms_ratio,
-                "rms_ratio_after": c.result.rms_ratio,
+                "rms_ratio_after": after.rms_ratio,
                 "worst_rms_ratio_before": max((row.rms_ratio for row in rnd.analysis.rows), default=None),
                 "worst_rms_ratio_after": after.worst_rms_ratio,
                 "residual_after": after.to_json(),
