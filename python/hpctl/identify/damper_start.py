@@ -5,12 +5,12 @@ On a characterisation rig the strut force less the gas pressure's force on
 the piston is the damper's pressure drop on the piston plus the seal's
 friction: ``F - A (p_S - p_amb) = A dp(A v) + F_friction`` (hp-core's
 ``Unit``: the pack sits between the strut and accumulator S, whose pressure
-the record's ``p_gas_pa`` is). Each branch (valve 5's state, the direction
-of flow) is fitted to that per sample, with a constant of its own for the
-friction and the transducers' offsets (the sign of the speed is the
-branch's), by hp-core's own curve (``_core.damper_pressure_drop_pa``) and
-the flexible model's parameters and priors. That costs a fraction of a
-second, against seconds per evaluation of the dynamic fit, which then starts
+the record's ``p_gas_pa`` is). Every branch (valve 5's state, the
+direction of flow) is fitted to that per sample by hp-core's own curve
+(``_core.damper_pressure_drop_pa``) with the flexible model's parameters
+and priors, beside what else the model makes of that force (a Coulomb
+friction, an offset: :func:`static_damper_values`). That costs a second or
+two, against seconds per evaluation of the dynamic fit, which then starts
 near the records' damper instead of the nominal one.
 
 Why: a damper far from the nominal curve left the dynamic fit crawling
@@ -22,16 +22,16 @@ while the family follows that damper within 3 N statically
 (``scripts/foreign_damper_family.py``).
 
 What it cannot see: the gas's and the oil's dynamics between the piston
-and the transducer, the sensors' lag, the friction's shape. It is a start,
-judged by the dynamic fit (:func:`hpctl.identify.fit.fit` keeps the nominal
-start where this one's residual is larger).
+and the transducer (the oil's compliance delays the flow at speed), the
+sensors' lag, the friction's shape. It is a start; the dynamic fit goes on
+from it (:func:`hpctl.identify.fit.fit` says so in its message).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import cast
 
 import numpy as np
@@ -123,8 +123,9 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     out (they start where the model starts them). Beside the curves, what
     the model with ``effects`` adds to that force at speed: a Coulomb
     friction (``friction``: the same magnitude in every branch, against the
-    motion, smoothed as the model smooths it) and an offset (``sensor_offset``: the force transducer's less
-    the pressure transducer's on the piston), each shared by every branch.
+    motion, smoothed as the model smooths it) and an offset
+    (``sensor_offset``: the force transducer's less the pressure
+    transducer's on the piston), each shared by every branch.
     Nothing else: a constant of its own per branch traded with a blow-off
     reached at no flow (the curve ``p_b + S q`` over the records' speeds)
     and started the model with a force it cannot make (foreign heat run,
@@ -155,8 +156,8 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
         values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
         damper = shaped_damper(nominal, values)
         rows = []
-        for (b, _, s), col in zip(found, columns):
-            force = s.area_m2 * _drop_pa(damper, s.q_m3_s, 0.0 if b.startswith("on_") else 1.0) + col @ x[n_shape:]
+        for (b, _, s), cols in zip(found, columns):
+            force = s.area_m2 * _drop_pa(damper, s.q_m3_s, 0.0 if b.startswith("on_") else 1.0) + cols @ x[n_shape:]
             rows.append((force - s.force_n) / s.sigma_n)
         return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
 
@@ -166,10 +167,10 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     sizes = [len(s.q_m3_s) for _, _, s in found]
     edges = np.concatenate([[0], np.cumsum(sizes)])
     sparsity = np.zeros((int(edges[-1]) + len(prior), n_shape + len(constants)), bool)
-    col = 0
+    first = 0
     for k, (_, mine, _) in enumerate(found):
-        sparsity[edges[k]:edges[k + 1], col:col + len(mine)] = True
-        col += len(mine)
+        sparsity[edges[k]:edges[k + 1], first:first + len(mine)] = True
+        first += len(mine)
     sparsity[:edges[-1], n_shape:] = True
     for row, (i, _, _) in enumerate(prior):
         sparsity[edges[-1] + row, i] = True
@@ -181,7 +182,7 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     c0 = np.zeros(len(constants))
     if constants:
         slow = [(abs(s.q_m3_s / s.area_m2) <= SLOW_SPEED_M_S) for _, _, s in found]
-        a = np.concatenate([col[m] for col, m in zip(columns, slow)])
+        a = np.concatenate([cols[m] for cols, m in zip(columns, slow)])
         if len(a) >= MIN_SLOW_SAMPLES:
             y = np.concatenate([s.force_n[m] for (_, _, s), m in zip(found, slow)])
             c0 = np.linalg.lstsq(a, y, rcond=None)[0]
@@ -215,17 +216,3 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
 
 def _drop_pa(damper: Damper, q_m3_s: FloatArray, bypass_open: float) -> FloatArray:
     return _core.damper_pressure_drop_pa(cast(DamperDict, dataclasses.asdict(damper)), q_m3_s, bypass_open)
-
-
-def branch_residual_n(datasets: Sequence[Dataset], values: Mapping[str, float], branch: str) -> float | None:
-    """RMS, N, of the branch's force less the gas's against the damper that
-    ``values`` shape plus its best constant (None where the records do not
-    exercise the branch at speed): how well a damper follows the records
-    statically, for reports and tests."""
-    s = _branch_samples(datasets, branch)
-    if s is None or not datasets:
-        return None
-    dp = _drop_pa(shaped_damper(datasets[0].base.damper, values), s.q_m3_s, 0.0 if branch.startswith("on_") else 1.0)
-    r = s.area_m2 * dp - s.force_n
-    r -= float(np.mean(r))
-    return float(np.sqrt(np.mean(r * r)))

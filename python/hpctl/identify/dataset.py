@@ -154,8 +154,8 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
 #: variance, a sampling error of about 6 % on the carried part. Four draws
 #: (stop 29) read a friction's reversals too low where they dominate: the
 #: weights' squares scatter and their inverse is biased (the 1 Hz force at
-#: the truth read 1.16 x over four draws' weights, 1.00 over sixteen's,
-#: seeds 1-6, tests/test_fit.py).
+#: the truth read 1.16 x over four draws' weights on seeds 1-6, 1.02 over
+#: sixteen's on seeds 1000-1059, tests/test_fit.py).
 CARRIED_DRAWS = 16
 CARRIED_SEED = 11
 CARRIED_WINDOW = 31

@@ -351,6 +351,7 @@ class Candidate:
 @dataclass
 class Round:
     before: FitResult
+    # The model before the round, judged in its own weights (fit.at_own_noise).
     analysis: ResidualReport
     candidates: list[Candidate]
     accepted: Candidate | None
@@ -781,9 +782,13 @@ def _diagnose(
     clock.first_fit_s = (time.perf_counter() - t0) / 2
     rounds: list[Round] = []
     found: list[str] = []
+    # Each model that goes on judged in its own weights (the input's noise
+    # through it, fit.at_own_noise): its analysis, the verdict; candidates
+    # are compared in the weights they were fitted with.
+    judged = at_own_noise(current)
     for r in range(max_rounds):
         clock.round = r + 1
-        analysis = analyse(current)
+        analysis = analyse(judged)
         # The first round screens the library even when the declared model
         # looks like noise: a flexible model can stand in for an effect
         # (the two-stage damper took the foreign rig's seal friction, 322 N,
@@ -824,18 +829,16 @@ def _diagnose(
             accepted = _accept(datasets, current, effects, rest, clock, pool)
         if accepted is not None:
             datasets = accepted.result.datasets
-            judgement = judge(at_own_noise(accepted.result))
+            judged_after = at_own_noise(accepted.result)
+            judgement = judge(judged_after)
             clock.say(f"round {clock.round}/{max_rounds}: added {accepted.effect}: {judgement.describe(1)}")
         rounds.append(Round(current, analysis, tried, accepted, judgement))
         if accepted is None:
             break
         found += [e for e in LIBRARY if e in accepted.effects]
         effects = tuple(e for e in LIBRARY if e in effects + accepted.effects)
-        current = accepted.result
-    # The verdict in the final model's own weights (its response to the
-    # input's noise, not the template's: fit.at_own_noise); the rounds
-    # compared their candidates in the weights they were fitted with.
-    current = at_own_noise(current)
+        current, judged = accepted.result, judged_after
+    current = judged
     final_analysis = analyse(current)
     final_judgement = judge(current, final_analysis)
     if found:
@@ -906,7 +909,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
                 "cv_rss_after": c.cv_after,
                 "offset_delta_bic": c.offset_delta_bic,
                 "null_delta_bic": c.null_delta_bic,
-                "rms_ratio_before": rnd.before.rms_ratio,
+                "rms_ratio_before": rnd.analysis.rms_ratio,
                 "rms_ratio_after": after.rms_ratio,
                 "worst_rms_ratio_before": max((row.rms_ratio for row in rnd.analysis.rows), default=None),
                 "worst_rms_ratio_after": after.worst_rms_ratio,

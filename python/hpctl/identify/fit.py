@@ -359,6 +359,12 @@ def fit(
     ``stop`` or its evaluation limit on a Broyden update then needs no
     finite differences at its end.
 
+    A flexible model not given a damper characteristic in ``initial``
+    starts from one fitted statically to the records' force less the gas's
+    (:mod:`hpctl.identify.damper_start`), and so does one given a damper
+    fitted without the friction or sensor offset it now has, where that
+    starts it lower; the message says so.
+
     ``place_switches`` (with ``errors``): where the records switch valves,
     each switch is placed within the sample interval before the first
     sample that shows it, estimated at the optimum from the residual up to
