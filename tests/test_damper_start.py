@@ -86,14 +86,19 @@ def _true_force_n(effect: str | None, seed: int, branch: str, q_m3_s: np.ndarray
 
 #: The static fit's RMS distance from the foreign rig's force, in the
 #: samples' noise: measured 0.13-0.41 without friction (seeds 1, 2, 3, 7;
-#: 0.3 Hz sweeps and the heat run), 0.6-3.3 with it (the foreign friction's
-#: Stribeck peak is not the model's).
+#: 0.3 Hz sweeps and the heat run), 0.13-3.3 with it (seeds 1-3, 7,
+#: 100-119: the foreign friction's Stribeck peak is not the model's; the
+#: nominal curve 14-65).
 STATIC_CEILING = 1.0
 FRICTION_STATIC_CEILING = 5.0
-#: The Coulomb force from the static fit over the truth's: measured
-#: +7 to +20 % (seeds 1, 2, 3, 7: the Stribeck peak at the low speeds
-#: that pin it raises it).
-COULOMB_TOLERANCE = 0.3
+#: The Coulomb force from the static fit lies between the foreign
+#: friction's kinetic level and its static (Stribeck) peak: the slow
+#: samples that pin it sit below the Stribeck velocity (3-30 mm/s), where
+#: the friction is up to 1.5 x the kinetic. Measured on seeds 100-119:
+#: 0.95-1.50 x the kinetic, 0.89-1.12 x the peak (1, 2, 3, 7: +7 to +20 %
+#: of the kinetic). Asserted with a margin for the noise: from 0.8 x the
+#: kinetic to 1.25 x the peak.
+COULOMB_BAND = (0.8, 1.25)
 
 
 @pytest.mark.parametrize(("effect", "effects"), [(None, ()), ("friction", ("friction",)), ("sensor_offset", ("sensor_offset",))])
@@ -128,8 +133,9 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
         assert errors["static"] <= (FRICTION_STATIC_CEILING if effect == "friction" else STATIC_CEILING), context
         assert errors["nominal"] > 5.0 * errors["static"], context
     if effect == "friction":
-        truth = g.truth["hpctl_params"]["friction_coulomb_n"]
-        assert abs(coulomb / truth - 1.0) <= COULOMB_TOLERANCE, context + f"Coulomb {coulomb:.0f} N against {truth:.0f}"
+        f = draw_case(effect, seed).unit.effects.friction
+        lo, hi = COULOMB_BAND[0] * f.coulomb_n, COULOMB_BAND[1] * f.coulomb_n * f.static_ratio
+        assert lo <= coulomb <= hi, context + f"Coulomb {coulomb:.0f} N against the truth's {f.coulomb_n:.0f} N (peak x {f.static_ratio:.2f})"
     else:
         assert "friction_coulomb_n" not in values, context
     if effect == "sensor_offset":
