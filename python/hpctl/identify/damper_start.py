@@ -49,6 +49,13 @@ FloatArray = NDArray[np.float64]
 #: The effects whose force the static fit takes beside the curves, shared
 #: by the branches: a sensor offset's constant, the friction's Coulomb force.
 STATIC_TERMS = {"sensor_offset": "offset", "friction": "coulomb"}
+#: Effects a damper characteristic fitted without them takes up in its
+#: shape: those shared terms (as a blow-off at no flow) and the oil's
+#: compliance (whose lag a model without it cannot make: every branch bent
+#: to a residual of 157 x the noise, foreign rig seed 7). A flexible fit
+#: that adds one to such a damper restarts it from the static fit where
+#: that starts lower (:func:`hpctl.identify.fit.fit`).
+ABSORBED_BY_DAMPER = (*STATIC_TERMS, "oil_compliance")
 #: Samples slower than this are left out, m/s: the velocity estimate's
 #: noise and the gas's lag at a reversal. Down to it the samples show the
 #: friction's smoothed step (hp-core's, at the model's smoothing velocity),
