@@ -19,6 +19,7 @@ from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
 from hpctl.identify import damper_start
 from hpctl.identify.dataset import prepare
+from hpctl.identify.diagnose import NOISE_CEILING
 from hpctl.identify.fit import fit, model_for, rss_at
 from hpctl.model.effects import FRICTION_SMOOTHING_VELOCITY_M_S, shaped_damper
 from hpctl.model.unit import Unit
@@ -187,3 +188,28 @@ def test_adding_oil_compliance_restarts_a_damper_fitted_without_it(seed: int, fi
         assert not took, context
     again = fit(datasets, effects, flexible=True, initial={**bent.values, "oil_bulk_modulus_pa": 1e9}, max_nfev=1, errors=False)
     assert "static fit" not in again.message, f"FOREIGN_RIG_SEED={seed}: {again.message}"
+
+
+@pytest.mark.parametrize("seed", [1749587853, 619441309, 1])
+def test_adding_oil_compliance_reaches_the_noise_from_a_model_without_it(seed: int) -> None:
+    # The model without compliance bends its gas state and its damper to
+    # stand in for it; from there the bulk modulus went to a local optimum
+    # (two damper-off sines, seeds 1749587853 and 619441309: 70 and 142 x
+    # the noise). The fit also starts from scratch and keeps the better end:
+    # measured 1.01 x with the bulk modulus within 0.01 % on both, seed 1
+    # 0.98 x. Asserted: at the noise (hpctl's ceiling) and the bulk
+    # modulus within 10 % or two of its errors of the foreign truth (its
+    # value at hpctl's oil volume). Fixed draws, not random ones: on some
+    # draws the compliance's fixed simulation step (the oil's relaxation
+    # through the damper's bleed, tens of microseconds) makes one fit take
+    # minutes to a quarter of an hour (docs/foreign-rig.md).
+    g = generate("oil_compliance", seed, tests=[t for t in sweep_tests() if t.name in ("sine_0.3hz", "sine_1hz")])
+    datasets = prepare([read_record(p) for p in g.records])
+    base = ("heat_transfer", "real_gas")
+    without = fit(datasets, base, flexible=True)
+    r = fit(datasets, base + ("oil_compliance",), flexible=True, initial=without.values)
+    truth = g.truth["hpctl_params"]["oil_bulk_modulus_pa"]
+    b, err = r.values["oil_bulk_modulus_pa"], r.stderr["oil_bulk_modulus_pa"]
+    context = f"FOREIGN_RIG_SEED={seed}: {without.rms_ratio:.1f} -> {r.rms_ratio:.3f} x the noise, bulk modulus {b:.5g} +- {err:.2g} Pa against {truth:.5g}; {r.message}"
+    assert r.rms_ratio <= NOISE_CEILING, context
+    assert abs(b - truth) <= max(0.1 * truth, 2.0 * err), context
