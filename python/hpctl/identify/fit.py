@@ -533,7 +533,7 @@ def fit(
             if cost - float(sol.cost) <= ftol * cost:
                 break
         if fresh_x is not None:
-            secant.x = None  # no Broyden update across the jump: finite differences there
+            secant.forget()
             other = solve(fresh_x, max_nfev)
             if float(other.cost) < float(sol.cost):
                 sol, started = other, started + "; ended lower from scratch (every parameter at its own start, the damper at the static fit's)"
@@ -949,6 +949,11 @@ class _Secant:
 
     def exact_at(self, x: FloatArray) -> bool:
         return self.exact and self.x is not None and np.array_equal(self.x, x)
+
+    def forget(self) -> None:
+        """Finite differences at the next point: a new start, no update across the jump to it."""
+        self.x = self.f = self.j = None
+        self.exact = False
 
     def update(self, x: FloatArray, f: FloatArray) -> FloatArray | None:
         """The updated Jacobian at ``x`` (residuals ``f``), or None where
