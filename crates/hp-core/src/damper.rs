@@ -247,7 +247,13 @@ impl DamperCurve {
 
     /// Inverse of a smooth curve `curve(q) = (dp, d(dp)/dq)`: Newton steps
     /// kept inside a bracket that bisection shrinks when Newton would leave
-    /// it (the curve is monotone, so the bracket always holds the root).
+    /// it or would not halve the step before last (the curve is monotone,
+    /// so the bracket always holds the root). The second rule is
+    /// Numerical Recipes' `rtsafe`: without it Newton can bounce between
+    /// the two ends of a bracket with a sharp second stage inside (a flat
+    /// `S2` far above a steep orifice), each step staying inside and the
+    /// bracket shrinking by a few per cent, and after its iterations hand
+    /// back a flow 3.5 x the root's (a fitted damper, docs/foreign-rig.md).
     fn bracketed_flow_m3_s(&self, dp_pa: f64, curve: impl Fn(f64) -> (f64, f64)) -> f64 {
         if dp_pa <= 0.0 {
             return 0.0;
@@ -264,7 +270,9 @@ impl DamperCurve {
             hi *= 2.0;
         }
         let mut q = 0.5 * (lo + hi);
-        for _ in 0..100 {
+        // The last two steps' lengths (as `rtsafe`'s `dx` and `dxold`).
+        let (mut step, mut step_before) = (hi - lo, hi - lo);
+        for _ in 0..200 {
             let (f, slope) = curve(q);
             let err = f - dp_pa;
             if libm::fabs(err) <= 1e-14 * dp_pa || hi - lo <= 1e-15 * hi {
@@ -276,7 +284,15 @@ impl DamperCurve {
                 lo = q;
             }
             let newton = if slope > 0.0 { q - err / slope } else { f64::NAN };
-            q = if newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+            let converging = libm::fabs(newton - q) <= 0.5 * libm::fabs(step_before);
+            step_before = step;
+            if newton > lo && newton < hi && converging {
+                step = newton - q;
+                q = newton;
+            } else {
+                step = 0.5 * (hi - lo);
+                q = lo + step;
+            }
         }
         q
     }

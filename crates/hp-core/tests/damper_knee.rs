@@ -3,6 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use hp_core::damper::DamperCurve;
+use proptest::prelude::*;
 
 fn curve(knee: f64) -> DamperCurve {
     let mut c = DamperCurve::from_strut(2e-3, 12_000.0, 64_000.0, 7_000.0, 16_000.0);
@@ -188,5 +189,85 @@ fn a_curve_without_a_second_stage_is_unchanged_and_a_bad_stage_is_refused() {
     }
     for (p2, s2) in [(1.0, 0.5), (0.5, 0.5), (f64::NAN, 0.5), (2.0, 0.0), (2.0, f64::INFINITY), (-1.0, 0.5)] {
         assert!(staged(0.5, p2, s2).validate().is_err(), "p2/p1 {p2}, S2/S {s2} accepted");
+    }
+}
+
+/// A curve the flexible fit reached on a foreign-rig sine (stop 32): a steep
+/// orifice (35 x the nominal `K`), a sharp knee and a flat second stage
+/// (`S2` 1/21 of `S`). The inverse's Newton steps bounced between the ends
+/// of its bracket and returned 3.5 x the flow at 854 N of 2.1e-3 m^2 (a
+/// simulation with oil compliance then held the damper force flat and took
+/// sub-microsecond steps).
+fn fitted_staged_curve() -> DamperCurve {
+    DamperCurve {
+        bleed_pa_s_per_m3: 369_258_280.947_473_1,
+        orifice_pa_s2_per_m6: 176_097_991_909_165.2,
+        blowoff_pa: 1_136_420.217_335_360_1,
+        blowoff_slope_pa_s_per_m3: 3_517_975_298.344_116_7,
+        blowoff_knee: 0.048_459_447_573_502_97,
+        blowoff2_pa: 3_164_096.920_433_964,
+        blowoff2_slope_pa_s_per_m3: 167_739_522.150_630_68,
+        bleed_parallel_m3_per_s_pa: 1.170_125_124_430_606_5e-10,
+    }
+}
+
+#[test]
+fn the_inverse_of_a_fitted_staged_curve_is_its_root_at_every_pressure() {
+    let c = fitted_staged_curve();
+    assert!(c.validate().is_ok());
+    let area = 0.002_135_764_026_393_091_8;
+    // Damper forces 1 N to 20 kN, 1 N apart up to 2 kN (the failure was at 854 N alone).
+    let forces = (1..=2000).map(f64::from).chain((1..=180).map(|i| 2000.0 + 100.0 * f64::from(i)));
+    for force in forces {
+        let dp = force / area;
+        let q = c.flow_m3_s(dp);
+        let back = c.pressure_drop_pa(q);
+        assert!((back - dp).abs() <= 1e-9 * dp, "{force} N: flow {q} gives {} N", back * area);
+    }
+}
+
+fn log_uniform(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    (0.0..1.0f64).prop_map(move |u| lo * libm::pow(hi / lo, u))
+}
+
+prop_compose! {
+    /// Curves across what a fit may try: every coefficient over decades,
+    /// the knee over its range, with or without a parallel bleed and a
+    /// second stage (above or below the first's slope).
+    fn any_curve()(r in log_uniform(1e6, 1e12), k in log_uniform(1e10, 1e17), p_b in log_uniform(1e4, 3e7),
+                   s in log_uniform(1e7, 1e12), knee in 0.0..2.0f64, g in prop_oneof![Just(0.0), log_uniform(1e-13, 1e-8)],
+                   p2 in prop_oneof![Just(0.0), log_uniform(1.001, 10.0)], s2 in log_uniform(1e-3, 1e2)) -> DamperCurve {
+        DamperCurve {
+            bleed_pa_s_per_m3: r,
+            orifice_pa_s2_per_m6: k,
+            blowoff_pa: p_b,
+            blowoff_slope_pa_s_per_m3: s,
+            blowoff_knee: knee,
+            blowoff2_pa: p2 * p_b,
+            blowoff2_slope_pa_s_per_m3: s2 * s,
+            bleed_parallel_m3_per_s_pa: g,
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn the_inverse_is_the_root_for_any_curve_and_pressure(c in any_curve(), offset in 0.0..1.0f64) {
+        prop_assume!(c.validate().is_ok());
+        // 1 Pa to 1 GPa, 50 pressures a decade.
+        for i in 0..450 {
+            let dp = libm::pow(10.0, (f64::from(i) + offset) / 50.0);
+            let q = c.flow_m3_s(dp);
+            prop_assert!(q.is_finite() && q > 0.0);
+            if q > 0.1 {
+                // 50 m/s through a 2e-3 m^2 piston. Far beyond, the curve
+                // itself loses digits (`q - r(q)` cancels where q >> q_b).
+                break;
+            }
+            let back = c.pressure_drop_pa(q);
+            prop_assert!((back - dp).abs() <= 1e-9 * dp, "dp {} -> q {} -> {}", dp, q, back);
+        }
     }
 }
