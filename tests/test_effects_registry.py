@@ -64,6 +64,11 @@ def test_applicability_follows_the_traits() -> None:
     assert not LIBRARY["leakage"].applies(short)
     assert not LIBRARY["oil_compliance"].applies(short)
     assert LIBRARY["friction"].applies(short)
+    # The oil is a spring in series with the gas's whatever valve 5 does:
+    # damper-off records that move the strut fast can show it.
+    fast_off = RecordTraits(longest_s=30.0, longest_damper_on_s=0.0, switches_valves=False, damper_works=True)
+    assert LIBRARY["oil_compliance"].applies(fast_off)
+    assert not LIBRARY["heat_buildup"].applies(fast_off)
     rich = RecordTraits(longest_s=900.0, longest_damper_on_s=600.0, switches_valves=True, damper_works=True)
     assert all(e.applies(rich) for e in LIBRARY.values())
 

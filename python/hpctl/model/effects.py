@@ -326,7 +326,7 @@ LIBRARY: dict[str, Effect] = {
             "oil_compliance", "oil compressibility and hose compliance between strut and damper",
             (Param("oil_bulk_modulus_pa", 2e7, 3e9, 1e9, 3e8, (1.5e8, 8e8), log=True, null=3e9),), _oil_compliance,
             "fast motion through the damper", tests=("fast",),
-            applies=lambda t: t.damper_works and t.longest_damper_on_s > 0, max_step_s=_compliance_step,
+            applies=lambda t: t.damper_works, max_step_s=_compliance_step,
         ),
         Effect(
             "heat_buildup", "damper heat warming the oil and, slowly, the gas (lumped oil node)",
