@@ -190,19 +190,19 @@ def test_adding_oil_compliance_restarts_a_damper_fitted_without_it(seed: int, fi
     assert "static fit" not in again.message, f"FOREIGN_RIG_SEED={seed}: {again.message}"
 
 
-@pytest.mark.parametrize("seed", [1749587853, 619441309, 1])
-def test_adding_oil_compliance_reaches_the_noise_from_a_model_without_it(seed: int) -> None:
+def _reaches_the_noise_from_a_model_without_oil_compliance(seed: int) -> None:
     # The model without compliance bends its gas state and its damper to
     # stand in for it; from there the bulk modulus went to a local optimum
     # (two damper-off sines, seeds 1749587853 and 619441309: 70 and 142 x
-    # the noise). The fit also starts from scratch and keeps the better end:
+    # the noise; with the damper inverse mended in stop 32, still 60 and
+    # 140 x). The fit also starts from scratch and keeps the better end:
     # measured 1.01 x with the bulk modulus within 0.01 % on both, seed 1
     # 0.98 x. Asserted: at the noise (hpctl's ceiling) and the bulk
     # modulus within 10 % or two of its errors of the foreign truth (its
-    # value at hpctl's oil volume). Fixed draws, not random ones: on some
-    # draws the compliance's fixed simulation step (the oil's relaxation
-    # through the damper's bleed, tens of microseconds) makes one fit take
-    # minutes to a quarter of an hour (docs/foreign-rig.md).
+    # value at hpctl's oil volume). Fixed draws until stop 32: some fits
+    # took minutes to a quarter of an hour, which was the damper curve's
+    # inverse returning a wrong flow on fitted curves, not the compliance
+    # (seeds 1749587853 and 101-104 since: 8-21 s each).
     g = generate("oil_compliance", seed, tests=[t for t in sweep_tests() if t.name in ("sine_0.3hz", "sine_1hz")])
     datasets = prepare([read_record(p) for p in g.records])
     base = ("heat_transfer", "real_gas")
@@ -213,3 +213,12 @@ def test_adding_oil_compliance_reaches_the_noise_from_a_model_without_it(seed: i
     context = f"FOREIGN_RIG_SEED={seed}: {without.rms_ratio:.1f} -> {r.rms_ratio:.3f} x the noise, bulk modulus {b:.5g} +- {err:.2g} Pa against {truth:.5g}; {r.message}"
     assert r.rms_ratio <= NOISE_CEILING, context
     assert abs(b - truth) <= max(0.1 * truth, 2.0 * err), context
+
+
+@pytest.mark.parametrize("pinned", [1749587853, 619441309])
+def test_adding_oil_compliance_leaves_the_local_optimum_the_model_without_it_sits_in(pinned: int) -> None:
+    _reaches_the_noise_from_a_model_without_oil_compliance(pinned)
+
+
+def test_adding_oil_compliance_reaches_the_noise_from_a_model_without_it(seed: int) -> None:
+    _reaches_the_noise_from_a_model_without_oil_compliance(seed)
