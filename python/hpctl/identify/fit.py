@@ -106,11 +106,12 @@ class Model:
 #: ``fd_jac``). What matters to a fit is the error against the records'
 #: noise. Measured on the foreign rig's records of every library effect
 #: (seed 7, the flexible model at its start; against 1e-10): at most
-#: 0.013 of the noise (oil compliance, the slowest sine; every other
-#: record below 0.001), where 1e-6 gave 0.31. The 75-minute heat run's
-#: record takes 58,500 steps instead of 72,100 (its samples set the floor,
-#: 45,000) and its diagnosis 116 s instead of 150 s, the same verdict
-#: (scripts/bench_diagnose.py, docs/foreign-rig.md, stop 32).
+#: 0.013 of the noise (oil compliance, the slowest sine; valve switching
+#: 0.0011, every other record below 0.0002), where 1e-6 gave 0.31. The
+#: 75-minute heat run's
+#: record takes 58,500 steps instead of 72,100 (its samples set the
+#: floor, 45,000) and its diagnosis 116 s instead of 150 s, the same
+#: verdict (scripts/bench_diagnose.py, docs/foreign-rig.md, stop 32).
 FIT_RTOL = 1e-7
 
 
@@ -122,10 +123,10 @@ def _case(
     has estimated, :mod:`hpctl.identify.switching`)."""
     channels = ["time_s", "disp_m", "force_n", "p_gas_pa", "p_gas2_pa", "body_disp_m", "t_gas_k", "damper_force_n", "friction_force_n"]
     # The core's error-controlled steps (no step size to pick per model) at
-    # FIT_RTOL. The reference
-    # gas through the table: a fit is hundreds of runs, each about twice as
-    # fast so (the bundled heat run: 0.24 -> 0.11 s), the pressures within
-    # about 1 Pa of the equation's (the rigs' noise: kPa).
+    # FIT_RTOL. The reference gas through the table: a fit is hundreds of
+    # runs, each about twice as fast so (the bundled heat run: 0.24 -> 0.11
+    # s), the pressures within about 1 Pa of the equation's (the rigs'
+    # noise: kPa).
     unit = model.unit_for(d, values)
     placed = timeline(d)
     if placed is None:
