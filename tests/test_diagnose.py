@@ -55,6 +55,27 @@ def test_the_one_undeclared_effect_is_found(effect: str, seed: int) -> None:
     assert d.final.rms_ratio < 1.1
 
 
+@pytest.mark.parametrize("pinned", [143783620, 310, 105])
+def test_a_candidate_starts_again_where_the_model_it_extends_bent_a_parameter_onto_a_bound(pinned: int) -> None:
+    # Draws where the declared model puts the gas's thermal time constant
+    # on its lower bound to stand in for the oil's compliance; the
+    # screening fit warm-started from there reached a local optimum with
+    # the bulk modulus 2.2-3.9 x too stiff and sensor lag was named first
+    # (the first was a CI failure). The time constant restarted at its
+    # own start finds the truth (diagnose._try).
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.diagnose import _try
+    from hpctl.identify.fit import fit
+
+    values, records = rig_data(["oil_compliance"], np.random.default_rng(pinned))
+    declared = fit(prepare(records), SEED_MODEL)
+    assert [b.name for b in declared.at_bounds() if b.on] == ["tau_s"], declared.at_bounds()
+    c = _try(declared.datasets, declared, SEED_MODEL, ("oil_compliance",))
+    est, true = c.result.values["oil_bulk_modulus_pa"], values["oil_bulk_modulus_pa"]
+    assert abs(est / true - 1.0) < 0.01 and c.result.rms_ratio < 1.1, (est, true, c.result.rms_ratio)
+    assert abs(c.result.values["tau_s"] / values["tau_s"] - 1.0) < 0.05, (c.result.values, values)
+
+
 def test_nothing_left_when_the_declared_model_is_complete(seed: int) -> None:
     rng = np.random.default_rng(seed)
     values, records = rig_data([], rng)
