@@ -530,26 +530,32 @@ def fit(
             return least_squares(fun, start, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=budget, xtol=1e-8, ftol=ftol,
                                  callback=callback if stop is not None else None)
 
-        sol = solve(x0, max_nfev)
-        used = int(sol.nfev)
-        while sol.status > 0 and not secant.exact_at(sol.x) and used < max_nfev:
-            # Converged (by ftol, xtol or gtol) on a Broyden update: believed
-            # only once finite differences there agree. An update can make
-            # the steps short before the optimum is reached (the virtual
-            # rig's friction sweep, HPCTL_TEST_SEED=1666552740: stopped 3.1
-            # above the optimum's residual sum of squares), so the optimiser
-            # starts again from there with finite differences (no step since
-            # the last Jacobian). Where that gains less than ftol of the
-            # cost, the optimum is confirmed as a finite-difference fit would
-            # have confirmed it; its later updates are not asked again.
-            cost = float(sol.cost)
-            sol = solve(sol.x, max_nfev - used)
-            used += int(sol.nfev)
-            if cost - float(sol.cost) <= ftol * cost:
-                break
+        def solve_confirmed(start: FloatArray) -> Any:
+            sol = solve(start, max_nfev)
+            used = int(sol.nfev)
+            while sol.status > 0 and not secant.exact_at(sol.x) and used < max_nfev:
+                # Converged (by ftol, xtol or gtol) on a Broyden update:
+                # believed only once finite differences there agree. An
+                # update can make the steps short before the optimum is
+                # reached (the virtual rig's friction sweep,
+                # HPCTL_TEST_SEED=1666552740: stopped 3.1 above the
+                # optimum's residual sum of squares), so the optimiser
+                # starts again from there with finite differences (no step
+                # since the last Jacobian). Where that gains less than ftol
+                # of the cost, the optimum is confirmed as a
+                # finite-difference fit would have confirmed it; its later
+                # updates are not asked again.
+                cost = float(sol.cost)
+                sol = solve(sol.x, max_nfev - used)
+                used += int(sol.nfev)
+                if cost - float(sol.cost) <= ftol * cost:
+                    break
+            return sol
+
+        sol = solve_confirmed(x0)
         if fresh_x is not None:
             secant.forget()
-            other = solve(fresh_x, max_nfev)
+            other = solve_confirmed(fresh_x)
             if float(other.cost) < float(sol.cost):
                 sol, started = other, started + "; ended lower from scratch (every parameter at its own start, the damper at the static fit's)"
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
