@@ -18,7 +18,7 @@ from hpctl.cli._ui import FiniteFloat, Reporter, errors, finish, force_option, o
 from hpctl.data import DEMO_DIR
 from hpctl.data.output import reading
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
-from hpctl.errors import ParameterError
+from hpctl.errors import ParameterError, bad_argument
 from hpctl.identify import virtual_rig
 from hpctl.model.effects import LIBRARY, MODELS, parse_model
 from hpctl.sim import checks
@@ -28,6 +28,7 @@ from hpctl.sim import checks
 if TYPE_CHECKING:
     from hpctl.identify import diagnose
     from hpctl.identify.fit import FitResult
+    from hpctl.identify.profile import ProfileInterval
 
 
 def _records(paths: tuple[Path, ...]) -> list[RigRecord]:
@@ -87,6 +88,20 @@ def _fit_caveats(result: FitResult) -> list[Caveat]:
     return out
 
 
+def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
+    """A profile that found a lower cost than the fit's optimum."""
+    out = []
+    for iv in profiles:
+        if (b := iv.better_found) is not None:
+            out.append(Caveat(
+                Code.NOT_CONVERGED,
+                f"the profile of {iv.name} found a cost {-b.rise:.3g} lower at {b.value:.6g} than at the fit's estimate "
+                f"{iv.estimate:.6g}: the fit had not reached its optimum, and its values and errors are not the optimum's",
+                {"param": iv.name, "value": b.value, "rise": b.rise},
+            ))
+    return out
+
+
 def _bound_caveats(result: FitResult) -> list[Caveat]:
     """A fitted parameter on (or within two standard errors of) a bound of
     its fit range."""
@@ -134,8 +149,12 @@ MODEL_HELP = f"Model: {', '.join(MODELS)}, or effects separated by commas (from:
               help="Identify the damper characteristic (per valve state and direction) instead of one gain on the assumed curve, "
                    "and the friction's smoothing and Stribeck term; regularised toward the nominal values.")
 @click.option("--quiet", "-q", is_flag=True)
+@click.option("--profile", "profiled", multiple=True, metavar="PARAM",
+              help="Also a 2-sigma profile-likelihood interval of this fitted parameter (repeatable): the parameter held on "
+                   "either side, the others fitted again; a fit per point.")
 @click.option("--json", "as_json", is_flag=True, help="Print parameters and residuals as JSON.")
-def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, strict: bool, flexible: bool, quiet: bool, as_json: bool) -> None:
+def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, strict: bool, flexible: bool, profiled: tuple[str, ...],
+            quiet: bool, as_json: bool) -> None:
     """Fit the model's free parameters to one or more rig records (a
     folder stands for the records in it), with uncertainties and the
     residual per record and channel; writes fit.md, fit.json and plots.
@@ -144,25 +163,37 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
     rep = Reporter(quiet, as_json)
     with errors(rep):
         from hpctl.identify.dataset import prepare
-        from hpctl.identify.fit import at_own_noise, fit
+        from hpctl.identify.fit import at_own_noise, fit, model_for
+        from hpctl.identify.profile import profile_interval
         from hpctl.report import calibration as report
 
         effects = parse_model(model)
         recs = _records(records)
         datasets = prepare(recs)
+        # Named wrong, said before the fit, not after it.
+        fitted = [p.name for p in model_for(datasets, effects, flexible=flexible).params]
+        for name in profiled:
+            if name not in fitted:
+                raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(fitted)})")
         with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
             with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
                 # Reported and judged in its own model's weights (the
                 # input's noise carried through it, not the template's).
                 result = at_own_noise(fit(datasets, effects, flexible=flexible))
-            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result)
-            report.fit_report(result, out, caveats)
-            document = with_warnings(report.fit_summary(result), caveats)
+            profiles: list[ProfileInterval] = []
+            for name in profiled:
+                with status(rep, f"profile of {name}"):
+                    profiles.append(profile_interval(result, name))
+            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result) + _profile_caveats(profiles)
+            report.fit_report(result, out, caveats, profiles)
+            document = with_warnings(report.fit_summary(result, profiles), caveats)
             out.write_json("fit.json", document)
         if as_json:
             click.echo(json.dumps(document, indent=2))
         else:
             _print_fit(rep, result)
+            for iv in profiles:
+                rep.say(iv.describe())
             rep.say(f"Wrote fit.md, fit.json and plots to {out_dir}/")
         finish(rep, caveats, strict)
 

@@ -74,18 +74,26 @@ class Model:
     #: parameters are fitted (:func:`hpctl.identify.diagnose.diagnose`'s
     #: flexible mode). Empty: the nominal shape.
     held: Mapping[str, float] = field(default_factory=dict)
+    #: Parameters the model has, held at these values instead of fitted
+    #: (a profile of the cost along one of them,
+    #: :mod:`hpctl.identify.profile`); left out of :attr:`params`.
+    fixed: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def params(self) -> list[Param]:
         ps = model_params(self.effects) + [CHARGE]
         if self.flexible:
-            return ps + flexible_params(self.effects, self.damper_branches if self.fit_damper else (), self.valve6)
-        if self.fit_damper:
+            ps += flexible_params(self.effects, self.damper_branches if self.fit_damper else (), self.valve6)
+        elif self.fit_damper:
             ps.append(DAMPER_GAIN)
-        return ps
+        return [p for p in ps if p.name not in self.fixed]
+
+    def with_fixed(self, values: Mapping[str, float]) -> dict[str, float]:
+        """``values`` with the :attr:`fixed` ones added."""
+        return {**self.fixed, **values}
 
     def unit_for(self, d: Dataset, values: Mapping[str, float]) -> Unit:
-        values = {**self.held, **values}
+        values = {**self.held, **self.with_fixed(values)}
         base = d.base.replace(static_pressure_pa=d.base.static_pressure_pa * values.get("charge_scale", 1.0))
         if "damper_gain" in values:
             base = base.replace(damper=base.damper.scaled(values["damper_gain"]))
@@ -175,7 +183,7 @@ def simulate_all(
                 for c in LAGGED:
                     # At rest the force has no damper or friction part.
                     rest = ch[c][0] - (ch["damper_force_n"][0] + ch["friction_force_n"][0] if c == "force_n" else 0.0)
-                    ch[c] = _core.sensor_lag(d.times_s, ch[c], values["sensor_time_constant_s"], rest)
+                    ch[c] = _core.sensor_lag(d.times_s, ch[c], model.with_fixed(values)["sensor_time_constant_s"], rest)
             row.append(ch)
         out.append(row)
     return out
@@ -321,6 +329,7 @@ def fit(
     flexible: bool = False,
     input_noise: bool = True,
     held: Mapping[str, float] | None = None,
+    fixed: Mapping[str, float] | None = None,
     stop: Callable[[Mapping[str, float], float], bool] | None = None,
     ftol: float = 1e-8,
     jacobian: str = "finite_difference",
@@ -344,6 +353,11 @@ def fit(
     ``held``: values of the flexible model's shape parameters kept fixed
     (a damper characteristic and heat-transfer law identified before, see
     :attr:`Model.held`); a parameter the model fits is never held.
+
+    ``fixed``: parameters of the model held at these values, the others
+    fitted (:attr:`Model.fixed`; a profile of the cost,
+    :func:`hpctl.identify.profile.profile_interval`). The result's values
+    include them, its errors do not.
 
     ``stop``: asked after every iteration of the optimiser with the values
     there and their residual sum of squares (noise units, priors left out,
@@ -396,6 +410,14 @@ def fit(
     if held:
         fitted = {p.name for p in model.params}
         model.held = {k: v for k, v in held.items() if k not in fitted}
+    if fixed:
+        unknown = sorted(set(fixed) - {p.name for p in model.params})
+        if unknown:
+            raise bad_argument("fixed", unknown, f"parameters of the model ({', '.join(p.name for p in model.params)})")
+        for p in model.params:
+            if p.name in fixed and not p.lower <= fixed[p.name] <= p.upper:  # also refuses NaN
+                raise bad_argument(f"fixed[{p.name!r}]", fixed[p.name], f"a value in its fit range [{p.lower:g}, {p.upper:g}]")
+        model.fixed = dict(fixed)
     params = model.params
     # Priors (regularisation toward the nominal values) as extra residual
     # rows, so that the Jacobian and the covariance include them.
@@ -465,7 +487,7 @@ def fit(
         # Passed only with a ``stop``. The iterate's residuals are cached:
         # the optimiser evaluated it.
         r = evaluate(x)[0]
-        if stop is not None and stop(values_from_x(params, x), float(r @ r)):
+        if stop is not None and stop(model.with_fixed(values_from_x(params, x)), float(r @ r)):
             raise StopIteration
 
     started = ""
@@ -572,7 +594,7 @@ def fit(
             at = values_from_x(params, x)
             known = all(d.switch_leads.size for d in datasets if switch_samples(d).size)
             placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:] if known else ROUND_SPANS)
-            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, stop=stop, ftol=ftol,
+            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, fixed=fixed, stop=stop, ftol=ftol,
                          jacobian=jacobian, place_switches=False)
             # The places found at the optimum of the midway model shift the
             # optimum, which shifts the places: a switch whose segment tells
@@ -595,7 +617,7 @@ def fit(
             jmat = fd_jac(x)
     else:
         x, success, message, jmat = x0, True, "nothing to fit", np.zeros((0, 0))
-    values = values_from_x(params, x)
+    values = model.with_fixed(values_from_x(params, x))
     key = x.tobytes()
     sims = next((v for k, v in runs.values() if k == key), None) or simulate_all(model, datasets, [values])[0]
     _raise_failed(datasets, sims)
@@ -612,7 +634,7 @@ def fit(
         # linearly to no input noise).
         j_data, j_prior = jmat[:n_data], jmat[n_data:]
         step = _bounded_step(x, lo, hi, j_data, j_prior, draws.mean(axis=1))
-        moved = values_from_x(params, x + step)
+        moved = model.with_fixed(values_from_x(params, x + step))
         moved_sims = simulate_all(model, datasets, [moved])[0]
         if not any(isinstance(s, Exception) for s in moved_sims):
             moved_r = residual_vector(datasets, moved_sims, fold)

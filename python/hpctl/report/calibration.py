@@ -20,6 +20,7 @@ from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.dataset import Dataset, noise_colours  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
+from hpctl.identify.profile import ProfileInterval  # noqa: E402
 from hpctl.identify.switching import places  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
 from hpctl.report.plots import save, valve_states  # noqa: E402
@@ -174,7 +175,23 @@ def _provenance(out: OutputDir) -> list[str]:
     return [] if out.provenance is None else [provenance_line(out.provenance), ""]
 
 
-def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
+def profile_section(profiles: Sequence[ProfileInterval]) -> list[str]:
+    """The profile-likelihood intervals asked for (nothing when none were)."""
+    if not profiles:
+        return []
+    lines = ["## Profile-likelihood intervals", "",
+             "Each parameter held at values on either side, every other parameter fitted again: the interval is where the cost "
+             "(residuals in noise units and the priors) rises by sigmas^2 over the optimum. Wider than the linear one where the "
+             "parameter trades with others along a bending valley.", "",
+             "| parameter | estimate | linear interval | profile interval | fits |", "|---|---|---|---|---|"]
+    for iv in profiles:
+        lo = f"{iv.lower:.5g}" if iv.lower is not None else "fit range's end"
+        hi = f"{iv.upper:.5g}" if iv.upper is not None else "fit range's end"
+        lines.append(f"| {iv.name} | {iv.estimate:.5g} | +- {iv.sigmas * iv.stderr:.3g} ({iv.sigmas:g} sigma) | [{lo}, {hi}] | {len(iv.points)} |")
+    return [*lines, ""]
+
+
+def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = (), profiles: Sequence[ProfileInterval] = ()) -> Path:
     """fit.md with parameters, errors, plots and the warnings."""
     plots = record_plots(result, out, "fit")
     lines = [
@@ -189,6 +206,7 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
         "",
         *params_table(result),
         "",
+        *profile_section(profiles),
         "## Residual per record and channel (SI units)",
         "",
         *error_table(result),
@@ -303,7 +321,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
     return out.final("report.md")
 
 
-def fit_summary(result: FitResult) -> dict[str, Any]:
+def fit_summary(result: FitResult, profiles: Sequence[ProfileInterval] = ()) -> dict[str, Any]:
     return {
         "model": list(result.model.effects),
         "params": result.values,
@@ -314,4 +332,5 @@ def fit_summary(result: FitResult) -> dict[str, Any]:
         "switch_places": places(result.datasets),
         "noise_colour": [k.to_json() for k in noise_colours(result.datasets)],
         "channels": [vars(s) for s in result.stats],
+        "profile_intervals": [iv.to_json() for iv in profiles],
     }

@@ -1,0 +1,130 @@
+"""Profile-likelihood intervals (hpctl.identify.profile) and fits with
+parameters held (fit's ``fixed``).
+
+Where the cost is a parabola in the parameter (hp-core's virtual rig, one
+friction draw, a fit without the input noise so that its errors are the
+cost's own curvature), the likelihood-ratio interval is the linear one:
+estimate +- 2 standard errors. That is the analytic limit checked here; the
+foreign rig's friction case, where the two differ, is measured in
+docs/foreign-rig.md (stop 33).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import secrets
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from hpctl.cli import main as cli_main
+from hpctl.errors import ParameterError
+from hpctl.identify import virtual_rig
+from hpctl.identify.dataset import prepare
+from hpctl.identify.fit import FitResult, fit
+from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, profile_interval
+from hpctl.model.unit import Unit
+
+EFFECTS = ("heat_transfer", "real_gas", "friction")
+
+
+@pytest.fixture(scope="module")
+def seed() -> int:
+    return int(os.environ.get("HPCTL_TEST_SEED", secrets.randbelow(2**31)))
+
+
+@pytest.fixture(scope="module")
+def friction_fit(seed: int) -> tuple[FitResult, dict[str, float]]:
+    rng = np.random.default_rng(seed)
+    values = virtual_rig.effect_values(["friction"], rng)
+    truth = virtual_rig.truth_unit(["friction"], values, template=Unit.seed())
+    records = virtual_rig.make_records(truth, tests=virtual_rig.tests_for(["friction"]), seed=int(rng.integers(2**31)))
+    return fit(prepare(records), EFFECTS, input_noise=False), values
+
+
+@pytest.mark.parametrize("name", ["friction_coulomb_n", "tau_s", "charge_scale"])
+def test_where_the_cost_is_a_parabola_the_profile_interval_is_the_linear_one(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                          name: str, seed: int) -> None:
+    result, _ = friction_fit
+    iv = profile_interval(result, name)
+    est, se = result.values[name], result.stderr[name]
+    context = f"seed={seed} {iv.describe()} points={[(q.value, q.rise) for q in iv.points]}"
+    assert iv.lower is not None and iv.upper is not None, context
+    assert iv.lower < est < iv.upper, context
+    for limit in (iv.lower, iv.upper):
+        assert abs(abs(limit - est) / (2.0 * se) - 1.0) < 0.15, context
+    # The limits are where the cost rose by 4 (what the search aimed at),
+    # checked by a fit of this test's own at each limit.
+    for limit in (iv.lower, iv.upper):
+        held = fit(result.datasets, EFFECTS, initial=result.values, fixed={name: limit}, input_noise=False, errors=False,
+                   place_switches=False, max_nfev=300)
+        assert held.values[name] == limit and name not in held.stderr
+        assert abs(cost(held, held.values) - cost(result, result.values) - 4.0) < 2 * RISE_TOLERANCE * 4.0, context
+    assert iv.better_found is None, context
+
+
+def test_a_held_parameter_stays_where_it_is_held_and_the_fit_is_no_better(friction_fit: tuple[FitResult, dict[str, float]]) -> None:
+    result, _ = friction_fit
+    held = fit(result.datasets, EFFECTS, initial=result.values, fixed={"tau_s": 1.5 * result.values["tau_s"]}, input_noise=False)
+    assert held.values["tau_s"] == 1.5 * result.values["tau_s"]
+    assert "tau_s" not in held.stderr and "tau_s" not in {p.name for p in held.model.params}
+    assert set(held.stderr) == {p.name for p in result.model.params} - {"tau_s"}
+    assert held.rss > result.rss
+
+
+@pytest.mark.parametrize("fixed, expected", [
+    ({"friction_nope_n": 1.0}, "fixed"),
+    ({"tau_s": math.nan}, "fixed['tau_s']"),
+    ({"tau_s": 1e6}, "fixed['tau_s']"),
+    ({"tau_s": -math.inf}, "fixed['tau_s']"),
+])
+def test_a_held_parameter_the_model_does_not_have_or_out_of_its_range_is_refused(
+        friction_fit: tuple[FitResult, dict[str, float]], fixed: dict[str, float], expected: str) -> None:
+    result, _ = friction_fit
+    with pytest.raises(ParameterError) as e:
+        fit(result.datasets, EFFECTS, fixed=fixed)
+    assert e.value.parameter == expected  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("name, sigmas, expected", [("nope", 2.0, "name"), ("tau_s", 0.0, "sigmas"), ("tau_s", math.nan, "sigmas"),
+                                                    ("tau_s", 11.0, "sigmas")])
+def test_a_profile_of_a_parameter_not_fitted_or_of_no_width_is_refused(
+        friction_fit: tuple[FitResult, dict[str, float]], name: str, sigmas: float, expected: str) -> None:
+    with pytest.raises(ParameterError) as e:
+        profile_interval(friction_fit[0], name, sigmas=sigmas)
+    assert e.value.parameter == expected  # type: ignore[attr-defined]
+
+
+def test_a_profile_point_below_the_optimum_is_a_warning() -> None:
+    from hpctl.cli.calibrate import _profile_caveats
+
+    at = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, 2.2, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, -3.0, {})))
+    assert at.better_found is not None and at.better_found.value == 2.2
+    assert "WARNING" in at.describe()
+    caveats = _profile_caveats([at])
+    assert [c.code for c in caveats] == ["not_converged"] and "2.2" in caveats[0].message
+    fine = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, None, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, -0.1, {})))
+    assert fine.better_found is None and not _profile_caveats([fine])
+    assert fine.covers(1e9) and not fine.covers(1.7) and "fit range's end" in fine.describe()
+
+
+def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fitting(tmp_path: Path, seed: int) -> None:
+    runner = CliRunner()
+    rig = tmp_path / "rig"
+    r = runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
+    assert r.exit_code == 0, r.output
+    bad = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "friction_nope_n", "--out", str(tmp_path / "bad")])
+    assert bad.exit_code != 0 and "--profile" in bad.output and "friction_nope_n" in bad.output
+    assert not (tmp_path / "bad").exists()
+    out = tmp_path / "fit"
+    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "friction_coulomb_n", "--out", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "fit.json").read_text())
+    [iv] = doc["profile_intervals"]
+    assert iv["name"] == "friction_coulomb_n" and iv["lower"] < doc["params"]["friction_coulomb_n"] < iv["upper"]
+    assert len(iv["points"]) >= 2 and not iv["better_found"]
+    assert "## Profile-likelihood intervals" in (out / "fit.md").read_text()
