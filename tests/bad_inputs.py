@@ -32,6 +32,7 @@ PLACES: dict[str, str] = {
     "NEG_TIME": "a rig record, valid except that its `time_s` starts at -0.5 s",
     "MARKUP": "a rig record with `[/x]` in a `force_n` cell (rich markup that used to crash the error printer)",
     "NO_STATIC": "a rig record whose TOML has no `[static]` table",
+    "RECORD": "a valid rig record",
     "TORN": "a rig record whose CSV was rewritten after its TOML was (the pair a reader sees between the two renames of a rewrite)",
 }
 
@@ -71,6 +72,8 @@ ROWS: tuple[Row, ...] = (
     Row("hpctl fit MARKUP --out OUT", "exit 2", "line 3, column 'force_n': '[/x]' is not a number"),
     Row("hpctl fit NO_STATIC --out OUT", "exit 2", "[static]: missing table"),
     Row("hpctl fit TORN --out OUT", "exit 2", "torn.csv: does not match the csv_sha256 in torn.toml"),
+    Row("hpctl fit RECORD --profile friction_coulomb_n --out OUT", "exit 2",
+        "--profile = 'friction_coulomb_n': expected a parameter the model fits (tau_s, charge_scale)"),
     # Output folders.
     Row("hpctl simulate --test sdof-step --duration-s 1 --out USER_OUT", "exit 2",
         "would overwrite files hpctl did not write (or that changed since): summary.json; move them away, choose another --out, or pass --force"),

@@ -67,10 +67,12 @@ def _places(tmp: Path) -> Iterator[dict[str, str]]:
     rewritten.data["disp_m"] = rewritten.data["disp_m"] * 1.01
     write_record(rewritten, tmp / "torn")
     toml_path.write_text(old)
+    write_record(_record("good"), tmp / "good")
     busy = tmp / "busy_out"
     with OutputDir(busy, "rig"):
         yield {"OUT": str(out), "USER_OUT": str(user), "BUSY_OUT": str(busy), "FILE": str(file), "NEG_TIME": str(tmp / "neg_time"),
-               "MARKUP": str(tmp / "markup"), "NO_STATIC": str(tmp / "no_static"), "TORN": str(tmp / "torn")}
+               "MARKUP": str(tmp / "markup"), "NO_STATIC": str(tmp / "no_static"), "TORN": str(tmp / "torn"),
+               "RECORD": str(tmp / "good")}
 
 
 def _substitute(arg: str, values: dict[str, str]) -> str:

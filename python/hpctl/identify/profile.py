@@ -2,15 +2,15 @@
 before the data object, every other parameter fitted again at each value.
 
 The standard errors of :func:`hpctl.identify.fit.fit` come from the
-Jacobian at the optimum: the cost taken as a parabola there. Where two
-parameters trade along a bending valley that is too narrow. Measured on
-the foreign rig (docs/foreign-rig.md, stop 33): seal friction's Coulomb
-force against the flexible damper's first blow-off stage, seed 1, 265 +-
-27 N against a true 322 N, 2.1 errors off, while holding it at 322 N and
-fitting the rest again raised the cost by only 1.9 (a parabola with that
-error says 4.5). Holding the parameter at a value and fitting the others
-is what the interval here measures; it costs a fit per point, so it is
-asked for (``hpctl fit --profile``), not part of every fit.
+Jacobian at the optimum: the cost taken as a parabola there. Where
+parameters trade along a bending valley that can mislead, and it does not
+say what holds an estimate where it is. Holding the parameter at a value
+and fitting the others does: on the foreign rig (docs/foreign-rig.md,
+stop 33) seal friction's Coulomb force, seed 1, 263 +- 26 N against a true
+322 N; held at 322 N the residuals' sum of squares rose by 1.7 and the
+damper priors' by 3.0 (its orifice multipliers pulled from 6 to 21-27 x
+nominal). A point costs a fit, so the interval is asked for
+(``hpctl fit --profile``), not part of every fit.
 
 The cost is the fit's own (residuals in noise units plus its priors), the
 noise taken as known: the interval is where the cost has risen by
