@@ -128,3 +128,29 @@ def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fit
     assert iv["name"] == "friction_coulomb_n" and iv["lower"] < doc["params"]["friction_coulomb_n"] < iv["upper"]
     assert len(iv["points"]) >= 2 and not iv["better_found"]
     assert "## Profile-likelihood intervals" in (out / "fit.md").read_text()
+
+
+def test_a_point_the_model_cannot_run_at_ends_its_side_and_is_a_warning(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    # The model run failing above the estimate (as a held value at the edge
+    # of a range the core accepts could): that side's limit is not known,
+    # the other side's still is, and nothing is lost.
+    from hpctl.cli.calibrate import _profile_caveats
+    from hpctl.errors import SimulationError
+    from hpctl.identify import profile
+
+    result, _ = friction_fit
+    est = result.values["friction_coulomb_n"]
+    real_fit = fit
+
+    def failing(*args, **kwargs):  # type: ignore[no-untyped-def]
+        if kwargs["fixed"]["friction_coulomb_n"] > est:
+            raise SimulationError("record sine_1hz: the model cannot be simulated on it: (made to fail)")
+        return real_fit(*args, **kwargs)
+
+    monkeypatch.setattr(profile, "fit", failing)
+    iv = profile_interval(result, "friction_coulomb_n")
+    assert iv.upper is None and iv.lower is not None and iv.lower < est
+    assert len(iv.failed) == 1 and "upper limit is not known" in iv.failed[0] and "made to fail" in iv.failed[0]
+    assert not iv.covers(math.nan) and iv.to_json()["failed"] == list(iv.failed)
+    assert [c.code for c in _profile_caveats([iv])] == ["case_failed"]

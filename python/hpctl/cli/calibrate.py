@@ -89,9 +89,11 @@ def _fit_caveats(result: FitResult) -> list[Caveat]:
 
 
 def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
-    """A profile that found a lower cost than the fit's optimum."""
+    """A profile that found a lower cost than the fit's optimum, or a point
+    the model could not be run at."""
     out = []
     for iv in profiles:
+        out += [Caveat(Code.CASE_FAILED, f"profile of {iv.name}: {f}", {"param": iv.name}) for f in iv.failed]
         if (b := iv.better_found) is not None:
             out.append(Caveat(
                 Code.NOT_CONVERGED,
@@ -171,19 +173,22 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         recs = _records(records)
         datasets = prepare(recs)
         # Named wrong, said before the fit, not after it.
-        fitted = [p.name for p in model_for(datasets, effects, flexible=flexible).params]
+        names = [p.name for p in model_for(datasets, effects, flexible=flexible).params]
         for name in profiled:
-            if name not in fitted:
-                raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(fitted)})")
+            if name not in names:
+                raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
         with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
             with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
                 # Reported and judged in its own model's weights (the
                 # input's noise carried through it, not the template's).
-                result = at_own_noise(fit(datasets, effects, flexible=flexible))
+                fitted = fit(datasets, effects, flexible=flexible)
+                result = at_own_noise(fitted)
             profiles: list[ProfileInterval] = []
             for name in profiled:
+                # In the fit's own weights, where its estimate is the
+                # optimum (the report's are the fitted model's, above).
                 with status(rep, f"profile of {name}"):
-                    profiles.append(profile_interval(result, name))
+                    profiles.append(profile_interval(fitted, name))
             caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result) + _profile_caveats(profiles)
             report.fit_report(result, out, caveats, profiles)
             document = with_warnings(report.fit_summary(result, profiles), caveats)

@@ -27,7 +27,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
-from hpctl.errors import bad_argument
+from hpctl.errors import HpctlError, bad_argument
 from hpctl.identify.fit import FitResult, fit
 from hpctl.model.effects import Param
 
@@ -58,8 +58,9 @@ class ProfilePoint:
 @dataclass(frozen=True)
 class ProfileInterval:
     """Where the cost rises by ``sigmas**2`` on either side of the
-    estimate. A limit is None where the parameter's fit range ends first:
-    the data do not bound it there."""
+    estimate. A limit is None where the parameter's fit range ends first
+    (the data do not bound it there) or where the model could not be run
+    (:attr:`failed` says so)."""
 
     name: str
     estimate: float
@@ -68,6 +69,9 @@ class ProfileInterval:
     lower: float | None
     upper: float | None
     points: tuple[ProfilePoint, ...]
+    #: Points the model could not be run at (each ended its side, whose
+    #: limit is then None: not known, not unbounded).
+    failed: tuple[str, ...] = ()
 
     @property
     def lower_or_bound(self) -> float:
@@ -91,7 +95,7 @@ class ProfileInterval:
     def to_json(self) -> dict[str, object]:
         return {"name": self.name, "estimate": self.estimate, "stderr": self.stderr, "sigmas": self.sigmas,
                 "lower": self.lower, "upper": self.upper, "better_found": self.better_found is not None,
-                "points": [{"value": q.value, "rise": q.rise} for q in self.points]}
+                "points": [{"value": q.value, "rise": q.rise} for q in self.points], "failed": list(self.failed)}
 
     def describe(self) -> str:
         lo = f"{self.lower:.6g}" if self.lower is not None else "(fit range's end)"
@@ -100,6 +104,8 @@ class ProfileInterval:
                 f"(linear: +- {self.sigmas * self.stderr:.3g}; {len(self.points)} fits)")
         if (b := self.better_found) is not None:
             text += f"; WARNING: a lower cost at {b.value:.6g} ({b.rise:+.3g}): the fit had not reached its optimum"
+        for f in self.failed:
+            text += f"; WARNING: {f}"
         return text
 
 
@@ -145,6 +151,7 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
     target = sigmas**2
     m = result.model
     points: list[ProfilePoint] = []
+    failed: list[str] = []
 
     def at(x: float, start: Mapping[str, float]) -> ProfilePoint:
         value = p.from_x(x)
@@ -161,7 +168,12 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
         start: Mapping[str, float] = result.values
         for _ in range(MAX_FITS_PER_SIDE):
             clipped = min(max(x, lo_x), hi_x)
-            pt = at(clipped, start)
+            try:
+                pt = at(clipped, start)
+            except HpctlError as e:
+                failed.append(f"the model could not be run with {name} = {p.from_x(clipped):.6g}, so the interval's "
+                              f"{'upper' if direction > 0 else 'lower'} limit is not known: {e}")
+                return None
             start = pt.values
             t = math.sqrt(max(pt.rise, 0.0))
             if abs(pt.rise - target) <= RISE_TOLERANCE * target:
@@ -192,4 +204,4 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
 
     lower = side(-1.0)
     upper = side(1.0)
-    return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(points, key=lambda q: q.value)))
+    return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(points, key=lambda q: q.value)), tuple(failed))
