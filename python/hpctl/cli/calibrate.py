@@ -98,7 +98,8 @@ def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
             out.append(Caveat(
                 Code.NOT_CONVERGED,
                 f"the profile of {iv.name} found a cost {-b.rise:.3g} lower at {b.value:.6g} than at the fit's estimate "
-                f"{iv.estimate:.6g}: the fit had not reached its optimum, and its values and errors are not the optimum's",
+                f"{iv.estimate:.6g}: the estimate is not the cost's minimum (the fit stopped short, or its input-noise bias "
+                f"correction moved it further), and its values and errors are not the minimum's",
                 {"param": iv.name, "value": b.value, "rise": b.rise},
             ))
     return out

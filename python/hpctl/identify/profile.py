@@ -86,9 +86,11 @@ class ProfileInterval:
 
     @property
     def better_found(self) -> ProfilePoint | None:
-        """A point whose cost is below the optimum's by more than the
-        target's tolerance: the fit had not reached its optimum, and the
-        interval is about a point that is not one."""
+        """A point whose cost is below the estimate's by more than the
+        target's tolerance: the estimate is not the cost's minimum (the fit
+        stopped short of it, or its input-noise bias correction moved it
+        further than that), and the interval is about a point that is not
+        one."""
         low = min(self.points, key=lambda p: p.rise, default=None)
         return low if low is not None and low.rise < -RISE_TOLERANCE * self.sigmas**2 else None
 
@@ -103,7 +105,7 @@ class ProfileInterval:
         text = (f"{self.name}: {self.estimate:.6g}, {self.sigmas:g}-sigma profile interval [{lo}, {hi}] "
                 f"(linear: +- {self.sigmas * self.stderr:.3g}; {len(self.points)} fits)")
         if (b := self.better_found) is not None:
-            text += f"; WARNING: a lower cost at {b.value:.6g} ({b.rise:+.3g}): the fit had not reached its optimum"
+            text += f"; WARNING: a lower cost at {b.value:.6g} ({b.rise:+.3g}): the estimate is not the cost's minimum"
         for f in self.failed:
             text += f"; WARNING: {f}"
         return text
