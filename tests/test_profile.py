@@ -99,7 +99,16 @@ def test_a_profile_of_a_parameter_not_fitted_or_of_no_width_is_refused(
     assert e.value.parameter == expected  # type: ignore[attr-defined]
 
 
-def test_a_profile_point_below_the_optimum_is_a_warning() -> None:
+def test_a_profile_of_a_fit_without_errors_is_refused(friction_fit: tuple[FitResult, dict[str, float]]) -> None:
+    # The errors set the first step; a fit without them has none to give.
+    result = friction_fit[0]
+    bare = fit(result.datasets, EFFECTS, initial=result.values, input_noise=False, errors=False)
+    with pytest.raises(ParameterError) as e:
+        profile_interval(bare, "tau_s")
+    assert e.value.parameter == "result"  # type: ignore[attr-defined]
+
+
+def test_a_profile_point_below_the_optimum_or_stopped_short_is_a_warning() -> None:
     from hpctl.cli.calibrate import _profile_caveats
 
     at = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, 2.2, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, -3.0, {})))
@@ -109,6 +118,9 @@ def test_a_profile_point_below_the_optimum_is_a_warning() -> None:
     assert [c.code for c in caveats] == ["not_converged"] and "2.2" in caveats[0].message
     fine = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, None, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, -0.1, {})))
     assert fine.better_found is None and not _profile_caveats([fine])
+    short = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, 2.2, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, 4.1, {}, converged=False)))
+    assert short.unconverged == (short.points[1],) and "too narrow" in short.describe()
+    assert [c.code for c in _profile_caveats([short])] == ["not_converged"] and short.to_json()["points"][1]["converged"] is False
     assert fine.covers(1e9) and not fine.covers(1.7) and "fit range's end" in fine.describe()
 
 

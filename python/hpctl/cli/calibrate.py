@@ -89,11 +89,18 @@ def _fit_caveats(result: FitResult) -> list[Caveat]:
 
 
 def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
-    """A profile that found a lower cost than the fit's optimum, or a point
-    the model could not be run at."""
+    """A profile that found a lower cost than the fit's optimum, a point the
+    model could not be run at, or a point whose fit stopped short."""
     out = []
     for iv in profiles:
         out += [Caveat(Code.CASE_FAILED, f"profile of {iv.name}: {f}", {"param": iv.name}) for f in iv.failed]
+        if bad := iv.unconverged:
+            out.append(Caveat(
+                Code.NOT_CONVERGED,
+                f"profile of {iv.name}: {len(bad)} of {len(iv.points)} fits stopped at their evaluation limit "
+                f"(at {', '.join(f'{q.value:.6g}' for q in bad)}): their cost rises may be too high and the interval too narrow",
+                {"param": iv.name, "values": [q.value for q in bad]},
+            ))
         if (b := iv.better_found) is not None:
             out.append(Caveat(
                 Code.NOT_CONVERGED,

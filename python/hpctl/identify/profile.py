@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from typing import TypedDict
 
 from hpctl.errors import HpctlError, bad_argument
 from hpctl.identify.fit import FitResult, fit
@@ -44,6 +45,26 @@ POINT_MAX_NFEV = 300
 RISE_TOLERANCE = 0.1
 
 
+class ProfilePointJson(TypedDict):
+    value: float
+    rise: float
+    converged: bool
+
+
+class ProfileIntervalJson(TypedDict):
+    """``fit.json``'s ``profile_intervals`` entries."""
+
+    name: str
+    estimate: float
+    stderr: float
+    sigmas: float
+    lower: float | None
+    upper: float | None
+    better_found: bool
+    points: list[ProfilePointJson]
+    failed: list[str]
+
+
 @dataclass(frozen=True)
 class ProfilePoint:
     """The model fitted with the parameter held at ``value``."""
@@ -53,6 +74,9 @@ class ProfilePoint:
     rise: float
     #: The others' values there.
     values: Mapping[str, float]
+    #: Whether that fit converged; one stopped at its evaluation limit can
+    #: overstate the rise, and so narrow the interval.
+    converged: bool = True
 
 
 @dataclass(frozen=True)
@@ -94,10 +118,15 @@ class ProfileInterval:
         low = min(self.points, key=lambda p: p.rise, default=None)
         return low if low is not None and low.rise < -RISE_TOLERANCE * self.sigmas**2 else None
 
-    def to_json(self) -> dict[str, object]:
+    @property
+    def unconverged(self) -> tuple[ProfilePoint, ...]:
+        """The points whose fit stopped short (see :attr:`ProfilePoint.converged`)."""
+        return tuple(q for q in self.points if not q.converged)
+
+    def to_json(self) -> ProfileIntervalJson:
         return {"name": self.name, "estimate": self.estimate, "stderr": self.stderr, "sigmas": self.sigmas,
                 "lower": self.lower, "upper": self.upper, "better_found": self.better_found is not None,
-                "points": [{"value": q.value, "rise": q.rise} for q in self.points], "failed": list(self.failed)}
+                "points": [ProfilePointJson(value=q.value, rise=q.rise, converged=q.converged) for q in self.points], "failed": list(self.failed)}
 
     def describe(self) -> str:
         lo = f"{self.lower:.6g}" if self.lower is not None else "(fit range's end)"
@@ -106,6 +135,8 @@ class ProfileInterval:
                 f"(linear: +- {self.sigmas * self.stderr:.3g}; {len(self.points)} fits)")
         if (b := self.better_found) is not None:
             text += f"; WARNING: a lower cost at {b.value:.6g} ({b.rise:+.3g}): the estimate is not the cost's minimum"
+        if bad := self.unconverged:
+            text += f"; WARNING: {len(bad)} of {len(self.points)} fits stopped at their evaluation limit (the interval may be too narrow)"
         for f in self.failed:
             text += f"; WARNING: {f}"
         return text
@@ -159,7 +190,7 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
         value = p.from_x(x)
         r = fit(result.datasets, m.effects, initial=start, fit_damper=m.fit_damper, flexible=m.flexible, held=m.held or None,
                 fixed={**m.fixed, name: value}, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
-        pt = ProfilePoint(value, cost(r, r.values) - base, r.values)
+        pt = ProfilePoint(value, cost(r, r.values) - base, r.values, r.success)
         points.append(pt)
         return pt
 
