@@ -97,16 +97,8 @@ class ProfileInterval:
     #: limit is then None: not known, not unbounded).
     failed: tuple[str, ...] = ()
 
-    @property
-    def lower_or_bound(self) -> float:
-        return self.lower if self.lower is not None else -math.inf
-
-    @property
-    def upper_or_bound(self) -> float:
-        return self.upper if self.upper is not None else math.inf
-
     def covers(self, value: float) -> bool:
-        return self.lower_or_bound <= value <= self.upper_or_bound
+        return (self.lower is None or self.lower <= value) and (self.upper is None or value <= self.upper)
 
     @property
     def better_found(self) -> ProfilePoint | None:
