@@ -576,13 +576,18 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
     # left 7.1 x the noise (the large accumulator's pressure 17-26 x). With
     # the wall's heat capacity fitted (seeds 7, 8, 9: 7,598 / 3,683 / 8,177
     # against 7,582 / 3,673 / 8,152 J/K) the residual is at the noise.
-    # Neither the oil's heat capacity nor the wall-to-oil time constant is
-    # asserted: the fit sees the oil only through the gas (t_oil_k is not a fitted channel). Measured
-    # on seeds 7, 8, 9 with the oil's constant 3,000 s: oil -3.9, +3.2,
-    # -24 %; with the seed's dT^0.48 (the foreign rig's law) and the oil and
-    # wall exchanging heat both ways: +6.9 +- 0.4, +33 +- 12, +1.4 +- 32 %,
-    # wall-to-oil -37 +- 8, -46 +- 15, -4 +- 40 %: the oil is barely seen
-    # through a wall the gas mostly warms, and its errors do not say so.
+    # The fit sees the oil only through the gas (t_oil_k is not a fitted
+    # channel). With the wall's time constant to ambient held at the seed's
+    # 20,000 s (the foreign rig draws 12,000-30,000 s) the oil's heat
+    # capacity came out +6.7 +- 0.5 % (12.8 errors) and +33 +- 12 % on seeds
+    # 7 and 8; fitted (WALL_SHAPE, a prior on the seed's value) the oil is
+    # within its errors on seeds 7-12 and 100 (z +0.87, +0.23, +0.02, -0.80,
+    # -0.77, -1.48, +0.59), the wall to ambient mostly its prior's. The
+    # wall-to-oil time constant is not asserted: -33, -33, -3, -33, -31,
+    # -58, -14 % on those seeds (z down to -3.7). At the truth hpctl's
+    # model reproduces the foreign wall, gas and oil temperatures within
+    # 0.01 K (seed 7), and on noise-free records the fit lands +6 %; the
+    # bias comes with the noise (docs/foreign-rig.md, stop 34).
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
     g = generate("heat_buildup", seed, tests=[*[t for t in sweep_tests() if t.name in SHORT], *extra_tests()["heat"]])
     datasets = prepare([read_record(p) for p in g.records])
@@ -593,6 +598,8 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
                f"{r.values['oil_heat_capacity_j_per_k']:.5g} against {truth['oil_heat_capacity_j_per_k']:.5g} J/K, RMS/noise {r.rms_ratio:.3f}; "
                + ", ".join(f"{s.record}/{s.channel} {s.rms / s.noise:.2f}" for s in r.stats))
     assert abs(c / truth["wall_heat_capacity_j_per_k"] - 1.0) <= max(0.1, 2.0 * sc / c), context
+    oil, so = r.values["oil_heat_capacity_j_per_k"], r.stderr["oil_heat_capacity_j_per_k"]
+    assert abs(oil - truth["oil_heat_capacity_j_per_k"]) <= max(0.1 * truth["oil_heat_capacity_j_per_k"], 2.0 * so), context
     # The residual at the noise as the issue puts it (at most 1.3 x), and
     # the heat run's every channel (seeds 7-10, 100, 106, 109, 1942323016:
     # pooled 0.96-1.08, the heat run's channels 0.96-1.24). The heat run

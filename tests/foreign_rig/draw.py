@@ -199,9 +199,11 @@ def _apply_effect(u: Unit, effect: str | None, rng: np.random.Generator) -> tupl
     if effect == "heat_buildup":
         h = HeatBuildup(wall_heat_capacity_j_per_k=_log_uniform(rng, 3e3, 1e4), wall_to_oil_tau_s=_log_uniform(rng, 2500.0, 8000.0),
                         wall_to_ambient_tau_s=_log_uniform(rng, 1.2e4, 3e4))
+        # The wall's time constant to ambient is c_w / G_a here and in hp-core
+        # (hpctl's flexible model fits it).
         hp = {"oil_heat_capacity_j_per_k": u.oil_heat_capacity_j_per_k, "wall_to_oil_tau_s": h.wall_to_oil_tau_s,
-              "wall_heat_capacity_j_per_k": h.wall_heat_capacity_j_per_k}
-        fp = {"wall_heat_capacity_j_per_k": h.wall_heat_capacity_j_per_k, "wall_to_ambient_tau_s": h.wall_to_ambient_tau_s,
+              "wall_heat_capacity_j_per_k": h.wall_heat_capacity_j_per_k, "wall_to_ambient_tau_s": h.wall_to_ambient_tau_s}
+        fp = {"wall_heat_capacity_j_per_k": h.wall_heat_capacity_j_per_k,
               "oil_to_ambient_tau_s": f"{u.oil_to_ambient_tau_100k_s} s at 100 K, as dT^-{u.oil_to_ambient_exponent}"}
         return u.with_effects(heat_buildup=h), hp, fp
     if effect == "leakage":
