@@ -26,7 +26,7 @@ from hpctl.errors import ParameterError
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
-from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, profile_interval
+from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, profile_interval, profile_point
 from hpctl.model.unit import Unit
 
 EFFECTS = ("heat_transfer", "real_gas", "friction")
@@ -97,6 +97,30 @@ def test_a_profile_of_a_parameter_not_fitted_or_of_no_width_is_refused(
     with pytest.raises(ParameterError) as e:
         profile_interval(friction_fit[0], name, sigmas=sigmas)
     assert e.value.parameter == expected  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("name, value, expected", [("nope", 1.0, "name"), ("tau_s", math.nan, "value"), ("tau_s", math.inf, "value"),
+                                                   ("tau_s", 1e6, "value"), ("tau_s", -1.0, "value")])
+def test_a_profile_point_of_a_parameter_not_fitted_or_outside_its_range_is_refused(
+        friction_fit: tuple[FitResult, dict[str, float]], name: str, value: float, expected: str) -> None:
+    with pytest.raises(ParameterError) as e:
+        profile_point(friction_fit[0], name, value)
+    assert e.value.parameter == expected  # type: ignore[attr-defined]
+
+
+def test_a_profile_point_is_the_intervals_own(friction_fit: tuple[FitResult, dict[str, float]], seed: int) -> None:
+    # One point asked for alone rises as the interval's search found at the
+    # same value (the same refit, warm from the estimate instead of from
+    # the point before): 4 at the limit, and a value between the limits
+    # less than that.
+    result, _ = friction_fit
+    iv = profile_interval(result, "tau_s")
+    assert iv.lower is not None and iv.upper is not None
+    at_limit = profile_point(result, "tau_s", iv.upper)
+    inside = profile_point(result, "tau_s", 0.5 * (result.values["tau_s"] + iv.upper))
+    context = f"seed={seed} {iv.describe()} rise at the limit {at_limit.rise}, halfway {inside.rise}"
+    assert at_limit.value == iv.upper and at_limit.converged and abs(at_limit.rise - 4.0) < 2 * RISE_TOLERANCE * 4.0, context
+    assert 0.0 < inside.rise < at_limit.rise, context
 
 
 def test_a_profile_of_a_fit_without_errors_is_refused(friction_fit: tuple[FitResult, dict[str, float]]) -> None:

@@ -148,6 +148,34 @@ def _fixed_params(result: FitResult) -> list[Param]:
     return [p for p in replace(result.model, fixed={}).params if p.name in result.model.fixed]
 
 
+def _param(result: FitResult, name: str) -> Param:
+    params = {p.name: p for p in result.model.params}
+    if name not in params:
+        raise bad_argument("name", name, f"a parameter the model fitted ({', '.join(params)})")
+    return params[name]
+
+
+def _point(result: FitResult, name: str, value: float, start: Mapping[str, float], base: float) -> ProfilePoint:
+    m = result.model
+    r = fit(result.datasets, m.effects, initial=start, fit_damper=m.fit_damper, flexible=m.flexible, held=m.held or None,
+            fixed={**m.fixed, name: value}, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
+    return ProfilePoint(value, cost(r, r.values) - base, r.values, r.success)
+
+
+def profile_point(result: FitResult, name: str, value: float) -> ProfilePoint:
+    """One point of the profile of ``name``: the model fitted again with
+    it held at ``value`` (the others warm from ``result``), and the rise
+    of the fit's cost over ``result``'s. ``value`` lies inside the
+    ``sigmas`` profile-likelihood interval when the rise is below
+    ``sigmas**2`` (one fit instead of the interval's several: to ask
+    whether a value, a specification or a rig's truth, is consistent with
+    the records)."""
+    p = _param(result, name)
+    if not (math.isfinite(value) and p.lower <= value <= p.upper):
+        raise bad_argument("value", value, f"a value of {name} inside its fit range [{p.lower:g}, {p.upper:g}]")
+    return _point(result, name, value, result.values, cost(result, result.values))
+
+
 def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> ProfileInterval:
     """The ``sigmas`` profile-likelihood interval of the parameter ``name``
     of the fitted ``result`` (a fit with its errors: they set the first
@@ -162,10 +190,7 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
     ``sigmas**2``, at most :data:`MAX_FITS_PER_SIDE` fits."""
     if not (math.isfinite(sigmas) and 0.0 < sigmas <= 10.0):
         raise bad_argument("sigmas", sigmas, "a number of standard errors in (0, 10]")
-    params = {p.name: p for p in result.model.params}
-    if name not in params:
-        raise bad_argument("name", name, f"a parameter the model fitted ({', '.join(params)})")
-    p = params[name]
+    p = _param(result, name)
     est, se = result.values[name], result.stderr.get(name, math.nan)
     if not (math.isfinite(se) and se > 0.0):
         raise bad_argument("result", f"{name} +- {se}", "a fit with a finite, positive standard error for the parameter")
@@ -174,15 +199,11 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
     lo_x, hi_x = p.x_bounds()
     base = cost(result, result.values)
     target = sigmas**2
-    m = result.model
     points: list[ProfilePoint] = []
     failed: list[str] = []
 
     def at(x: float, start: Mapping[str, float]) -> ProfilePoint:
-        value = p.from_x(x)
-        r = fit(result.datasets, m.effects, initial=start, fit_damper=m.fit_damper, flexible=m.flexible, held=m.held or None,
-                fixed={**m.fixed, name: value}, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
-        pt = ProfilePoint(value, cost(r, r.values) - base, r.values, r.success)
+        pt = _point(result, name, p.from_x(x), start, base)
         points.append(pt)
         return pt
 
