@@ -75,6 +75,20 @@ def test_fit_prints_parameters_with_uncertainty(leaky_rig: Path, tmp_path: Path)
     assert s["hpctl"]["command"] in (tmp_path / "fit.md").read_text()
 
 
+def test_a_fit_that_runs_out_of_evaluations_says_so_and_how_to_go_on(leaky_rig: Path, tmp_path: Path) -> None:
+    # One evaluation cannot converge: the fit is still written, with a
+    # not_converged warning naming the budget; --strict makes it exit 3.
+    recs = [str(p) for p in sorted(leaky_rig.glob("*.toml"))]
+    code, out, err = hpctl("fit", *recs, "--model", "seed,leakage", "--max-evaluations", "1", "--out", str(tmp_path / "a"), "--json", "--quiet")
+    assert code == 0, err
+    s = json.loads(out)
+    warned = [w for w in s["warnings"] if w["code"] == "not_converged"]
+    assert s["converged"] is False and len(warned) == 1, s["warnings"]
+    assert "--max-evaluations above 1" in warned[0]["message"] and warned[0]["details"]["max_evaluations"] == 1, warned
+    code, _, err = hpctl("fit", *recs, "--model", "seed,leakage", "--max-evaluations", "1", "--out", str(tmp_path / "b"), "--strict", "--quiet")
+    assert code == 3 and "not_converged" in err, err
+
+
 def test_list_effects_names_the_library() -> None:
     code, out, _ = hpctl("diagnose", "--list-effects", "--json")
     assert code == 0 and set(json.loads(out)) == set(LIBRARY)
@@ -99,6 +113,8 @@ def test_demo_tells_the_whole_story(tmp_path: Path) -> None:
         (["diagnose"], "give at least one rig record"),
         (["rig", "--set", "warp_factor=9"], "expected PARAM=VALUE"),
         (["rig", "--set", "leak_time_constant_s=fast"], "is not a number"),
+        (["fit", "--max-evaluations", "0"], "0 is not in the range 1<=x<=100000"),
+        (["fit", "--max-evaluations", "2.5"], "'2.5' is not a valid integer"),
     ],
 )
 def test_bad_input_exits_2(tmp_path: Path, args: list[str], message: str) -> None:

@@ -157,3 +157,13 @@ def test_a_fit_refuses_a_tolerance_outside_its_range(ftol: float) -> None:
     with pytest.raises(ParameterError, match="ftol") as e:
         fit(datasets, SEED_MODEL, input_noise=False, ftol=ftol)
     assert isinstance(e.value, ValueError)
+
+
+@pytest.mark.parametrize("max_nfev", [0, -5, 100_001, 2.5, True, float("nan")])
+def test_a_fit_refuses_an_evaluation_budget_outside_its_range(max_nfev: object) -> None:
+    from hpctl.errors import ParameterError
+
+    datasets, _ = complete_model_data(1)
+    with pytest.raises(ParameterError, match="max_nfev") as e:
+        fit(datasets, SEED_MODEL, input_noise=False, max_nfev=max_nfev)  # type: ignore[arg-type]
+    assert isinstance(e.value, ValueError) and e.value.parameter == "max_nfev"  # type: ignore[attr-defined]

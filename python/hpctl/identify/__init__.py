@@ -5,3 +5,16 @@
 
 Depends on :mod:`hpctl.sim`, :mod:`hpctl.model` and :mod:`hpctl.data`.
 """
+
+# Here, not in fit.py, so that the command line can show them without
+# importing SciPy at start-up.
+
+#: The optimiser's default budget of cost evaluations (scipy's ``max_nfev``;
+#: a Jacobian by finite differences is not counted in it). Enough for the
+#: bundled campaign and the foreign rig's sweeps; a flexible heat
+#: build-up fit can need more (foreign rig seed 10: stopped at 60 with its
+#: cost 37 above where 300 took it, docs/foreign-rig.md stop 34): a fit
+#: that stops on it says so (``success`` False).
+MAX_NFEV = 60
+#: The largest budget :func:`hpctl.identify.fit.fit` accepts.
+MAX_NFEV_LIMIT = 100_000

@@ -23,6 +23,7 @@ from scipy.optimize import least_squares
 from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
+from hpctl.identify import MAX_NFEV, MAX_NFEV_LIMIT
 from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STATIC_TERMS, static_damper_values
 from hpctl.identify.dataset import (
     Dataset,
@@ -121,6 +122,7 @@ class Model:
 #: floor, 45,000) and its diagnosis 116 s instead of 150 s, the same
 #: verdict (scripts/bench_diagnose.py, docs/foreign-rig.md, stop 32).
 FIT_RTOL = 1e-7
+
 
 
 def _case(
@@ -324,7 +326,7 @@ def fit(
     *,
     initial: Mapping[str, float] | None = None,
     fit_damper: bool | None = None,
-    max_nfev: int = 60,
+    max_nfev: int = MAX_NFEV,
     fold: int | None = None,
     flexible: bool = False,
     input_noise: bool = True,
@@ -404,6 +406,8 @@ def fit(
     (midway where none is given)."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
         raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
+    if isinstance(max_nfev, bool) or not isinstance(max_nfev, int) or not 1 <= max_nfev <= MAX_NFEV_LIMIT:
+        raise bad_argument("max_nfev", max_nfev, f"a whole number of cost evaluations in [1, {MAX_NFEV_LIMIT}]")
     if jacobian not in JACOBIANS:
         raise bad_argument("jacobian", jacobian, f"one of {', '.join(JACOBIANS)}")
     model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
