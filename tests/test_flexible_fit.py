@@ -25,6 +25,7 @@ from hpctl.data.records import read_record
 from hpctl.identify.dataset import _drive, input_disp_m, prepare
 from hpctl.identify.diagnose import NOISE_CEILING
 from hpctl.identify.fit import FitResult, damper_branches, fit, simulate_all
+from hpctl.identify.profile import profile_point
 from hpctl.model.effects import (
     CORE_RANGES,
     DAMPER_BRANCHES,
@@ -583,11 +584,13 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
     # 7 and 8; fitted (WALL_SHAPE, a prior on the seed's value) the oil is
     # within its errors on seeds 7-12 and 100 (z +0.87, +0.23, +0.02, -0.80,
     # -0.77, -1.48, +0.59), the wall to ambient mostly its prior's. The
-    # wall-to-oil time constant is not asserted: -33, -33, -3, -33, -31,
-    # -58, -14 % on those seeds (z down to -3.7). At the truth hpctl's
-    # model reproduces the foreign wall, gas and oil temperatures within
-    # 0.01 K (seed 7), and on noise-free records the fit lands +6 %; the
-    # bias comes with the noise (docs/foreign-rig.md, stop 34).
+    # wall-to-oil time constant's linear errors do not cover the truth
+    # (-33, -33, -3, -33, -31, -58, -14 % on those seeds, z down to -3.7):
+    # the valley bends (the wall's loss to the oil and to ambient trade, the
+    # prior on the ambient side bends it). At the truth hpctl's model
+    # reproduces the foreign wall, gas and oil temperatures within 0.01 K
+    # (seed 7); the profile interval covers it (below; docs/foreign-rig.md,
+    # stop 34).
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
     g = generate("heat_buildup", seed, tests=[*[t for t in sweep_tests() if t.name in SHORT], *extra_tests()["heat"]])
     datasets = prepare([read_record(p) for p in g.records])
@@ -600,6 +603,15 @@ def test_flexible_model_warms_the_gas_wall_with_the_gas_heat() -> None:
     assert abs(c / truth["wall_heat_capacity_j_per_k"] - 1.0) <= max(0.1, 2.0 * sc / c), context
     oil, so = r.values["oil_heat_capacity_j_per_k"], r.stderr["oil_heat_capacity_j_per_k"]
     assert abs(oil - truth["oil_heat_capacity_j_per_k"]) <= max(0.1 * truth["oil_heat_capacity_j_per_k"], 2.0 * so), context
+    # The wall-to-oil time constant's honest band is its profile: the cost
+    # with it held at the truth (the rest fitted again) rose by 1.1, 1.1 and
+    # 1.6 on seeds 7, 8 and 12 (linear z -2.25, -0.98, -3.76), 4.8 on seed 8
+    # from a fit stopped at its budget; at most 9, the three-sigma interval
+    # (an honest one misses 0.3 % of the draws, a two-sigma one 5 %: a
+    # test on one draw per run would fail one CI run in twenty).
+    tau = profile_point(r, "wall_to_oil_tau_s", truth["wall_to_oil_tau_s"])
+    assert tau.rise <= 9.0, (f"wall-to-oil {r.values['wall_to_oil_tau_s']:.5g} +- {r.stderr['wall_to_oil_tau_s']:.3g} against "
+                             f"{truth['wall_to_oil_tau_s']:.5g} s: the cost rose {tau.rise:.3g} there; {context}")
     # The residual at the noise as the issue puts it (at most 1.3 x), and
     # the heat run's every channel (seeds 7-10, 100, 106, 109, 1942323016:
     # pooled 0.96-1.08, the heat run's channels 0.96-1.24). The heat run
