@@ -28,6 +28,7 @@ from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
 from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, profile_interval, profile_point
 from hpctl.model.unit import Unit
+from hpctl.report.calibration import LINEAR_ERRORS
 
 EFFECTS = ("heat_transfer", "real_gas", "friction")
 
@@ -163,7 +164,8 @@ def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fit
     [iv] = doc["profile_intervals"]
     assert iv["name"] == "friction_coulomb_n" and iv["lower"] < doc["params"]["friction_coulomb_n"] < iv["upper"]
     assert len(iv["points"]) >= 2 and not iv["better_found"]
-    assert "## Profile-likelihood intervals" in (out / "fit.md").read_text()
+    md = (out / "fit.md").read_text()
+    assert "## Profile-likelihood intervals" in md and LINEAR_ERRORS in md
 
 
 def test_a_point_the_model_cannot_run_at_ends_its_side_and_is_a_warning(friction_fit: tuple[FitResult, dict[str, float]],

@@ -191,6 +191,13 @@ def profile_section(profiles: Sequence[ProfileInterval]) -> list[str]:
     return [*lines, ""]
 
 
+#: What the standard errors are, said under every parameter table of fit.md.
+LINEAR_ERRORS = ("Standard errors are linearised at the estimate. Where parameters trade along a bent valley they understate "
+                 "the uncertainty (measured on the foreign rig: heat build-up's wall-to-oil time constant, its two-error band "
+                 "a quarter of the profile's; seal friction's Coulomb force against the flexible damper's first blow-off): "
+                 "`--profile NAME` gives the profile-likelihood interval.")
+
+
 def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = (), profiles: Sequence[ProfileInterval] = ()) -> Path:
     """fit.md with parameters, errors, plots and the warnings."""
     plots = record_plots(result, out, "fit")
@@ -205,6 +212,8 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
         "## Parameters",
         "",
         *params_table(result),
+        "",
+        LINEAR_ERRORS,
         "",
         *profile_section(profiles),
         "## Residual per record and channel (SI units)",
