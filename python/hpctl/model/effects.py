@@ -241,12 +241,12 @@ def _oil_compliance(u: Unit, p: Mapping[str, float]) -> Unit:
 
 
 def _heat_buildup(u: Unit, p: Mapping[str, float]) -> Unit:
-    # The oil's and the wall's coupling to ambient are the seed's (measured
-    # after its heat run: 3,000 s at 100 K, 6,500 s at 20 K); the fit
-    # identifies the oil's heat capacity and how fast the oil heats the gas
-    # wall.
-    # The flexible model's wall (WALL_SHAPE) is warmed by the gas's heat;
-    # otherwise the seed's wall, which the gas cannot warm.
+    # The oil's coupling to ambient is the seed's (measured after its heat
+    # run: 3,000 s at 100 K, 6,500 s at 20 K); the fit identifies the oil's
+    # heat capacity and how fast the oil heats the gas wall.
+    # The flexible model's wall (WALL_SHAPE) is warmed by the gas's heat and
+    # its coupling to ambient is fitted; otherwise the seed's wall, which
+    # the gas cannot warm, at the seed's assumed 20,000 s to ambient.
     seed = _core.seed_oil_node()
     return u.with_effects(oil_node=OilNode(p["oil_heat_capacity_j_per_k"], seed["oil_to_ambient_tau_s"], p["wall_to_oil_tau_s"],
                                            p.get("wall_to_ambient_tau_s", seed["wall_to_ambient_tau_s"]),
@@ -511,7 +511,7 @@ LEAKAGE_SHAPE: tuple[Param, ...] = (
 )
 
 
-#: The flexible model's heat build-up parameter (with ``heat_buildup``):
+#: The flexible model's heat build-up parameters (with ``heat_buildup``):
 #: the heat capacity of the gas's wall, which the gas's own heat warms (a
 #: gas spring working at 0.5 Hz gives it hundreds of W: on the foreign
 #: rig's heat run the sealed accumulator ended 5 K above the oil that was
