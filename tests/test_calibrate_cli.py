@@ -13,6 +13,7 @@ from click.testing import CliRunner
 from hpctl import __version__ as hpctl_version
 from hpctl.cli import main
 from hpctl.data.records import read_record
+from hpctl.identify import MAX_NFEV, MAX_NFEV_FLEXIBLE
 from hpctl.model.effects import LIBRARY
 
 
@@ -87,6 +88,28 @@ def test_a_fit_that_runs_out_of_evaluations_says_so_and_how_to_go_on(leaky_rig: 
     assert "--max-evaluations above 1" in warned[0]["message"] and warned[0]["details"]["max_evaluations"] == 1, warned
     code, _, err = hpctl("fit", *recs, "--model", "seed,leakage", "--max-evaluations", "1", "--out", str(tmp_path / "b"), "--strict", "--quiet")
     assert code == 3 and "not_converged" in err, err
+
+
+@pytest.mark.parametrize(("args", "budget"), [((), MAX_NFEV), (("--flexible",), MAX_NFEV_FLEXIBLE), (("--flexible", "--max-evaluations", "7"), 7)])
+def test_a_flexible_fit_gets_the_larger_budget_unless_one_is_given(leaky_rig: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                   args: tuple[str, ...], budget: int) -> None:
+    # The budget the command hands the optimiser (the fit itself then runs
+    # on one evaluation: what is checked is the choice, not the fit).
+    import hpctl.identify.fit as fit_module
+
+    asked: list[int] = []
+    real = fit_module.fit
+
+    def spy(*a: Any, max_nfev: int, **kw: Any) -> Any:
+        asked.append(max_nfev)
+        return real(*a, max_nfev=1, **kw)
+
+    monkeypatch.setattr(fit_module, "fit", spy)
+    code, out, err = hpctl("fit", str(leaky_rig / "hold.toml"), "--model", "seed,leakage", *args, "--out", str(tmp_path / "o"), "--json", "--quiet")
+    assert code == 0, err
+    assert asked == [budget]
+    warned = [w for w in json.loads(out)["warnings"] if w["code"] == "not_converged"]
+    assert warned and warned[0]["details"]["max_evaluations"] == budget
 
 
 def test_list_effects_names_the_library() -> None:

@@ -19,7 +19,7 @@ from hpctl.data import DEMO_DIR
 from hpctl.data.output import reading
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
 from hpctl.errors import ParameterError, bad_argument
-from hpctl.identify import MAX_NFEV, MAX_NFEV_LIMIT, virtual_rig
+from hpctl.identify import MAX_NFEV, MAX_NFEV_FLEXIBLE, MAX_NFEV_LIMIT, virtual_rig
 from hpctl.model.effects import LIBRARY, MODELS, parse_model
 from hpctl.sim import checks
 
@@ -166,11 +166,12 @@ MODEL_HELP = f"Model: {', '.join(MODELS)}, or effects separated by commas (from:
 @click.option("--profile", "profiled", multiple=True, metavar="PARAM",
               help="Also a 2-sigma profile-likelihood interval of this fitted parameter (repeatable): the parameter held on "
                    "either side, the others fitted again; a fit per point.")
-@click.option("--max-evaluations", "max_evaluations", type=click.IntRange(1, MAX_NFEV_LIMIT), default=MAX_NFEV, show_default=True,
-              help="The optimiser's budget of cost evaluations; a fit that stops on it is a warning (not converged).")
+@click.option("--max-evaluations", "max_evaluations", type=click.IntRange(1, MAX_NFEV_LIMIT), default=None,
+              help=f"The optimiser's budget of cost evaluations [default: {MAX_NFEV}, {MAX_NFEV_FLEXIBLE} with --flexible]; "
+                   "a fit that stops on it is a warning (not converged).")
 @click.option("--json", "as_json", is_flag=True, help="Print parameters and residuals as JSON.")
 def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, strict: bool, flexible: bool, profiled: tuple[str, ...],
-            max_evaluations: int, quiet: bool, as_json: bool) -> None:
+            max_evaluations: int | None, quiet: bool, as_json: bool) -> None:
     """Fit the model's free parameters to one or more rig records (a
     folder stands for the records in it), with uncertainties and the
     residual per record and channel; writes fit.md, fit.json and plots.
@@ -184,6 +185,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         from hpctl.report import calibration as report
 
         effects = parse_model(model)
+        budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
         recs = _records(records)
         datasets = prepare(recs)
         # Named wrong, said before the fit, not after it.
@@ -195,7 +197,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
             with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
                 # Reported and judged in its own model's weights (the
                 # input's noise carried through it, not the template's).
-                fitted = fit(datasets, effects, flexible=flexible, max_nfev=max_evaluations)
+                fitted = fit(datasets, effects, flexible=flexible, max_nfev=budget)
                 result = at_own_noise(fitted)
             profiles: list[ProfileInterval] = []
             for name in profiled:
@@ -203,7 +205,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
                 # optimum (the report's are the fitted model's, above).
                 with status(rep, f"profile of {name}"):
                     profiles.append(profile_interval(fitted, name))
-            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, max_evaluations) + _profile_caveats(profiles)
+            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget) + _profile_caveats(profiles)
             report.fit_report(result, out, caveats, profiles)
             document = with_warnings(report.fit_summary(result, profiles), caveats)
             out.write_json("fit.json", document)
