@@ -222,3 +222,25 @@ def test_sensor_offsets_must_show_in_the_residual_means() -> None:
     assert offset_delta_bic(constant) == pytest.approx(expected, rel=1e-9) and expected > BIC_STRONG
     shaped, expected = result(0.0, 2.0 * sigma_f)
     assert offset_delta_bic(shaped) == pytest.approx(expected, rel=1e-6) and expected < BIC_STRONG
+
+
+def test_structure_carried_by_the_pooled_residual_alone_still_says_where() -> None:
+    # Every channel within the ceiling (1.3 x its noise) but the pooled
+    # residual above 1.1 x: structure remains, and the judgement names the
+    # channels that carry it (a randomised foreign-rig case, seed
+    # 2061819661, said "structure remains" with no place). Made here from a
+    # fit at the noise read against noise levels 1/1.15 of its own.
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.diagnose import NOISE_CEILING, POOLED_RMS_RATIO, judge
+    from hpctl.identify.fit import fit
+
+    records = virtual_rig.make_records(Unit.seed(), "sweep", seed=5)
+    r = fit(prepare(records), ("heat_transfer", "real_gas"), input_noise=False)
+    k = 1.15
+    tight = replace(r, rss=r.rss * k**2, datasets=[replace(d, weight_sigma={c: s / k for c, s in d.weight_sigma.items()}) for d in r.datasets])
+    j = judge(tight)
+    context = f"pooled {j.rms_ratio:.3f}, worst {j.worst_rms_ratio:.3f}, places {[p.describe() for p in j.places]}"
+    assert POOLED_RMS_RATIO < j.rms_ratio and j.worst_rms_ratio <= NOISE_CEILING, context
+    assert j.structure_remains and j.places, context
+    assert all(p.rms_ratio > POOLED_RMS_RATIO and p.regimes for p in j.places), context
+    assert "structure remains" in j.describe() and j.places[0].describe() in j.describe(), context
