@@ -154,7 +154,7 @@ def test_the_places_uncertainty_goes_into_the_parameters_errors() -> None:
     # corresponding block of the sandwich over parameters and places (here
     # white residuals: the independent case), and never smaller than with
     # the places held, where the places and the parameters are correlated.
-    from hpctl.identify.fit import PLACE_PRIOR_SD, _stderr
+    from hpctl.identify.fit import PLACE_PRIOR_SD, _covariance, standard_errors
     from hpctl.model.effects import Param
 
     rng = np.random.default_rng(8)
@@ -163,12 +163,14 @@ def test_the_places_uncertainty_goes_into_the_parameters_errors() -> None:
     j = rng.normal(size=(n, k))
     nuisance = 0.6 * j[:, [0, 0, 1, 2]] + rng.normal(size=(n, m))
     r = rng.normal(size=n)
-    held = _stderr(params, np.zeros(k), j, np.zeros((0, k)), r, np.ones(n), [n], None)
-    free = _stderr(params, np.zeros(k), j, np.zeros((0, k)), r, np.ones(n), [n], None, nuisance)
+    held = standard_errors(params, _covariance(params, np.zeros(k), j, np.zeros((0, k)), r, np.ones(n), [n], None))
+    cov = _covariance(params, np.zeros(k), j, np.zeros((0, k)), r, np.ones(n), [n], None, nuisance)
+    free = standard_errors(params, cov)
     a = np.hstack([j, nuisance])
     prior = np.hstack([np.zeros((m, k)), np.eye(m) / PLACE_PRIOR_SD])
     s2 = float(r @ r) / (n - k - m)
     bread = np.linalg.inv(a.T @ a + prior.T @ prior)
-    expected = np.sqrt(np.diag(bread @ (s2 * a.T @ a + prior.T @ prior) @ bread))[:k]
-    np.testing.assert_allclose([free[p.name] for p in params], expected, rtol=1e-10)
+    block = (bread @ (s2 * a.T @ a + prior.T @ prior) @ bread)[:k, :k]
+    np.testing.assert_allclose([free[p.name] for p in params], np.sqrt(np.diag(block)), rtol=1e-10)
+    np.testing.assert_allclose(cov, block, rtol=1e-10, atol=1e-14)  # the correlations too
     assert all(free[p.name] > held[p.name] for p in params), (held, free)

@@ -62,6 +62,11 @@ class Code(StrEnum):
     #: does not hold, and the standard error (a Gaussian's) does not
     #: describe an estimate cut off by a bound.
     PARAM_AT_BOUND = "param_at_bound"
+    #: Two fitted parameters the records tell apart only through the
+    #: shapes the model assumes (their estimates' correlation near +-1):
+    #: their own errors understate what the records leave open; a quantity
+    #: derived from both (their product) is what the records determine.
+    CONFOUNDED = "confounded"
     #: A wheel left the ground (its tyre force reached zero): the vehicle
     #: results there depend on the lift-off model.
     WHEEL_LIFT_OFF = "wheel_lift_off"

@@ -78,7 +78,7 @@ def _fit_caveats(result: FitResult, budget: int) -> list[Caveat]:
                 if "maximum number of function evaluations" in result.message else "")
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}{more}",
                           {"message": result.message, "max_evaluations": budget}))
-    out += _bound_caveats(result)
+    out += _bound_caveats(result) + _confounded_caveats(result)
     analysis = diagnose.analyse(result)
     if analysis.structured:
         worst = [r for r in analysis.rows if r.structured]
@@ -133,6 +133,26 @@ def _bound_caveats(result: FitResult) -> list[Caveat]:
     )]
 
 
+def _confounded_caveats(result: FitResult) -> list[Caveat]:
+    """Factors of a derived quantity (:data:`hpctl.model.effects.DERIVED`)
+    whose estimates are correlated beyond :data:`CONFOUNDED_CORRELATION`."""
+    from hpctl.identify.derived import CONFOUNDED_CORRELATION, derived
+
+    out = []
+    for d in derived(result):
+        if not d.confounded:
+            continue
+        a, b = d.factors[0], d.factors[1]
+        out.append(Caveat(
+            Code.CONFOUNDED,
+            f"{a} and {b} are told apart only by the shapes the model assumes (correlation {d.factor_correlation:+.2f}, "
+            f"at least {CONFOUNDED_CORRELATION:g} in magnitude): their own values can be off by more than their standard errors; "
+            f"what the records determine is their product, {d.name} = {d.value:.5g} +- {d.stderr:.2g}",
+            {"params": list(d.factors), "correlation": d.factor_correlation, "derived": d.name, "value": d.value, "stderr": d.stderr},
+        ))
+    return out
+
+
 def _model_gas(result: FitResult) -> str:
     return result.model.unit_for(result.datasets[0], result.values).gas
 
@@ -141,6 +161,10 @@ def _print_fit(rep: Reporter, result: FitResult) -> None:
     t = table(f"Fitted parameters ({', '.join(result.model.effects) or 'classical polytropic ideal gas'})", ("parameter", "value", "standard error"))
     for p in result.model.params:
         t.add_row(p.name, f"{result.values[p.name]:.5g}", f"{result.stderr.get(p.name, float('nan')):.2g}")
+    from hpctl.identify.derived import derived
+
+    for d in derived(result):
+        t.add_row(f"{d.name} (derived)", f"{d.value:.5g}", f"{d.stderr:.2g}")
     rep.out.print(t)
     t = table(f"Residual per record and channel (RMS / noise overall {result.rms_ratio:.3f})",
               ("record", "channel", "noise", "RMS", "NRMS", "max", "loop area err [J]"))
@@ -341,7 +365,7 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
     out = []
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
-    out += _bound_caveats(diag.final)
+    out += _bound_caveats(diag.final) + _confounded_caveats(diag.final)
     j = diag.judgement
     if j is not None and j.structure_remains:
         found = f"after adding {', '.join(diag.found)} " if diag.found else "and no effect in the library explains it: "

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, noise_colours, prepare, traits, uses_damper
+from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
 from hpctl.identify.switching import places
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, Param, flexible_params
@@ -661,7 +662,7 @@ def _with_errors(datasets: Sequence[Dataset], c: Candidate) -> None:
         return
     # One evaluation: the optimiser stops at the start, with the Jacobian there.
     at = fit(datasets, r.model.effects, initial=r.values, input_noise=False, flexible=r.model.flexible, max_nfev=1, place_switches=False)
-    c.result = replace(r, stderr=at.stderr)
+    c.result = replace(r, stderr=at.stderr, covariance=at.covariance)
 
 
 def _null_delta_bic(datasets: Sequence[Dataset], c: Candidate) -> float:
@@ -960,6 +961,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "final_model": list(diag.final.model.effects),
         "final_params": diag.final.values,
         "final_stderr": diag.final.stderr,
+        "final_derived": [d.to_json() for d in derived(diag.final)],
         "final_switch_places": places(diag.final.datasets),
         "noise_colour": [k.to_json() for k in noise_colours(diag.final.datasets)],
         "error_before": err(diag.initial),

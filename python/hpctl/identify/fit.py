@@ -254,6 +254,10 @@ class FitResult:
     datasets: list[Dataset] = field(repr=False)
     success: bool = True
     message: str = ""
+    #: The estimate's covariance in the values' units, rows and columns in
+    #: the order of ``model.params`` (None: fitted without errors). Its
+    #: diagonal is ``stderr`` squared.
+    covariance: FloatArray | None = field(default=None, repr=False)
 
     @property
     def k(self) -> int:
@@ -293,6 +297,18 @@ class FitResult:
                 if on or (math.isfinite(se_x) and gap <= 2.0 * se_x):
                     out.append(AtBound(p.name, v, se, b, "lower" if b == p.lower else "upper", on))
         return out
+
+    def correlation(self, a: str, b: str) -> float:
+        """The correlation of the estimates of fitted parameters ``a`` and
+        ``b`` (nan without a covariance, or where either error is 0 or
+        infinite)."""
+        names = [p.name for p in self.model.params]
+        if self.covariance is None or a not in names or b not in names:
+            return math.nan
+        i, j = names.index(a), names.index(b)
+        c = self.covariance
+        den = math.sqrt(float(c[i, i] * c[j, j]))
+        return float(c[i, j]) / den if 0.0 < den < math.inf else math.nan
 
     def residuals(self, d_index: int, channel: str) -> FloatArray:
         d = self.datasets[d_index]
@@ -663,8 +679,8 @@ def fit(
     places = _place_columns(model, datasets, values, sims, r, fold) if params else None
     if params and places is None and any(d.switch_leads.size for d in datasets):
         message += "; the valve switches' places left out of the errors (a run with a place moved failed)"
-    stderr = _stderr(params, x, jmat[:n_data], jmat[n_data:], r, _output_share(datasets, fold), _blocks(datasets, fold), draws, places)
-    return FitResult(model, values, stderr, rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message)
+    cov = _covariance(params, x, jmat[:n_data], jmat[n_data:], r, _output_share(datasets, fold), _blocks(datasets, fold), draws, places)
+    return FitResult(model, values, standard_errors(params, cov), rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message, cov)
 
 
 def at_own_noise(result: FitResult) -> FitResult:
@@ -809,7 +825,7 @@ def _input_noise_residuals(
 
 
 #: The place of a logged valve switch as a nuisance quantity of the
-#: covariance (:func:`_stderr`'s ``nuisance``): a share of its interval,
+#: covariance (:func:`_covariance`'s ``nuisance``): a share of its interval,
 #: uniform over it a priori (standard deviation 1/sqrt(12)), its
 #: sensitivities by a forward difference of a twentieth of the interval
 #: (a place moved by 0.25 ms at 5 ms samples: the runs choose their own
@@ -899,12 +915,13 @@ def _least_squares_step(j_data: FloatArray, j_prior: FloatArray, dr: FloatArray,
     return step
 
 
-def _stderr(
+def _covariance(
     params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, r: FloatArray,
     output_share: FloatArray, blocks: Sequence[int], input_draws: FloatArray | None, nuisance: FloatArray | None = None,
-) -> dict[str, float]:
-    """Standard errors from the Jacobian at the optimum, mapped through the
-    log transform where there is one. The residuals' covariance is the
+) -> FloatArray:
+    """The estimate's covariance from the Jacobian at the optimum, in the
+    values' units (mapped through the log transform where there is one).
+    The residuals' covariance is the
     output noise's (each sample's share of its weight, scaled so that with
     the input's part it accounts for the residual sum of squares, and
     correlated from sample to sample as the residuals of its record and
@@ -922,7 +939,7 @@ def _stderr(
     parameters' errors, which are reported alone."""
     k = len(params)
     if k == 0:
-        return {}
+        return np.zeros((0, 0))
     if nuisance is not None and nuisance.shape[1]:
         m = nuisance.shape[1]
         j_data = np.hstack([j_data, nuisance])
@@ -930,13 +947,13 @@ def _stderr(
                              np.hstack([np.zeros((m, k)), np.eye(m) / PLACE_PRIOR_SD])])
         x = np.concatenate([x, np.zeros(m)])
         params = [*params, *([PLACE_PARAM] * m)]
-        return dict(list(_stderr(params, x, j_data, j_prior, r, output_share, blocks, input_draws).items())[:k])
+        return _covariance(params, x, j_data, j_prior, r, output_share, blocks, input_draws)[:k, :k]
     rss = float(r @ r)
     if input_draws is None:
         share = np.ones(len(r))
         s2 = rss / max(len(r) - k, 1)
         meat = s2 * output_meat(j_data, share, r, blocks, None) + j_prior.T @ j_prior
-        return _to_values(params, x, _diag_sd(j_data, j_prior, meat, k))
+        return _to_values(params, x, _sandwich(j_data, j_prior, meat, k))
     m = input_draws.shape[1]
     # The input noise's part, plus the sampling error of the bias
     # correction that the same draws made (their mean: 1/m of it).
@@ -944,26 +961,34 @@ def _stderr(
     input_ss = float(np.sum(input_draws**2)) / m if m else 0.0
     kappa = max(rss - input_ss, 0.0) / max(float(np.sum(output_share)) - k, 1.0)
     meat = kappa * output_meat(j_data, output_share, r, blocks, input_draws if m else None) + g @ g.T + j_prior.T @ j_prior
-    return _to_values(params, x, _diag_sd(j_data, j_prior, meat, k))
+    return _to_values(params, x, _sandwich(j_data, j_prior, meat, k))
 
 
-def _diag_sd(j_data: FloatArray, j_prior: FloatArray, meat: FloatArray, k: int) -> FloatArray:
-    """The square roots of the sandwich's diagonal (inf where the
-    parameters cannot be told apart: J'J singular)."""
+def _sandwich(j_data: FloatArray, j_prior: FloatArray, meat: FloatArray, k: int) -> FloatArray:
+    """The sandwich covariance in the fit's coordinates (inf throughout
+    where the parameters cannot be told apart: J'J singular)."""
     try:
         bread = np.linalg.inv(j_data.T @ j_data + j_prior.T @ j_prior)
-        return np.asarray(np.sqrt(np.clip(np.diag(bread @ meat @ bread), 0, None)), float)
     except np.linalg.LinAlgError:
-        return np.full(k, np.inf)
+        return np.full((k, k), np.inf)
+    c = bread @ meat @ bread
+    return np.asarray((c + c.T) / 2.0, float)
 
 
-def _to_values(params: Sequence[Param], x: FloatArray, sx: FloatArray) -> dict[str, float]:
-    """Standard errors in the fit's coordinates mapped to the values'."""
-    out = {}
-    for p, xi, si in zip(params, x, sx):
-        value = p.from_x(float(xi))
-        out[p.name] = float(value * math.log(10) * si) if p.log else float(p.scale * si)
-    return out
+def _to_values(params: Sequence[Param], x: FloatArray, cx: FloatArray) -> FloatArray:
+    """A covariance in the fit's coordinates mapped to the values' (the
+    derivative of each value by its coordinate: ``value ln 10`` on a log
+    scale, the parameter's scale on a linear one)."""
+    d = np.array([p.from_x(float(xi)) * math.log(10) if p.log else p.scale for p, xi in zip(params, x)])
+    with np.errstate(invalid="ignore"):  # inf * 0 off the diagonal of a singular fit
+        out = cx * np.outer(d, d)
+    return np.asarray(np.where(np.isnan(out) & np.isinf(cx), np.inf, out), float)
+
+
+def standard_errors(params: Sequence[Param], covariance: FloatArray) -> dict[str, float]:
+    """The square roots of ``covariance``'s diagonal, by parameter name
+    (negative round-off read as zero)."""
+    return {p.name: float(math.sqrt(max(float(covariance[i, i]), 0.0))) for i, p in enumerate(params)}
 
 
 #: How :func:`fit` gets the Jacobian (its ``jacobian`` argument).

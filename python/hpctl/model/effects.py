@@ -484,6 +484,33 @@ FRICTION_SHAPE: tuple[Param, ...] = (
 )
 
 
+@dataclass(frozen=True)
+class Derived:
+    """A quantity reported beside the fitted parameters: the product of
+    ``factors`` (fitted parameters), its error carried through their
+    covariance (:mod:`hpctl.identify.derived`)."""
+
+    name: str
+    description: str
+    factors: tuple[str, ...]
+
+
+#: The quantities derived from fitted parameters. The breakaway friction
+#: force F_c r: with the Stribeck term fitted, the records show friction
+#: mostly where the strut turns (below the Stribeck velocity, where the
+#: damper's force is small), that is its breakaway level; the kinetic level
+#: F_c alone acts at speeds where the damper's force is one to ten times
+#: larger and is told apart from the damper's low-speed curve and the
+#: Stribeck peak by the shapes the model assumes for them. On 19 foreign
+#: rig draws (docs/foreign-rig.md, stop 35) the fits put the two at a
+#: correlation of -0.95 to -1.00 on 10; F_c read 60 % low to 22 % high with
+#: z-scores up to 3.7, the breakaway force within 10 % on 18.
+DERIVED: tuple[Derived, ...] = (
+    Derived("friction_breakaway_n", "breakaway (static) seal friction: the Coulomb force times the Stribeck ratio",
+            ("friction_coulomb_n", "friction_stribeck_ratio")),
+)
+
+
 #: The flexible model's valve-6 parameters (records with valve 6 open):
 #: multipliers of the unit's orifice flow area (discharge coefficient
 #: included) and of its laminar-turbulent transition pressure, hp-core's

@@ -18,6 +18,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.dataset import Dataset, noise_colours  # noqa: E402
+from hpctl.identify.derived import derived  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
@@ -117,6 +118,13 @@ def params_table(result: FitResult) -> list[str]:
     lines = ["| parameter | value | standard error |", "|---|---|---|"]
     for p in result.model.params:
         lines.append(f"| `{p.name}` | {_fmt(result.values[p.name], 5)} | {_fmt(result.stderr.get(p.name), 2)} |")
+    values = derived(result)
+    if values:
+        lines += ["", "Derived from the fitted parameters (errors through their covariance):", "",
+                  "| quantity | value | standard error | from | correlation of the factors |", "|---|---|---|---|---|"]
+        for d in values:
+            lines.append(f"| `{d.name}` | {_fmt(d.value, 5)} | {_fmt(d.stderr, 2)} | {' x '.join(f'`{f}`' for f in d.factors)} | "
+                         f"{_fmt(d.factor_correlation, 2)} |")
     return lines
 
 
@@ -335,6 +343,7 @@ def fit_summary(result: FitResult, profiles: Sequence[ProfileInterval] = ()) -> 
         "model": list(result.model.effects),
         "params": result.values,
         "stderr": result.stderr,
+        "derived": [d.to_json() for d in derived(result)],
         "rms_ratio": result.rms_ratio,
         "bic": result.bic,
         "converged": result.success,
