@@ -212,15 +212,15 @@ def test_flexible_diagnosis_names_oil_compliance_on_damper_off_sines(seed: int) 
 
 def test_flexible_fit_determines_the_breakaway_friction(seed: int) -> None:
     # Seal friction's kinetic (Coulomb) level acts where the damper's force
-    # is one to ten times larger, and the flexible fit tells it apart from
-    # the damper's low-speed curve and the Stribeck peak by the shapes it
-    # assumes: on 19 draws (docs/foreign-rig.md, stop 35) F_c read 60 % low
-    # to 22 % high, z up to 3.7, at correlations with the Stribeck ratio of
-    # -0.95 to -1.00 on 10. The breakaway force F_c r is what the records
-    # determine: within 10 % on 18 of the 19, within two errors on 16, and
-    # within 10 % or three errors on all 19 (three sigma here: two would
-    # fail an honest error one run in twenty); the fit's own budget for
-    # flexible fits (300 evaluations), as `hpctl fit --flexible`.
+    # is comparable or several times larger, and the flexible fit tells it
+    # apart from the damper's low-speed curve and the Stribeck peak by the
+    # shapes it assumes: on seeds 1-20 (docs/foreign-rig.md, stop 35;
+    # scripts/foreign_coverage.py) F_c read 60 % low to 22 % high, z up to
+    # 3.7, at correlations with the Stribeck ratio of -0.95 to -1.00 on 10.
+    # The breakaway force F_c r is what the records determine: within 10 %
+    # on 19 of the 20, within two errors on 17, and within 10 % or three
+    # errors on all 20 (three sigma here: two would fail an honest error
+    # one run in twenty); the budget of `hpctl fit --flexible` (300).
     from hpctl.identify import MAX_NFEV_FLEXIBLE
     from hpctl.identify.dataset import prepare
     from hpctl.identify.derived import derived

@@ -22,8 +22,9 @@ from hpctl.model.effects import DERIVED, Derived
 #: Factors correlated at least this much (in magnitude) are told apart only
 #: by the model's shapes: their own errors, from the curvature of a cost
 #: whose valley the model's shapes bend, understate what the records leave
-#: open (the foreign rig's seal friction, docs/foreign-rig.md: Coulomb
-#: force z-scores up to 3.7 at correlations of -0.97 to -1.00).
+#: open (the foreign rig's seal friction, docs/foreign-rig.md, stop 35:
+#: Coulomb force z-scores of -3.2, -2.8 and +2.8 at correlations of -0.97
+#: to -1.00 on seeds 14, 18 and 5, while their products were within 3 %).
 CONFOUNDED_CORRELATION = 0.95
 
 

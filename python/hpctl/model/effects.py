@@ -499,12 +499,14 @@ class Derived:
 #: force F_c r: with the Stribeck term fitted, the records show friction
 #: mostly where the strut turns (below the Stribeck velocity, where the
 #: damper's force is small), that is its breakaway level; the kinetic level
-#: F_c alone acts at speeds where the damper's force is one to ten times
-#: larger and is told apart from the damper's low-speed curve and the
-#: Stribeck peak by the shapes the model assumes for them. On 19 foreign
-#: rig draws (docs/foreign-rig.md, stop 35) the fits put the two at a
-#: correlation of -0.95 to -1.00 on 10; F_c read 60 % low to 22 % high with
-#: z-scores up to 3.7, the breakaway force within 10 % on 18.
+#: F_c alone acts at speeds where the damper's force is comparable or
+#: several times larger (the foreign rig's seed 14: 0.1-1.1 kN at 10-50
+#: mm/s with valve 5 open, against 274 N) and is told apart from the
+#: damper's low-speed curve and the Stribeck peak by the shapes the model
+#: assumes for them. On 20 foreign rig draws (docs/foreign-rig.md, stop 35)
+#: the fits put the two at a correlation of -0.95 to -1.00 on 10; F_c read
+#: 60 % low to 22 % high with z-scores up to 3.7, the breakaway force within
+#: 10 % on 19.
 DERIVED: tuple[Derived, ...] = (
     Derived("friction_breakaway_n", "breakaway (static) seal friction: the Coulomb force times the Stribeck ratio",
             ("friction_coulomb_n", "friction_stribeck_ratio")),
