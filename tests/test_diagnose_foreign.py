@@ -234,6 +234,8 @@ def test_flexible_fit_determines_the_breakaway_friction(seed: int) -> None:
                f"+- {r.stderr['friction_coulomb_n']:.2g} truth {g.truth['hpctl_params']['friction_coulomb_n']:.1f}; "
                f"correlation {d.factor_correlation:+.2f}; {r.message}")
     assert abs(d.value / truth - 1.0) <= 0.10 or abs(d.value - truth) <= 3.0 * d.stderr, context
+    # The Coulomb force's own error is never offered as one to stand behind.
+    assert d.confounded and d.damper_shape, context
 
 
 def test_fit_cli_reports_the_breakaway_force_and_warns_when_its_factors_trade(tmp_path: Path) -> None:
@@ -255,5 +257,6 @@ def test_fit_cli_reports_the_breakaway_force_and_warns_when_its_factors_trade(tm
     assert abs(d["value"] - truth) <= 3 * d["stderr"], (d, truth)
     (w,) = [w for w in s["warnings"] if w["code"] == "confounded"]
     assert w["details"]["params"] == d["factors"] and w["details"]["correlation"] == pytest.approx(d["factor_correlation"])
-    assert abs(d["factor_correlation"]) >= 0.95 and "friction_breakaway_n = " in w["message"]
+    assert abs(d["factor_correlation"]) >= 0.95 and w["details"]["damper_shape"] is True and d["confounded"] is True
+    assert "friction_breakaway_n = " in w["message"] and "correlation is" in w["message"] and "damper" in w["message"]
     assert "| `friction_breakaway_n` |" in (out / "fit.md").read_text()

@@ -135,8 +135,9 @@ def _bound_caveats(result: FitResult) -> list[Caveat]:
 
 def _confounded_caveats(result: FitResult) -> list[Caveat]:
     """Factors of a derived quantity (:data:`hpctl.model.effects.DERIVED`)
-    whose estimates are correlated beyond :data:`CONFOUNDED_CORRELATION`."""
-    from hpctl.identify.derived import CONFOUNDED_CORRELATION, derived
+    whose own errors are not to be trusted
+    (:attr:`hpctl.identify.derived.DerivedValue.confounded`)."""
+    from hpctl.identify.derived import derived
 
     out = []
     for d in derived(result):
@@ -145,10 +146,10 @@ def _confounded_caveats(result: FitResult) -> list[Caveat]:
         a, b = d.factors[0], d.factors[1]
         out.append(Caveat(
             Code.CONFOUNDED,
-            f"{a} and {b} are told apart only by the shapes the model assumes (correlation {d.factor_correlation:+.2f}, "
-            f"at least {CONFOUNDED_CORRELATION:g} in magnitude): their own values can be off by more than their standard errors; "
-            f"what the records determine is their product, {d.name} = {d.value:.5g} +- {d.stderr:.2g}",
-            {"params": list(d.factors), "correlation": d.factor_correlation, "derived": d.name, "value": d.value, "stderr": d.stderr},
+            f"{a} and {b} are told apart only by the shapes the model assumes ({d.reason}): their own values can be off by more "
+            f"than their standard errors; what the records determine is their product, {d.name} = {d.value:.5g} +- {d.stderr:.2g}",
+            {"params": list(d.factors), "correlation": d.factor_correlation, "damper_shape": d.damper_shape, "derived": d.name,
+             "value": d.value, "stderr": d.stderr},
         ))
     return out
 

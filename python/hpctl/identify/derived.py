@@ -39,6 +39,9 @@ class DerivedJson(TypedDict):
     stderr: float | None
     factors: list[str]
     factor_correlation: float | None
+    #: The factors' own errors are not to be trusted (see ``reason``).
+    confounded: bool
+    reason: str
 
 
 @dataclass(frozen=True)
@@ -51,18 +54,33 @@ class DerivedValue:
     factors: tuple[str, ...]
     #: The correlation of the first two factors' estimates (nan with fewer).
     factor_correlation: float
+    #: The fit identified the damper characteristic with factors that the
+    #: damper's shape stands in for (:attr:`Derived.confounded_by_damper_shape`).
+    damper_shape: bool = False
 
     @property
     def confounded(self) -> bool:
         """The factors trade so closely that their own errors are not to
-        be trusted, the derived value's is."""
-        return abs(self.factor_correlation) >= CONFOUNDED_CORRELATION
+        be trusted, the derived value's is: by the fit's covariance, or
+        because the damper's identified shape stands in for them."""
+        return self.damper_shape or abs(self.factor_correlation) >= CONFOUNDED_CORRELATION
+
+    @property
+    def reason(self) -> str:
+        """Why the factors are confounded ("" when they are not)."""
+        out = []
+        if abs(self.factor_correlation) >= CONFOUNDED_CORRELATION:
+            out.append(f"their estimates' correlation is {self.factor_correlation:+.2f}")
+        if self.damper_shape:
+            out.append("the damper's identified low-speed curve stands in for them (without noise the model's shapes fit the "
+                       "foreign rig's true curves best with the Coulomb force 67 % low to 20 % high: docs/foreign-rig.md)")
+        return "; ".join(out)
 
     def to_json(self) -> DerivedJson:
         fc = self.factor_correlation
         return {"name": self.name, "description": self.description, "value": self.value,
                 "stderr": self.stderr if math.isfinite(self.stderr) else None, "factors": list(self.factors),
-                "factor_correlation": fc if math.isfinite(fc) else None}
+                "factor_correlation": fc if math.isfinite(fc) else None, "confounded": self.confounded, "reason": self.reason}
 
 
 def derived(result: FitResult) -> list[DerivedValue]:
@@ -84,4 +102,4 @@ def _value(result: FitResult, d: Derived, names: list[str]) -> DerivedValue:
         c = result.covariance[np.ix_(idx, idx)]
         se = math.sqrt(max(float(g @ c @ g), 0.0)) if np.all(np.isfinite(c)) else math.inf
     corr = result.correlation(d.factors[0], d.factors[1]) if len(d.factors) > 1 else math.nan
-    return DerivedValue(d.name, d.description, value, se, d.factors, corr)
+    return DerivedValue(d.name, d.description, value, se, d.factors, corr, d.confounded_by_damper_shape and bool(result.model.damper_branches))
