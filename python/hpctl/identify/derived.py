@@ -46,6 +46,9 @@ class DerivedJson(TypedDict):
 
 @dataclass(frozen=True)
 class DerivedValue:
+    """One derived quantity of a fit: its value, its error through the
+    fit's covariance, and whether its factors' own errors hold."""
+
     name: str
     description: str
     value: float
