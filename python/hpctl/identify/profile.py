@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TypedDict
 
 from hpctl.errors import HpctlError, bad_argument
-from hpctl.identify.fit import FitResult, fit
+from hpctl.identify.fit import FitResult, fit, prior_cost
 from hpctl.model.effects import Param
 
 #: Points fitted per side at most.
@@ -137,15 +137,7 @@ class ProfileInterval:
 def cost(result: FitResult, values: Mapping[str, float]) -> float:
     """The fit's cost at ``result``'s residuals: the residual sum of squares
     in noise units plus the priors' squares at ``values``."""
-    prior = 0.0
-    for p in [*result.model.params, *_fixed_params(result)]:
-        if p.prior_sigma is not None and p.name in values:
-            prior += ((p.to_x(values[p.name]) - p.to_x(p.typical)) / p.prior_sigma) ** 2
-    return result.rss + prior
-
-
-def _fixed_params(result: FitResult) -> list[Param]:
-    return [p for p in replace(result.model, fixed={}).params if p.name in result.model.fixed]
+    return result.rss + prior_cost(result.model, values)
 
 
 def _param(result: FitResult, name: str) -> Param:
