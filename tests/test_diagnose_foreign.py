@@ -13,6 +13,7 @@ the noise, judged also against the true noise the foreign rig drew.
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import os
@@ -276,7 +277,8 @@ def test_a_flexible_fit_with_its_stribeck_peak_under_the_smoothing_is_restarted(
     g = generate("friction", 2122707468)
     datasets = prepare([read_record(p) for p in g.records])
     model = ("heat_transfer", "real_gas", "friction")
-    first = _fit(datasets, model, flexible=True, max_nfev=MAX_NFEV_FLEXIBLE)
+    defaults = {k: q.default for k, q in inspect.signature(fit).parameters.items() if q.kind is q.KEYWORD_ONLY}
+    first = _fit(datasets, model, **{**defaults, "flexible": True, "max_nfev": MAX_NFEV_FLEXIBLE})  # fit without the restart
     v = first.values
     assert v["friction_stribeck_velocity_m_s"] < STRIBECK_VALLEY_RATIO * v["friction_smoothing_velocity_m_s"], v
     r = fit(datasets, model, flexible=True, max_nfev=MAX_NFEV_FLEXIBLE)

@@ -441,25 +441,11 @@ def fit(
     return result
 
 
-def _fit(
-    datasets: Sequence[Dataset],
-    effects: Sequence[str],
-    *,
-    initial: Mapping[str, float] | None = None,
-    fit_damper: bool | None = None,
-    max_nfev: int = MAX_NFEV,
-    fold: int | None = None,
-    flexible: bool = False,
-    input_noise: bool = True,
-    held: Mapping[str, float] | None = None,
-    fixed: Mapping[str, float] | None = None,
-    stop: Callable[[Mapping[str, float], float], bool] | None = None,
-    ftol: float = 1e-8,
-    jacobian: str = "finite_difference",
-    errors: bool = True,
-    place_switches: bool = True,
-) -> FitResult:
-    """:func:`fit` without the Stribeck restart."""
+def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
+         fold: int | None, flexible: bool, input_noise: bool, held: Mapping[str, float] | None, fixed: Mapping[str, float] | None,
+         stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool) -> FitResult:
+    """:func:`fit` without the Stribeck restart. Every argument is given:
+    the defaults are :func:`fit`'s alone."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
         raise bad_argument("ftol", ftol, "a relative cost reduction in [1e-15, 1)")
     if isinstance(max_nfev, bool) or not isinstance(max_nfev, int) or not 1 <= max_nfev <= MAX_NFEV_LIMIT:
