@@ -92,3 +92,27 @@ def test_with_the_damper_characteristic_identified_the_coulomb_force_is_always_c
     assert d.to_json()["confounded"] is True
     (d,) = derived(result(0.1))
     assert not d.damper_shape and not d.confounded and d.reason == ""
+
+
+def test_a_failed_stribeck_restart_keeps_the_first_fit(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The restart (hpctl.identify.fit.fit) is a second opinion: a restarted
+    # fit that cannot be simulated never costs the first one.
+    import hpctl.identify.fit as fit_module
+    from hpctl.errors import SimulationError
+
+    first = result(0.0, branches=("off_compression", "off_rebound"))
+    first.values["friction_stribeck_velocity_m_s"] = 1.5e-3
+    first.values["friction_smoothing_velocity_m_s"] = 1.4e-3
+    calls: list[dict[str, float] | None] = []
+
+    def fake(datasets: object, effects: object, **kw: object) -> FitResult:
+        calls.append(kw["initial"])  # type: ignore[arg-type]
+        if len(calls) > 1:
+            raise SimulationError("record x: the model cannot be simulated on it")
+        return first
+
+    monkeypatch.setattr(fit_module, "_fit", fake)
+    r = fit_module.fit([], ("friction",), flexible=True)
+    assert r is first and len(calls) == 2 and calls[1] is not None
+    assert calls[1]["friction_stribeck_velocity_m_s"] == fit_module.STRIBECK_RESTART["friction_stribeck_velocity_m_s"]
+    assert "restart with the Stribeck peak above the smoothing velocity failed" in r.message and "first optimum kept" in r.message

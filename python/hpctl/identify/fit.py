@@ -430,9 +430,14 @@ def fit(
     if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
         return result
     start = {**result.values, **STRIBECK_RESTART}
-    again = _fit(datasets, effects, initial=start, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible,
-                 input_noise=input_noise, held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors,
-                 place_switches=place_switches)
+    try:
+        again = _fit(datasets, effects, initial=start, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible,
+                     input_noise=input_noise, held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors,
+                     place_switches=place_switches)
+    except HpctlError as e:
+        # The restart is a second opinion: its failure never costs the first fit.
+        result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
+        return result
     gain = objective(result) - objective(again)
     if gain > 0.0:
         again.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {gain:.3g} lower, kept"
