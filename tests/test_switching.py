@@ -15,7 +15,7 @@ import pytest
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import fit, model_for, simulate_all, values_from_x
-from hpctl.identify.switching import PROBE_LEADS, best_lead, switch_samples, timeline
+from hpctl.identify.switching import EDGE, PROBE_LEADS, best_lead, extrapolated_leads, switch_samples, timeline
 
 
 @pytest.fixture(scope="module")
@@ -174,3 +174,32 @@ def test_the_places_uncertainty_goes_into_the_parameters_errors() -> None:
     np.testing.assert_allclose([free[p.name] for p in params], np.sqrt(np.diag(block)), rtol=1e-10)
     np.testing.assert_allclose(cov, block, rtol=1e-10, atol=1e-14)  # the correlations too
     assert all(free[p.name] > held[p.name] for p in params), (held, free)
+
+
+def test_passes_that_converge_steadily_are_extrapolated_to_their_end(switching_dataset: object) -> None:
+    # Aitken's extrapolation of a linearly converging sequence: moves
+    # shrinking by rho = 0.75 each pass end at settled + move rho / (1 - rho)
+    # (a geometric series), held within the interval's edges.
+    d = switching_dataset
+    n = switch_samples(d).size  # type: ignore[arg-type]
+    first = np.linspace(0.2, 0.6, n)
+    previous = np.linspace(0.08, 0.0, n)  # one switch that does not move
+    move = 0.75 * previous
+    placed, settled = [replace(d, switch_leads=first)], [replace(d, switch_leads=first + move)]  # type: ignore[type-var]
+    out, got_move, jumped = extrapolated_leads(placed, settled, previous)
+    np.testing.assert_allclose(got_move, move, rtol=1e-12)
+    assert jumped
+    np.testing.assert_allclose(out[0].switch_leads, np.clip(first + move + move * 3.0, EDGE, 1.0 - EDGE), rtol=1e-12)
+    assert out[0].switch_leads[-1] == pytest.approx(0.6)
+    far = [replace(d, switch_leads=np.full(n, 0.95))]  # type: ignore[type-var]
+    out, _, jumped = extrapolated_leads([replace(d, switch_leads=np.full(n, 0.9))], far, np.full(n, 0.06))  # type: ignore[type-var]
+    assert jumped and np.all(out[0].switch_leads == 1.0 - EDGE)
+    # No history, a move that turned, one that did not shrink enough to
+    # trust (rho 0.9 or more), or none: the places as the pass left them.
+    for prev in (None, -previous, move / 0.95, np.zeros(n)):
+        out, _, jumped = extrapolated_leads(placed, settled, prev)
+        assert not jumped and out[0] is settled[0]
+    # Records without switches pass through.
+    bare = replace(d, switch_leads=np.zeros(0))  # type: ignore[type-var]
+    out, got_move, jumped = extrapolated_leads([bare, *placed], [bare, *settled], previous)
+    assert jumped and out[0] is bare and got_move.shape == (n,)

@@ -37,7 +37,7 @@ from hpctl.identify.dataset import (
     with_input_noise,
 )
 from hpctl.identify.serial import output_meat
-from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, switch_samples, timeline
+from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, extrapolated_leads, switch_samples, timeline
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_GAIN,
@@ -662,14 +662,22 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             # optimum, which shifts the places: a switch whose segment tells
             # its place weakly (a closing with little flow) moved from 0.65
             # to 0.3 of its interval between the two on the virtual rig.
-            # Alternated until the places settle.
-            for _ in range(PLACE_PASSES - 1):
+            # Alternated until the places settle; where they converge
+            # slowly (the places and the valve's parameters trade), the
+            # passes are extrapolated to their end
+            # (switching.extrapolated_leads), never on the last pass, so
+            # the places fitted at are always ones a fit's optimum gave.
+            move: FloatArray | None = None
+            for k in range(PLACE_PASSES - 1):
                 at = _fit(placed, effects, initial=at, input_noise=False, errors=False, **again).values  # type: ignore[arg-type]
                 settled = estimate_leads(placed, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:])
                 shift = max((float(np.max(np.abs(a.switch_leads - b.switch_leads))) for a, b in zip(settled, placed) if a.switch_leads.size), default=0.0)
-                placed = settled
-                if shift <= PLACE_SETTLED:
+                if shift <= PLACE_SETTLED or k == PLACE_PASSES - 2:
+                    placed = settled
                     break
+                placed, move, jumped = extrapolated_leads(placed, settled, move)
+                if jumped:
+                    move = None  # the next move starts a new history
             refit = _fit(placed, effects, initial=at, input_noise=input_noise, errors=errors, **again)  # type: ignore[arg-type]
             refit.message += "; each logged valve switch placed within its sample interval" + started
             return refit

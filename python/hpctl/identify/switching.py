@@ -190,3 +190,41 @@ def estimate_leads(
                         costs.append(float(sum(np.sum(((sim[c][w] - y[w]) / d.weight_sigma[c][w]) ** 2) for c, y in d.targets.items())))
                     leads[i][s] = best_lead(costs, tuple(float(p[s]) for p in probes[i]))
     return [replace(d, switch_leads=leads[i]) if i in leads else d for i, d in enumerate(datasets)]
+
+
+def extrapolated_leads(placed: Sequence[Dataset], settled: Sequence[Dataset], previous_move: FloatArray | None) -> tuple[list[Dataset], FloatArray, bool]:
+    """The places to fit at after a pass of fitting and placing again that
+    moved them from ``placed`` to ``settled``; that pass's move (every
+    switch's, in order); whether the places were extrapolated. Where the move is the
+    previous one shrunk by a steady ratio rho (aligned within 25 degrees,
+    rho in (0, 0.9)), the passes converge linearly to where they would end
+    after many more: Aitken's extrapolation puts the places there,
+    ``settled + move rho / (1 - rho)``, within the interval's edges. The
+    caller fits and places again from there, so an extrapolation too far is
+    corrected, not kept.
+
+    The places and the valve's parameters trade: a switch placed late is
+    met by a valve opening faster. On the foreign rig's valve-lag case
+    (seed 11, a 17.6 ms valve, short sweep) the passes moved the openings
+    0.61 -> 0.71 -> 0.79 -> 0.85 of their intervals, each move three
+    quarters of the one before, and stopped at the pass limit with the
+    valve's time constant 2 % short and 1.41 x the noise left, while at the
+    true places (0.99) the residual sum of squares is 1,456 lower."""
+    move = np.concatenate([s.switch_leads - p.switch_leads for s, p in zip(settled, placed) if s.switch_leads.size])
+    out = list(settled)
+    if previous_move is None or previous_move.shape != move.shape:
+        return out, move, False
+    pp, mp = float(previous_move @ previous_move), float(move @ previous_move)
+    mm = float(move @ move)
+    if pp == 0.0 or mm == 0.0:
+        return out, move, False
+    rho = mp / pp
+    if not (0.0 < rho < 0.9 and mp / np.sqrt(pp * mm) >= np.cos(np.radians(25.0))):
+        return out, move, False
+    k = 0
+    for i, d in enumerate(settled):
+        n = d.switch_leads.size
+        if n:
+            out[i] = replace(d, switch_leads=np.clip(d.switch_leads + move[k:k + n] * rho / (1.0 - rho), EDGE, 1.0 - EDGE))
+            k += n
+    return out, move, True
