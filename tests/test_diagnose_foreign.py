@@ -311,3 +311,25 @@ def test_flexible_diagnosis_names_a_sensor_effect_at_the_noise_with_its_paramete
     for p in LIBRARY[effect].params:
         est, err, true = d.final.values[p.name], d.final.stderr[p.name], g.truth["hpctl_params"][p.name]
         assert abs(est - true) <= max(3.0 * err, 0.1 * abs(true)), f"{p.name} {est} +- {err} vs {true}; {context}"
+
+
+def test_flexible_diagnosis_names_valve_lag_at_the_noise_with_its_time_constant(seed: int) -> None:
+    # Valve lag on three sines and the switching record (valve 6 toggled
+    # every 1.3 s during a 0.8 Hz sine): named first, the residual within
+    # hpctl's ceiling, the valve's time constant within 10 % or three
+    # errors. Measured (stop 36): 11 draws, 1.006-1.14 x the noise, the time
+    # constant within 5.3 %; seed 11 read 1.41 x with "structure remains"
+    # before the switch places' extrapolation (test_flexible_fit.py::
+    # test_switch_places_that_trade_with_the_valve_reach_their_end). What
+    # remains above 1.1 x is reported as structure (seeds 3, 11, 20), and a
+    # second effect may follow (seed 3: a sensor offset).
+    from foreign_rig import extra_tests
+
+    g = generate("valve_lag", seed, tests=[t for t in sweep_tests() if t.name in SHORT] + extra_tests()["switching"])
+    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=True)
+    context = describe(d, seed, g.truth)
+    check_honest(d, g.truth, context)
+    assert d.found and d.found[0] == "valve_lag", context
+    assert d.final.rms_ratio <= NOISE_CEILING, context
+    est, err, true = d.final.values["valve_time_constant_s"], d.final.stderr["valve_time_constant_s"], g.truth["hpctl_params"]["valve_time_constant_s"]
+    assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"valve tau {est} +- {err} vs {true}; {context}"
