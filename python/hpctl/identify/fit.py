@@ -671,13 +671,11 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             for k in range(PLACE_PASSES - 1):
                 at = _fit(placed, effects, initial=at, input_noise=False, errors=False, **again).values  # type: ignore[arg-type]
                 settled = estimate_leads(placed, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:])
-                shift = max((float(np.max(np.abs(a.switch_leads - b.switch_leads))) for a, b in zip(settled, placed) if a.switch_leads.size), default=0.0)
-                if shift <= PLACE_SETTLED or k == PLACE_PASSES - 2:
+                ahead, pass_move, jumped = extrapolated_leads(placed, settled, move)
+                if float(np.max(np.abs(pass_move), initial=0.0)) <= PLACE_SETTLED or k == PLACE_PASSES - 2:
                     placed = settled
                     break
-                placed, move, jumped = extrapolated_leads(placed, settled, move)
-                if jumped:
-                    move = None  # the next move starts a new history
+                placed, move = ahead, None if jumped else pass_move  # after a jump the next move starts a new history
             refit = _fit(placed, effects, initial=at, input_noise=input_noise, errors=errors, **again)  # type: ignore[arg-type]
             refit.message += "; each logged valve switch placed within its sample interval" + started
             return refit
