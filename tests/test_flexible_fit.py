@@ -580,14 +580,29 @@ def test_flexible_model_finds_a_pressure_driven_leak() -> None:
     # 11-17: n 1.003-1.013, tau_L within 1.3 %, the residual 0.98-1.14 x
     # (the 1 Hz force and the hold's pressure the worst channels, 1.2-1.5 x).
     # The residual asserted at the "at the noise", as elsewhere.
+    #
+    # That first order was not enough for the errors: the rate also fell
+    # with the mass lost over the hold (m / tau_L), the foreign one does not
+    # (m0 / tau_L), and tau_L came out short by about that loss with errors
+    # far too narrow (seeds 11, 12: -1.22 % at z -19.4, -0.61 % at z -3.9).
+    # With the mass exponent k of dm/dt = -(m0 / tau_L)(m / m0)^k r^n
+    # fitted (stop 37; the foreign law is k = 0, n = 1 exactly), seeds 1-8
+    # and 11-14: tau_L within 0.35 %, |z| <= 1.48; k within 2.3 errors of 0
+    # (errors 0.04-0.97: k shows only in the decay's curvature).
     seed = int(os.environ.get("FOREIGN_RIG_SEED", secrets.randbelow(2**31)))
     g = generate("leakage", seed)
     r = fit(prepare([read_record(p) for p in g.records]), ("heat_transfer", "real_gas", "leakage"), flexible=True)
     truth = g.truth["hpctl_params"]["leak_time_constant_s"]
-    tau, n = r.values["leak_time_constant_s"], r.values["leak_pressure_exponent"]
-    context = f"FOREIGN_RIG_SEED={seed}: tau_L {tau:.4g} +- {r.stderr['leak_time_constant_s']:.2g} against {truth:.4g}, n {n:.3f}, RMS/noise {r.rms_ratio:.3f}"
+    tau, n, k = r.values["leak_time_constant_s"], r.values["leak_pressure_exponent"], r.values["leak_mass_exponent"]
+    tau_err, k_err = r.stderr["leak_time_constant_s"], r.stderr["leak_mass_exponent"]
+    context = (f"FOREIGN_RIG_SEED={seed}: tau_L {tau:.4g} +- {tau_err:.2g} against {truth:.4g}, n {n:.3f}, "
+               f"k {k:.3f} +- {k_err:.2g}, RMS/noise {r.rms_ratio:.3f}")
     assert abs(tau / truth - 1.0) <= 0.1, context
     assert abs(n - 1.0) <= 0.1, context
+    # Honest errors: the truth within three of them (0.3 % of honest draws
+    # fail), tau_L's and k's.
+    assert abs(tau - truth) <= 3.0 * tau_err, context
+    assert abs(k) <= 3.0 * k_err, context
     assert r.rms_ratio <= NOISE_CEILING, context
 
 

@@ -83,11 +83,14 @@ class OilNode:
 @dataclass(frozen=True)
 class Leakage:
     """Slow loss of gas from both accumulators (past the floating piston
-    seals): `dm/dt = -(m / tau) r^n`, `r = (p - p_amb) / (p_static - p_amb)`
-    the accumulator's gauge pressure over the static one. `n = 0` (the
-    default) a decay at the time constant whatever the pressure; `n = 1` a
-    leak driven by the pressure difference (permeation, a valve seat): the
-    compressed accumulator leaks faster.
+    seals): `dm/dt = -(m0 / tau) (m / m0)^k r^n`, `m0` the accumulator's gas
+    mass at the static state and `r = (p - p_amb) / (p_static - p_amb)` its
+    gauge pressure over the static one. The defaults, `k = 1` and `n = 0`,
+    are a decay at the time constant whatever the pressure (`dm/dt = -m /
+    tau`); `n = 1` a leak driven by the pressure difference, so the
+    compressed accumulator leaks faster; `k = 0` a flow that does not follow
+    the gas's mass beyond its pressure (seal permeation: `k = 0, n = 1` is
+    `dm/dt = -(m0 / tau) r`).
     """
 
     #: Time constant of the gas mass decay at the static pressure, s. Valid:
@@ -96,6 +99,13 @@ class Leakage:
     #: Exponent `n` of the gauge-pressure ratio the rate goes with. Valid: [0,
     #: 4] (``leak_pressure_exponent``).
     pressure_exponent: float = 0.0
+    #: Exponent `k` of the gas mass over the static one the rate goes with (a
+    #: fitted shape: below 0 the rate rises as the gas is lost, which a fit of
+    #: a leak with `k = 0` may find within its errors; a leak's mass never
+    #: falls below 0). Declared last so that the older positional form (time
+    #: constant, pressure exponent) keeps its meaning. Valid: [-4, 4]
+    #: (``leak_mass_exponent``).
+    mass_exponent: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -196,6 +206,7 @@ class OilNodeDict(TypedDict):
 class LeakageDict(TypedDict):
     time_constant_s: float
     pressure_exponent: float
+    mass_exponent: float
 
 
 class ValveLagDict(TypedDict):

@@ -131,16 +131,25 @@ effect_params! {
 
 effect_params! {
     /// Slow loss of gas from both accumulators (past the floating piston
-    /// seals): `dm/dt = -(m / tau) r^n`, `r = (p - p_amb) / (p_static -
-    /// p_amb)` the accumulator's gauge pressure over the static one. `n = 0`
-    /// (the default) a decay at the time constant whatever the pressure;
-    /// `n = 1` a leak driven by the pressure difference (permeation, a
-    /// valve seat): the compressed accumulator leaks faster.
+    /// seals): `dm/dt = -(m0 / tau) (m / m0)^k r^n`, `m0` the accumulator's
+    /// gas mass at the static state and `r = (p - p_amb) / (p_static -
+    /// p_amb)` its gauge pressure over the static one. The defaults, `k = 1`
+    /// and `n = 0`, are a decay at the time constant whatever the pressure
+    /// (`dm/dt = -m / tau`); `n = 1` a leak driven by the pressure
+    /// difference, so the compressed accumulator leaks faster; `k = 0` a
+    /// flow that does not follow the gas's mass beyond its pressure (seal
+    /// permeation: `k = 0, n = 1` is `dm/dt = -(m0 / tau) r`).
     Leakage = "leakage" {
         /// Time constant of the gas mass decay at the static pressure, s.
         time_constant_s: [Range::new("leak_time_constant_s", 1.0, 1e12)],
         /// Exponent `n` of the gauge-pressure ratio the rate goes with.
         pressure_exponent: [Range::new("leak_pressure_exponent", 0.0, 4.0), default 0.0],
+        /// Exponent `k` of the gas mass over the static one the rate goes
+        /// with (a fitted shape: below 0 the rate rises as the gas is lost,
+        /// which a fit of a leak with `k = 0` may find within its errors;
+        /// a leak's mass never falls below 0). Declared last so that the older positional form (time
+        /// constant, pressure exponent) keeps its meaning.
+        mass_exponent: [Range::new("leak_mass_exponent", -4.0, 4.0), default 1.0],
     }
 }
 
@@ -1040,8 +1049,21 @@ impl Unit {
                     libm::pow(r.max(0.0), l.pressure_exponent)
                 }
             };
-            rate.m_small_kg = -state.m_small_kg / l.time_constant_s * drive(p_s);
-            rate.m_large_kg = -state.m_large_kg / l.time_constant_s * drive(p_l);
+            // m0 (m / m0)^k: the current mass itself for the default k = 1
+            // (no pow on the hot path, and the exact exponential decay);
+            // nothing leaks from an empty accumulator (with k <= 0 the law
+            // alone would go on, or diverge).
+            let mass = |m_kg: f64, m0_kg: f64| {
+                if l.mass_exponent == 1.0 {
+                    m_kg
+                } else if m_kg <= 0.0 {
+                    0.0
+                } else {
+                    m0_kg * libm::pow(m_kg / m0_kg, l.mass_exponent)
+                }
+            };
+            rate.m_small_kg = -mass(state.m_small_kg, self.small_mass_kg) / l.time_constant_s * drive(p_s);
+            rate.m_large_kg = -mass(state.m_large_kg, self.large_mass_kg) / l.time_constant_s * drive(p_l);
         }
         let (heat_s, heat_l) = match conductance {
             Some(w) => {

@@ -164,7 +164,7 @@ fn every_effect_agrees_with_rk4() {
         p.effects.friction = Some(Friction::new(400.0, 300.0, 2e-3));
         p.effects.oil_compliance = Some(OilCompliance { bulk_modulus_pa: 1.2e9, oil_volume_m3: 0.3e-3 });
         p.effects.oil_node = Some(OilNode { heat_capacity_j_per_k: 2000.0, oil_to_ambient_tau_s: 300.0, wall_to_oil_tau_s: 60.0, wall_to_ambient_tau_s: 600.0, wall_heat_capacity_j_per_k: hp_core::unit::NO_WALL_WARMING_J_PER_K, oil_to_ambient_exponent: 0.0 });
-        p.effects.leakage = Some(Leakage { time_constant_s: 50.0, pressure_exponent: 0.0 });
+        p.effects.leakage = Some(Leakage { time_constant_s: 50.0, pressure_exponent: 0.0, mass_exponent: 1.0 });
         p.effects.valve_lag = Some(ValveLag { time_constant_s: 0.02 });
         p.effects.sensor = Some(Sensor { force_offset_n: 50.0, pressure_offset_pa: 2e4, pressure2_offset_pa: -1.5e4, time_constant_s: 0.01 });
     });
@@ -238,7 +238,7 @@ fn states_only_samples_skip_the_unit() {
 /// Final gas pressure of a 900 s hold with gas leakage of time constant
 /// `tau_s`, with the given step choice.
 fn leaky_hold(tau_s: f64, steps: Steps<'_>) -> f64 {
-    let unit = unit_with(|p| p.effects.leakage = Some(Leakage { time_constant_s: tau_s, pressure_exponent: 0.0 }));
+    let unit = unit_with(|p| p.effects.leakage = Some(Leakage { time_constant_s: tau_s, pressure_exponent: 0.0, mass_exponent: 1.0 }));
     let kind = RigKind::Characterisation { strut: Motion::Step { height_m: 0.05, start_s: 1.0, rise_s: 1.0 } };
     let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
     let t = times(900.0, 1.0);
@@ -471,7 +471,7 @@ fn a_pressure_driven_leak_goes_with_the_gauge_pressure() {
     // small over the hold (900 s of 1e6 s), so r barely moves.
     let unit = unit_with(|_| {});
     let (p_none_s, p_none_l) = hold_pressures(None);
-    let leak = |n: f64| hold_pressures(Some(Leakage { time_constant_s: 1e6, pressure_exponent: n }));
+    let leak = |n: f64| hold_pressures(Some(Leakage { time_constant_s: 1e6, pressure_exponent: n, mass_exponent: 1.0 }));
     let (p0_s, p0_l) = leak(0.0);
     let r = (p_none_s - unit.params().ambient_pressure_pa) / (unit.params().static_pressure_pa - unit.params().ambient_pressure_pa);
     assert!(r > 1.3, "the hold must compress S well above the static pressure: r = {r}");
@@ -481,5 +481,60 @@ fn a_pressure_driven_leak_goes_with_the_gauge_pressure() {
         let ratio_l = (p_none_l - pn_l) / (p_none_l - p0_l);
         assert!((ratio_s / libm::pow(r, n) - 1.0).abs() < 0.01, "n = {n}: S lost {ratio_s} times n = 0's, r^n = {}", libm::pow(r, n));
         assert!((ratio_l - 1.0).abs() < 0.01, "n = {n}: L lost {ratio_l} times n = 0's");
+    }
+}
+
+#[test]
+fn a_leak_that_does_not_follow_the_mass_has_the_closed_form_decay() {
+    // dm/dt = -(m0 / tau) (m / m0)^k r^n. Held still at the static state,
+    // ideal and isothermal gas at fixed volume: the pressure follows the
+    // mass, p / p0 = m / m0 = x, and with n = 0 the decay has the closed
+    // forms x = 1 - t / tau (k = 0), exp(-t / tau) (k = 1, the default) and
+    // 1 / (1 + t / tau) (k = 2). With k = 0 and n = 1 (seal permeation,
+    // the gauge pressure drives the flow) x' = -(x - a) / (tau (1 - a)),
+    // a = p_amb / p0: x = a + (1 - a) exp(-t / (tau (1 - a))).
+    let tau = 3000.0;
+    let t_end = 900.0;
+    let end_ratio = |k: f64, n: f64| {
+        let unit = unit_with(|p| {
+            p.gas = hp_core::gas::Gas::Ideal;
+            p.heat = HeatTransfer::Isothermal;
+            p.effects.leakage = Some(Leakage { time_constant_s: tau, pressure_exponent: n, mass_exponent: k });
+        });
+        let kind = RigKind::Characterisation { strut: Motion::Step { height_m: 0.0, start_s: 1.0, rise_s: 1.0 } };
+        let rig = Rig::new(&unit, kind, unit.params().static_temperature_k, Valves::from_modes(false, true)).unwrap();
+        let mut ends = (0.0, 0.0);
+        run_adaptive(&rig, &times(t_end, 10.0), Adaptive::default(), SampleDetail::Full, Steps::Controlled, |_, _| Valves::from_modes(false, true), |_, s| {
+            ends = (s.unit.p_gas_true_pa, s.unit.p_gas2_true_pa);
+            true
+        })
+        .unwrap();
+        let p0 = unit.params().static_pressure_pa;
+        (ends.0 / p0, ends.1 / p0, unit.params().ambient_pressure_pa / p0)
+    };
+    let x = t_end / tau;
+    for (k, n, expected) in [(0.0, 0.0, 1.0 - x), (1.0, 0.0, libm::exp(-x)), (2.0, 0.0, 1.0 / (1.0 + x))] {
+        let (s, l, _) = end_ratio(k, n);
+        assert!((s / expected - 1.0).abs() < 1e-4 && (l / expected - 1.0).abs() < 1e-4, "k = {k}, n = {n}: {s} {l} against {expected}");
+    }
+    let (s, l, a) = end_ratio(0.0, 1.0);
+    let expected = a + (1.0 - a) * libm::exp(-x / (1.0 - a));
+    assert!((s / expected - 1.0).abs() < 1e-4 && (l / expected - 1.0).abs() < 1e-4, "permeation: {s} {l} against {expected}");
+}
+
+#[test]
+fn a_leak_that_empties_an_accumulator_ends_in_an_error_not_a_panic() {
+    // k <= 0 and n = 0 take the same mass whatever is left: the gas is gone
+    // at t = tau. The run must stop with an error naming the state (or
+    // finish), never panic or return non-finite samples.
+    for k in [0.0, -4.0] {
+        let unit = unit_with(|p| p.effects.leakage = Some(Leakage { time_constant_s: 100.0, pressure_exponent: 0.0, mass_exponent: k }));
+        let kind = RigKind::Characterisation { strut: Motion::Step { height_m: 0.0, start_s: 1.0, rise_s: 1.0 } };
+        let rig = Rig::new(&unit, kind, 293.15, Valves::from_modes(true, true)).unwrap();
+        let result = run_adaptive(&rig, &times(300.0, 1.0), Adaptive::default(), SampleDetail::Full, Steps::Controlled, |_, _| Valves::from_modes(true, true), |_, s| {
+            assert!(s.unit.p_gas_true_pa.is_finite() && s.unit.force_n.is_finite(), "k = {k}: {s:?}");
+            true
+        });
+        assert!(result.is_err(), "k = {k}: an empty accumulator ran on: {result:?}");
     }
 }

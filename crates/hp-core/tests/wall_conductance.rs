@@ -80,7 +80,7 @@ fn with_an_ideal_gas_only_the_gas_mass_moves_the_time_constant() {
     // mass alone (a leaking accumulator relaxes faster), tau = tau_s m / m0.
     // The heat part of the rate is its change with the wall temperature
     // (leakage adds an expansion term that does not depend on the wall).
-    let unit = with_conductance(Gas::Ideal, Some(1.0), Some(Leakage { time_constant_s: 1e4, pressure_exponent: 0.0 }), 15e6, 293.15);
+    let unit = with_conductance(Gas::Ideal, Some(1.0), Some(Leakage { time_constant_s: 1e4, pressure_exponent: 0.0, mass_exponent: 1.0 }), 15e6, 293.15);
     let heat_part = |s: &UnitState| unit.evaluate(s, AT_REST, HARD, 303.15).0.t_gas_k - unit.evaluate(s, AT_REST, HARD, 293.15).0.t_gas_k;
     let mut state = state_at(&unit, 180.0, 293.15);
     assert!((heat_part(&state) - 10.0 / TAU_S).abs() < 1e-12, "{} vs {}", heat_part(&state), 10.0 / TAU_S);

@@ -419,9 +419,9 @@ impl Vehicle {
     /// use hp_vehicle::{presets::armoured_4x4, vehicle::Vehicle};
     /// let p = armoured_4x4();
     /// let v = Vehicle::new(p, 293.15, Valves::default()).unwrap();
-    /// let leaky = hp_core::unit::UnitParams { effects: Effects { leakage: Some(Leakage { time_constant_s: 100.0, pressure_exponent: 0.0 }), ..p.axles[0].unit.effects }, ..p.axles[0].unit };
+    /// let leaky = hp_core::unit::UnitParams { effects: Effects { leakage: Some(Leakage { time_constant_s: 100.0, pressure_exponent: 0.0, mass_exponent: 1.0 }), ..p.axles[0].unit.effects }, ..p.axles[0].unit };
     /// let w = v.with_corner_unit(3, leaky, Valves::default()).unwrap();
-    /// assert_eq!(w.unit(3).unwrap().params().effects.leakage, Some(Leakage { time_constant_s: 100.0, pressure_exponent: 0.0 }));
+    /// assert_eq!(w.unit(3).unwrap().params().effects.leakage, Some(Leakage { time_constant_s: 100.0, pressure_exponent: 0.0, mass_exponent: 1.0 }));
     /// assert_eq!(w.unit(2), v.unit(2));
     /// assert!(v.with_corner_unit(4, leaky, Valves::default()).is_err()); // a 4x4 has corners 0-3
     /// ```
