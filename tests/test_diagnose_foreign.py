@@ -333,3 +333,27 @@ def test_flexible_diagnosis_names_valve_lag_at_the_noise_with_its_time_constant(
     assert d.final.rms_ratio <= NOISE_CEILING, context
     est, err, true = d.final.values["valve_time_constant_s"], d.final.stderr["valve_time_constant_s"], g.truth["hpctl_params"]["valve_time_constant_s"]
     assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"valve tau {est} +- {err} vs {true}; {context}"
+
+
+def test_flexible_diagnosis_names_a_leak_at_the_noise_with_honest_errors(seed: int) -> None:
+    # Leakage on three sines and a 900 s hold with the strut compressed
+    # (the foreign rig's permeation leak, dm/dt = -(m0 / tau_L) r): named
+    # first, the residual within hpctl's ceiling, and the time constant
+    # within 10 % *and* three errors. Before the flexible model fitted the
+    # leak's mass exponent (stop 37) tau_L was short by the gas lost over
+    # the hold, with errors far too narrow: seed 11 -1.25 % at z -19, seed
+    # 12 -0.63 % at z -3.9; with it -0.13 % (z -1.55) and -0.12 % (z -0.51),
+    # seeds 1-5 within 0.41 % and z -0.83 to +1.07, 1.02-1.04 x the noise;
+    # 32-200 s a diagnosis alone. Seed 11's large accumulator's pressure on the 0.3 Hz sine is 1.302 x
+    # its noise, so the verdict says structure remains there (the true
+    # noise's ratio 1.075): reported, not asserted away.
+    from foreign_rig import extra_tests
+
+    g = generate("leakage", seed, tests=[t for t in sweep_tests() if t.name in SHORT] + extra_tests()["hold"])
+    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=True)
+    context = describe(d, seed, g.truth)
+    check_honest(d, g.truth, context)
+    assert d.found and d.found[0] == "leakage", context
+    assert d.final.rms_ratio <= NOISE_CEILING, context
+    est, err, true = d.final.values["leak_time_constant_s"], d.final.stderr["leak_time_constant_s"], g.truth["hpctl_params"]["leak_time_constant_s"]
+    assert abs(est / true - 1.0) <= 0.1 and abs(est - true) <= 3.0 * err, f"tau_L {est} +- {err} vs {true}; {context}"
