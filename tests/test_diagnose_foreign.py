@@ -357,3 +357,30 @@ def test_flexible_diagnosis_names_a_leak_at_the_noise_with_honest_errors(seed: i
     assert d.final.rms_ratio <= NOISE_CEILING, context
     est, err, true = d.final.values["leak_time_constant_s"], d.final.stderr["leak_time_constant_s"], g.truth["hpctl_params"]["leak_time_constant_s"]
     assert abs(est / true - 1.0) <= 0.1 and abs(est - true) <= 3.0 * err, f"tau_L {est} +- {err} vs {true}; {context}"
+
+
+def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
+    # Heat build-up on three sines and the 10-minute heat run (0.5 Hz, 60
+    # mm, the damper on): named first, the residual within hpctl's ceiling,
+    # the wall's heat capacity (what the gas's own heat warms) within 10 %
+    # or three errors, the oil's within 10 % or three errors. The wall-to-
+    # oil time constant's honest band is its profile, not its linear error
+    # (test_flexible_fit.py::test_flexible_model_warms_the_gas_wall_with_the_gas_heat
+    # asserts it on a fit); here it is reported, not asserted. Measured
+    # (stop 37, seed 7, under load): named first (BIC -373,400 against
+    # -1,823 for the next candidate), 0.988 x the noise, worst channel
+    # 1.13, "nothing left"; wall +0.15 % (2.8 errors), oil +9.0 % (0.89
+    # errors), wall-to-oil -33 % (2.3 errors); seed 725172577 passed (902 s
+    # beside a CI run). 445 s a diagnosis alone (stop 33), the longest of
+    # the foreign cases: about a third of CI's Python time.
+    from foreign_rig import extra_tests
+
+    g = generate("heat_buildup", seed, tests=[t for t in sweep_tests() if t.name in SHORT] + extra_tests()["heat"])
+    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=True)
+    context = describe(d, seed, g.truth)
+    check_honest(d, g.truth, context)
+    assert d.found and d.found[0] == "heat_buildup", context
+    assert d.final.rms_ratio <= NOISE_CEILING, context
+    for name in ("wall_heat_capacity_j_per_k", "oil_heat_capacity_j_per_k"):
+        est, err, true = d.final.values[name], d.final.stderr[name], g.truth["hpctl_params"][name]
+        assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"{name} {est} +- {err} vs {true}; {context}"
