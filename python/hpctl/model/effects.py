@@ -549,11 +549,11 @@ VALVE6_SHAPE: tuple[Param, ...] = (
 #: pressure difference and not the mass beyond it (the foreign rig's), is
 #: k = 0. With k held at 1 the rate fell with the mass lost over the hold
 #: (900 s of a 50,000-150,000 s time constant) on top of the pressure, and
-#: the fit shortened tau_L by about that much, with errors twenty times too
-#: narrow (foreign seeds 11 and 12: -1.25 % at z -19, -0.63 % at z -3.9).
+#: the fit shortened tau_L by about that much, with errors that did not
+#: cover it (foreign seeds 11 and 12: -1.25 % at z -19, -0.63 % at z -3.9).
 #: Its fit range reaches below 0 so that a permeation leak's k = 0 is an
 #: estimate with errors, not one cut off by a bound (with the range from 0,
-#: six of twelve foreign draws ended on it).
+#: five of twelve foreign draws ended on it).
 LEAKAGE_SHAPE: tuple[Param, ...] = (
     Param("leak_pressure_exponent", 0.0, 4.0, 0.1, 0.0, (0.0, 1.0), prior_sigma=1.0),
     Param("leak_mass_exponent", -2.0, 4.0, 1.0, 1.0, (0.0, 1.0), prior_sigma=1.0),
@@ -604,8 +604,8 @@ def flexible_params(effects: Sequence[str], damper_branches: Sequence[str], valv
     orifice's characteristic; with heat transfer, how its time constant
     moves with the gas's heat capacity; with friction, its smoothing and
     Stribeck term; with leakage, how its rate goes with the pressure and the
-    gas's mass; with
-    heat build-up, the heat capacity of the wall the gas warms."""
+    gas's mass; with heat build-up, the heat capacity of the wall the gas
+    warms."""
     return (damper_shape_params(damper_branches) + (list(VALVE6_SHAPE) if valve6 else [])
             + (list(THERMAL_SHAPE) if "heat_transfer" in effects else []) + (list(FRICTION_SHAPE) if "friction" in effects else [])
             + (list(LEAKAGE_SHAPE) if "leakage" in effects else []) + (list(WALL_SHAPE) if "heat_buildup" in effects else []))
