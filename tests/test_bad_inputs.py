@@ -131,3 +131,16 @@ def test_no_input_crashes_the_core(field: str, value: float, mass: float, dt: fl
             assert str(e)  # a message, and a ValueError subclass by construction
         else:
             assert all(np.all(np.isfinite(v)) for v in out.values())
+
+
+def test_a_leak_that_empties_the_gas_is_a_simulation_error(seed_unit: hpctl.Unit) -> None:
+    # A leak whose rate does not fall with the gas left (mass exponent 0)
+    # empties the accumulators at its time constant: the run stops with a
+    # SimulationError naming the state that left its range and when (the
+    # Rust side: adaptive_rig.rs, a_leak_that_empties_an_accumulator_...).
+    from hpctl.identify.virtual_rig import Noise, effect_tests, record_test
+    from hpctl.model.unit import Leakage
+
+    leaky = seed_unit.with_effects(leakage=Leakage(100.0, 0.0, 0.0))
+    with pytest.raises(hpctl.SimulationError, match=r"state \w+ = \S+ left the valid range \[\S+, \S+\] at t = 9\d\.\d+ s"):
+        record_test(leaky, effect_tests()["hold"], Noise(), np.random.default_rng(0))
