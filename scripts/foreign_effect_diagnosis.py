@@ -8,8 +8,8 @@ each parameter with a truth against it (docs/foreign-rig.md, stops 36-37).
 With ``--fit``, the flexible fit of the model with the effect declared
 instead of a diagnosis (its time, residual sum of squares, the effect's
 shape parameters), on the short records or, with ``--records full``, on
-those of tests/test_flexible_fit.py (the five sines and the effect's
-records); ``--jacobian broyden`` for Broyden's updates:
+the effect's whole case as tests/test_flexible_fit.py generates it (the
+five sines and the effect's records); ``--jacobian broyden`` for Broyden's updates:
 
     python scripts/foreign_effect_diagnosis.py --fit --records full --effects leakage --seeds 11 12
     python scripts/foreign_effect_diagnosis.py --fit --max-nfev 200 --jacobian broyden --effects heat_buildup --seeds 7
@@ -29,13 +29,13 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
-from foreign_rig import EFFECT_TESTS, extra_tests, generate, sweep_tests  # noqa: E402
+from foreign_rig import generate  # noqa: E402
 from hpctl.data.records import read_record  # noqa: E402
 from hpctl.identify.dataset import prepare  # noqa: E402
 from hpctl.identify.diagnose import diagnose  # noqa: E402
 from hpctl.identify.fit import FitResult, fit  # noqa: E402
 from hpctl.model.effects import FRICTION_SHAPE, LEAKAGE_SHAPE, WALL_SHAPE  # noqa: E402
-from test_diagnose_foreign import SHORT, true_noise_ratio  # noqa: E402
+from test_diagnose_foreign import effect_case, true_noise_ratio  # noqa: E402
 
 DECLARED = ("heat_transfer", "real_gas")
 #: The shape parameters an effect brings to the flexible model, reported by --fit.
@@ -60,12 +60,9 @@ def main() -> None:
     ap.add_argument("--jacobian", choices=("finite_difference", "broyden"), default="finite_difference", help="with --fit")
     ap.add_argument("--max-nfev", type=int, default=None, help="with --fit: the fit's evaluation budget")
     a = ap.parse_args()
-    more = extra_tests()
     for seed in a.seeds:
         for effect in a.effects.split(","):
-            needs = [t for k in EFFECT_TESTS.get(effect, ()) for t in more[k]]
-            sines = [t for t in sweep_tests() if a.records == "full" or t.name in SHORT]
-            g = generate(effect, seed, tests=sines + needs)
+            g = effect_case(effect, seed) if a.records == "short" else generate(effect, seed)
             records = [read_record(p) for p in g.records]
             truth = g.truth["hpctl_params"]
             t0 = time.time()

@@ -43,6 +43,16 @@ def short_case(effect: str | None, seed: int) -> Any:
     return generate(effect, seed, tests=[t for t in sweep_tests() if t.name in SHORT])
 
 
+def effect_case(effect: str, seed: int) -> Any:
+    """The foreign case of ``effect`` on the short sweep and the records
+    the effect needs (``EFFECT_TESTS``: the hold for a leak, the heat run
+    for heat build-up, the switching record for valve lag)."""
+    from foreign_rig import EFFECT_TESTS, extra_tests
+
+    more = extra_tests()
+    return generate(effect, seed, tests=[t for t in sweep_tests() if t.name in SHORT] + [t for k in EFFECT_TESTS.get(effect, ()) for t in more[k]])
+
+
 def true_noise_ratio(d: Diagnosis, truth: dict[str, Any]) -> float:
     """The final residual's RMS over the noise the foreign rig drew, pooled
     over records and channels (hpctl estimates its noise from the data; this
@@ -289,15 +299,12 @@ def test_a_flexible_fit_with_its_stribeck_peak_under_the_smoothing_is_restarted(
     assert abs(d.value / truth - 1.0) <= 0.05, (d, truth)
 
 
-def found_first_at_the_noise(effect: str, seed: int, extra: str | None = None) -> tuple[Any, Diagnosis, str]:
-    """The flexible diagnosis of the foreign rig's ``effect`` on the short
-    sines (and the records of ``extra``, a key of ``extra_tests()``),
+def found_first_at_the_noise(effect: str, seed: int) -> tuple[Any, Diagnosis, str]:
+    """The flexible diagnosis of the foreign rig's ``effect`` (:func:`effect_case`),
     checked on what the issue asks of every effect: the judgement honest,
     the effect named first, the residual within hpctl's ceiling. Returns
     the case, the diagnosis and the context to print on a failure."""
-    from foreign_rig import extra_tests
-
-    g = short_case(effect, seed) if extra is None else generate(effect, seed, tests=[t for t in sweep_tests() if t.name in SHORT] + extra_tests()[extra])
+    g = effect_case(effect, seed)
     d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=True)
     context = describe(d, seed, g.truth)
     check_honest(d, g.truth, context)
@@ -340,7 +347,7 @@ def test_flexible_diagnosis_names_valve_lag_at_the_noise_with_its_time_constant(
     # test_switch_places_that_trade_with_the_valve_reach_their_end). What
     # remains above 1.1 x is reported as structure (seeds 3, 11, 20), and a
     # second effect may follow (seed 3: a sensor offset).
-    g, d, context = found_first_at_the_noise("valve_lag", seed, "switching")
+    g, d, context = found_first_at_the_noise("valve_lag", seed)
     est, err, true = estimate(d, g, "valve_time_constant_s")
     assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"valve tau {est} +- {err} vs {true}; {context}"
 
@@ -358,7 +365,7 @@ def test_flexible_diagnosis_names_a_leak_at_the_noise_with_honest_errors(seed: i
     # the 0.3 Hz sine is 1.302 x its noise, so the verdict says structure
     # remains there (the true noise's ratio 1.075): reported, not asserted
     # away.
-    g, d, context = found_first_at_the_noise("leakage", seed, "hold")
+    g, d, context = found_first_at_the_noise("leakage", seed)
     est, err, true = estimate(d, g, "leak_time_constant_s")
     assert abs(est / true - 1.0) <= 0.1 and abs(est - true) <= 3.0 * err, f"tau_L {est} +- {err} vs {true}; {context}"
 
@@ -377,7 +384,7 @@ def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
     # errors), wall-to-oil -33 % (2.3 errors); seed 725172577 passed (902 s
     # beside a CI run). 445 s a diagnosis alone (stop 33), the longest of
     # the foreign cases: about 7 of CI's 25-odd minutes.
-    g, d, context = found_first_at_the_noise("heat_buildup", seed, "heat")
+    g, d, context = found_first_at_the_noise("heat_buildup", seed)
     for name in ("wall_heat_capacity_j_per_k", "oil_heat_capacity_j_per_k"):
         est, err, true = estimate(d, g, name)
         assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"{name} {est} +- {err} vs {true}; {context}"
