@@ -152,7 +152,7 @@ def timed(cmd: list[str], label: str, timeout_s: float) -> dict[str, Any]:
                 row["rms_ratio"] = doc["rms_ratio"]
         except json.JSONDecodeError:
             row["error"] = "no JSON on stdout"
-    target = TARGETS_S.get(label)
+    target = TARGETS_S.get(label.removesuffix("-flexible"))
     verdict = "" if target is None else (f"  target {target:.0f} s: met" if took <= target else f"  target {target:.0f} s: MISSED by {took / target:.1f} x")
     print(f"{label:9} {took:8.1f} s  (load {load} -> {row['load_after']}, exit {p.returncode}){verdict}", flush=True)
     return row
@@ -236,9 +236,12 @@ def phase_counters() -> Iterator[Phases]:
             r()
 
 
-def breakdown(campaign: Path) -> dict[str, Any]:
+def breakdown(campaign: Path, flexible: bool, screening_jacobian: str | None) -> dict[str, Any]:
     """The campaign's diagnosis in this process, by phase, and the
-    baseline: one run of every record at the declared model."""
+    baseline: one run of every record at the declared model.
+    ``screening_jacobian`` replaces the diagnosis's choice of Jacobian for
+    its screening fits (:func:`hpctl.identify.diagnose.screening_jacobian`)
+    to measure the other one."""
     from hpctl.data.records import read_record
     from hpctl.identify import diagnose as dg
     from hpctl.identify.dataset import prepare
@@ -267,9 +270,17 @@ def breakdown(campaign: Path) -> dict[str, Any]:
             lines.append((time.perf_counter() - t0, m))
             print(f"    {lines[-1][0]:7.1f} s  {m}", flush=True)
 
-        diag = dg.diagnose(recs, start_effects, progress=say)
+        chosen = dg.screening_jacobian
+        if screening_jacobian is not None:
+            dg.screening_jacobian = lambda _flexible: screening_jacobian
+        try:
+            diag = dg.diagnose(recs, start_effects, progress=say, flexible=flexible)
+        finally:
+            dg.screening_jacobian = chosen
         total = time.perf_counter() - t0
-    print(f"breakdown (in this process, load {load} -> {uptime()}): diagnosis {total:.1f} s, verdict {diag.verdict}, found {diag.found}")
+    how = ("flexible" if flexible else "seed") + (f", screening Jacobian {screening_jacobian}" if screening_jacobian else "")
+    print(f"breakdown ({how}; in this process, load {load} -> {uptime()}): diagnosis {total:.1f} s, verdict {diag.verdict}, found {diag.found}, "
+          f"RMS / noise {diag.initial.rms_ratio:.3g} -> {diag.final.rms_ratio:.3g}")
     print(f"  baseline: one run of the {len(datasets)} records at the declared model {run_s * 1e3:.0f} ms; preparing them {prep_s:.2f} s")
     print(f"  {'phase':32} {'thread-s':>8} {'share':>6} {'calls':>6} {'model runs':>11} {'x baseline':>11}")
     for k in sorted(ph.time_s, key=lambda k: -ph.time_s[k]):
@@ -277,7 +288,7 @@ def breakdown(campaign: Path) -> dict[str, Any]:
         print(f"  {k:32} {ph.time_s[k]:8.1f} {ph.time_s[k] / total:6.0%} {ph.calls[k]:6d} {runs // max(len(datasets), 1) if runs else '':>11} "
               f"{ph.time_s[k] / run_s:11.0f}")
     print(f"  diagnosis = {total / run_s:.0f} x one run of the records")
-    return {"total_s": total, "baseline_run_s": run_s, "prepare_s": prep_s, "load_before": load, "load_after": uptime(),
+    return {"flexible": flexible, "screening_jacobian": screening_jacobian, "total_s": total, "baseline_run_s": run_s, "prepare_s": prep_s, "load_before": load, "load_after": uptime(),
             "phases_s": ph.time_s, "calls": ph.calls, "record_runs": {k: v // len(datasets) for k, v in ph.runs.items()},
             "verdict": diag.verdict, "found": diag.found, "progress": lines}
 
@@ -364,6 +375,11 @@ def main() -> int:
                          "diagnosis in this process, by phase), parallel (its first round with one worker and with the pool), decimation (how far the records' drives could be decimated)")
     ap.add_argument("--timeout-s", type=float, default=1800.0, help="give up on a timing after this long (reported as not finished)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results here")
+    ap.add_argument("--flexible", action="store_true",
+                    help="time the flexible model (damper characteristic, friction shape, static state and charge identified: "
+                         "the model that reaches the noise on foreign data) instead of the seed's assumed damper")
+    ap.add_argument("--screening-jacobian", choices=("finite_difference", "broyden"), default=None,
+                    help="breakdown only: the screening fits' Jacobian instead of the diagnosis's choice")
     a = ap.parse_args()
     only = set(a.only.split(","))
     print("python " + " ".join([str(Path(sys.argv[0]))] + sys.argv[1:]))
@@ -372,13 +388,15 @@ def main() -> int:
     heat = records("heat-run", HEAT_EFFECT, HEAT_SEED, HEAT_TESTS) if "heat" in only else None
     out = CACHE / "runs"
     hpctl = [sys.executable, "-m", "hpctl"]
+    model = ["--model", "seed"] + (["--flexible"] if a.flexible else [])
+    tag = "-flexible" if a.flexible else ""
     rows = []
     if "campaign" in only:
-        rows.append(timed(hpctl + ["diagnose", str(campaign), "--model", "seed", "--json", "--force", "--out", str(out / "campaign")], "campaign", a.timeout_s))
+        rows.append(timed(hpctl + ["diagnose", str(campaign), *model, "--json", "--force", "--out", str(out / f"campaign{tag}")], f"campaign{tag}", a.timeout_s))
     if heat is not None:
-        rows.append(timed(hpctl + ["diagnose", str(heat), "--model", "seed", "--json", "--force", "--out", str(out / "heat")], "heat", a.timeout_s))
+        rows.append(timed(hpctl + ["diagnose", str(heat), *model, "--json", "--force", "--out", str(out / f"heat{tag}")], f"heat{tag}", a.timeout_s))
     if "fit" in only:
-        rows.append(timed(hpctl + ["fit", str(campaign), "--model", "seed", "--json", "-q", "--force", "--out", str(out / "fit")], "fit", a.timeout_s))
+        rows.append(timed(hpctl + ["fit", str(campaign), *model, "--json", "-q", "--force", "--out", str(out / f"fit{tag}")], f"fit{tag}", a.timeout_s))
     for r in rows:
         if "error" in r:
             print(f"  {r['label']}: {r['error']}")
@@ -392,7 +410,7 @@ def main() -> int:
     if "decimation" in only:
         result["decimation"] = decimation_check(campaign)
     if "breakdown" in only:
-        result["breakdown"] = breakdown(campaign)
+        result["breakdown"] = breakdown(campaign, a.flexible, a.screening_jacobian)
     if a.json is not None:
         a.json.parent.mkdir(parents=True, exist_ok=True)
         a.json.write_text(json.dumps(result, indent=1, default=str) + "\n")

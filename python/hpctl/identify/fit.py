@@ -12,6 +12,7 @@ input's noise (drawn anew and run through the model).
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -40,8 +41,11 @@ from hpctl.identify.serial import output_meat
 from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, extrapolated_leads, switch_samples, timeline
 from hpctl.model.effects import (
     CHARGE,
+    DAMPER_BRANCHES,
     DAMPER_GAIN,
+    DAMPER_SHAPE,
     LIBRARY,
+    VALVE6_SHAPE,
     Param,
     build_unit,
     damper_shape_params,
@@ -161,21 +165,24 @@ def simulate_all(
     value_sets: Sequence[Mapping[str, float]],
     steps: Sequence[FloatArray | None] | None = None,
     record_steps: bool = False,
+    which: Sequence[Sequence[int]] | None = None,
 ) -> list[list[dict[str, FloatArray] | Exception]]:
     """Simulates every dataset for every parameter set, in parallel. With
     ``record_steps`` each result has the adaptive steps' end times under
-    ``step_end_s``; ``steps`` (one per dataset) replays such lists."""
+    ``step_end_s``; ``steps`` (one per dataset) replays such lists. With
+    ``which`` (one per parameter set), only the datasets of ``which[i]``
+    for parameter set ``i``, its row holding their runs in that order."""
+    chosen = [range(len(datasets))] * len(value_sets) if which is None else which
     made = [
-        _case(model, d, v, None if steps is None else steps[j], record_steps)
-        for v in value_sets for j, d in enumerate(datasets)
+        _case(model, datasets[j], v, None if steps is None else steps[j], record_steps)
+        for v, js in zip(value_sets, chosen, strict=True) for j in js
     ]
-    flat = run_many([c for c, _ in made])
-    keeps = [k for _, k in made]
-    n = len(datasets)
+    flat = iter(zip(run_many([c for c, _ in made]), [k for _, k in made], strict=True))
     out: list[list[dict[str, FloatArray] | Exception]] = []
-    for i, values in enumerate(value_sets):
+    for values, js in zip(value_sets, chosen):
         row: list[dict[str, FloatArray] | Exception] = []
-        for d, r, keep in zip(datasets, flat[i * n:(i + 1) * n], keeps[i * n:(i + 1) * n]):
+        for j in js:
+            r, keep = next(flat)
             if isinstance(r, Exception):
                 row.append(r)
                 continue
@@ -186,7 +193,7 @@ def simulate_all(
                 for c in LAGGED:
                     # At rest the force has no damper or friction part.
                     rest = ch[c][0] - (ch["damper_force_n"][0] + ch["friction_force_n"][0] if c == "force_n" else 0.0)
-                    ch[c] = _core.sensor_lag(d.times_s, ch[c], model.with_fixed(values)["sensor_time_constant_s"], rest)
+                    ch[c] = _core.sensor_lag(datasets[j].times_s, ch[c], model.with_fixed(values)["sensor_time_constant_s"], rest)
             row.append(ch)
         out.append(row)
     return out
@@ -199,15 +206,15 @@ def residual_vector(
     datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | Exception], fold: int | None = None
 ) -> FloatArray:
     """Residuals in noise units; only the samples of ``fold`` if given."""
-    parts = []
-    for d, sim in zip(datasets, sims):
-        m = np.ones(len(d.times_s), bool) if fold is None else fold_mask(d, fold)
-        for c, y in d.targets.items():
-            if isinstance(sim, Exception):
-                parts.append(np.full(int(m.sum()), FAILED_RESIDUAL))
-            else:
-                parts.append(((sim[c] - y) / d.weight_sigma[c])[m])
-    return np.concatenate(parts)
+    return np.concatenate([residual_block(d, sim, fold) for d, sim in zip(datasets, sims)])
+
+
+def residual_block(d: Dataset, sim: dict[str, FloatArray] | Exception, fold: int | None = None) -> FloatArray:
+    """One dataset's part of :func:`residual_vector`."""
+    m = np.ones(len(d.times_s), bool) if fold is None else fold_mask(d, fold)
+    if isinstance(sim, Exception):
+        return np.full(int(m.sum()) * len(d.targets), FAILED_RESIDUAL)
+    return np.concatenate([((sim[c] - y) / d.weight_sigma[c])[m] for c, y in d.targets.items()] or [np.zeros(0)])
 
 
 @dataclass
@@ -501,6 +508,12 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     def fun(x: FloatArray) -> FloatArray:
         return np.concatenate([evaluate(x)[0], prior_rows(x)]) if prior else evaluate(x)[0]
 
+    # Each column's perturbed runs: the datasets its parameter reaches,
+    # where the residuals of the others are those of f0 exactly.
+    reaches = reach(params, datasets)
+    sizes = [len(residual_block(d, RuntimeError(), fold)) for d in datasets]  # a failed run's block: its size
+    blocks = [slice(a, b) for a, b in itertools.pairwise(np.cumsum([0, *sizes]).tolist())]
+
     def fd_jac(x: FloatArray) -> FloatArray:
         f0, ends = evaluate(x)
         steps = []
@@ -512,9 +525,11 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             xi[i] = x[i] + h if x[i] + h <= hi[i] else x[i] - h
             steps.append(xi[i] - x[i])
             xs.append(xi)
-        sims = simulate_all(model, datasets, [values_from_x(params, xi) for xi in xs], steps=ends)
-        cols = [(residual_vector(datasets, s, fold) - f0) / h for s, h in zip(sims, steps)]
-        jm = np.column_stack(cols) if cols else np.zeros((len(f0), 0))
+        sims = simulate_all(model, datasets, [values_from_x(params, xi) for xi in xs], steps=ends, which=reaches)
+        jm = np.zeros((len(f0), len(x)))
+        for i, (column_runs, h) in enumerate(zip(sims, steps)):
+            for j, s in zip(reaches[i], column_runs):
+                jm[blocks[j], i] = (residual_block(datasets[j], s, fold) - f0[blocks[j]]) / h
         if prior:
             rows = np.zeros((len(prior), len(x)))
             for row, (i, _, sigma) in enumerate(prior):
@@ -827,6 +842,26 @@ def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:
     on = any(bool(d.damper_on.any()) for d in datasets)
     off = any(bool((~d.damper_on).any()) for d in datasets)
     return (("on_compression", "on_rebound") if on else ()) + (("off_compression", "off_rebound") if off else ())
+
+
+def reach(params: Sequence[Param], datasets: Sequence[Dataset]) -> list[tuple[int, ...]]:
+    """Per parameter, the datasets whose run it can change: a damper
+    branch's shape only those that exercise the branch
+    (:func:`damper_branches`), valve 6's orifice only those that open it
+    (:func:`opens_valve6`), every other parameter all of them. The
+    finite-difference Jacobian runs a column's perturbation on those alone
+    (the others' entries are exactly zero): on the bundled campaign the
+    damper's valve-5-off branches skip the 700 s heat piece, which has most
+    of the steps. ``tests/test_fit_reach.py`` checks on every record type
+    that a parameter changes nothing, bit for bit, where it is said not to
+    reach."""
+    branch = {p.name: b for b in DAMPER_BRANCHES for p in DAMPER_SHAPE[b]}
+    valve6 = {p.name for p in VALVE6_SHAPE}
+    exercised = [damper_branches([d]) for d in datasets]
+    opened = [opens_valve6([d]) for d in datasets]
+    everyone = tuple(range(len(datasets)))
+    return [tuple(j for j, bs in enumerate(exercised) if branch[p.name] in bs) if p.name in branch
+            else tuple(j for j, o in enumerate(opened) if o) if p.name in valve6 else everyone for p in params]
 
 
 def opens_valve6(datasets: Sequence[Dataset]) -> bool:
