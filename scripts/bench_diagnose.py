@@ -36,6 +36,15 @@ criterion is in :data:`DECIMATION_TOL`). The load average (``uptime``) is
 printed with every time: the machine is shared.
 
     python scripts/bench_diagnose.py [--only decimation,campaign,heat,fit,breakdown,parallel] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
+    python scripts/bench_diagnose.py --flexible [--only campaign,fit,breakdown] [--screening-jacobian broyden]
+
+``--flexible`` times the flexible model instead (``hpctl diagnose/fit
+--flexible``: the damper characteristic, the friction's shape, the static
+state and charge identified), the model that reaches the noise on foreign
+data where ``--model seed``'s assumed damper leaves tens of times it; the
+targets are the same. ``--screening-jacobian`` (breakdown only) replaces
+the diagnosis's choice of Jacobian for its screening fits, to measure the
+other one.
 
 This is a benchmark, not a test: it prints numbers and never fails because
 the machine is slow.
@@ -272,7 +281,7 @@ def breakdown(campaign: Path, flexible: bool, screening_jacobian: str | None) ->
 
         chosen = dg.screening_jacobian
         if screening_jacobian is not None:
-            dg.screening_jacobian = lambda _flexible: screening_jacobian
+            dg.screening_jacobian = lambda _flexible, _n: screening_jacobian
         try:
             diag = dg.diagnose(recs, start_effects, progress=say, flexible=flexible)
         finally:
