@@ -157,17 +157,3 @@ def test_errors_left_out_and_added_at_the_optimum_are_the_fits_own() -> None:
     assert c.result.values == bare.values and set(c.result.stderr) == set(full.stderr)
     for name, e in full.stderr.items():
         assert c.result.stderr[name] == pytest.approx(e, rel=1e-6), name
-
-
-def test_the_flexible_models_screening_fits_use_broyden_on_long_records_only() -> None:
-    # The fixed-shape models' screening fits always; the flexible model's
-    # where a run of the records outweighs the optimiser's work (the
-    # foreign heat build-up case's 39,612 residuals: Broyden; its leak
-    # case's 12,252: finite differences; docs/foreign-rig.md, stop 38).
-    from hpctl.identify.diagnose import BROYDEN_FLEXIBLE_MIN_RESIDUALS, screening_jacobian
-
-    assert 12_252 < BROYDEN_FLEXIBLE_MIN_RESIDUALS <= 39_612
-    assert screening_jacobian(False, 100) == "broyden"
-    assert screening_jacobian(True, 12_252) == "finite_difference"
-    assert screening_jacobian(True, 39_612) == "broyden"
-    assert screening_jacobian(True, BROYDEN_FLEXIBLE_MIN_RESIDUALS) == "broyden"

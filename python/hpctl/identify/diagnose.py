@@ -405,7 +405,7 @@ def cross_validation(
     def fold(train: int) -> float:
         # Read only for its prediction: no errors, the screening's tolerance.
         r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False, held=held,
-                jacobian=screening_jacobian(False, n_fold), errors=False, ftol=screening_ftol(n_fold))  # the shape held: the few other parameters
+                jacobian=screening_jacobian(False), errors=False, ftol=screening_ftol(n_fold))  # the shape held: the few other parameters
         # The fit ran every record whole: the other fold's residuals are in its runs.
         rest = residual_vector(datasets, r.sims, fold=1 - train)
         return float(rest @ rest)
@@ -505,32 +505,24 @@ def _try_all(
 SCREENING_BIC_STEP = 0.1
 
 
-#: Residuals (samples x channels) from which the flexible model's
-#: screening fits use Broyden's updates (:func:`screening_jacobian`).
-BROYDEN_FLEXIBLE_MIN_RESIDUALS = 25_000
-
-
-def screening_jacobian(flexible: bool, n: int) -> str:
-    """How a screening fit or a cross-validation fold on ``n`` residuals
-    gets its Jacobian (:func:`~hpctl.identify.fit.fit`'s ``jacobian``).
-    Their optimum only ranks models, so for the fixed-shape models
-    Broyden's updates between finite differences (about one run per
-    iteration instead of one per parameter: the bundled heat run 153 s
-    instead of 221 s, BENCHMARKS.md).
-
-    The flexible model's fits (20-odd parameters) use them only on long
-    records, from :data:`BROYDEN_FLEXIBLE_MIN_RESIDUALS`: there a run of
-    the records costs more than the optimiser's own work and Broyden's
-    extra iterations, one run each, are cheaper than a Jacobian's 20-odd
-    runs (the bundled campaign's diagnosis, 57,255 residuals: 303 s with
-    finite differences, 170 s with Broyden, the same verdict; a flexible
-    fit of the foreign heat build-up case, 39,612: 60 s against 27 s, the
-    same optimum). On short records the finite differences' runs, one
-    parallel batch, cost little and the extra iterations more (the foreign
-    leak case, 12,252: 3.8 s against 11 s). docs/foreign-rig.md and
-    BENCHMARKS.md. The accepted model is fitted again with finite
-    differences throughout."""
-    return "broyden" if not flexible or n >= BROYDEN_FLEXIBLE_MIN_RESIDUALS else "finite_difference"
+def screening_jacobian(flexible: bool) -> str:
+    """How a screening fit or a cross-validation fold gets its Jacobian
+    (:func:`~hpctl.identify.fit.fit`'s ``jacobian``). Their optimum only
+    ranks models, so for the fixed-shape models Broyden's updates between
+    finite differences (about one run per iteration instead of one per
+    parameter: the bundled heat run 153 s instead of 221 s, BENCHMARKS.md).
+    The flexible model's fits (20-odd parameters) keep finite differences.
+    Broyden there was 1.8-2.3 x faster on long records with the same
+    verdict (the bundled campaign, the foreign heat build-up case), but on
+    the bundled 75-minute heat run its screening fit of heat build-up ended
+    3.6e5 higher in BIC (-1.212e6 against -1.573e6), and the accepted
+    model's fit, started there, stayed at 1.86 x the noise (stop 38,
+    docs/foreign-rig.md). The likely reason, not verified: a screening
+    fit's budget (60 evaluations) counts the runs of the residuals, not the
+    Jacobian's, so Broyden's many cheap iterations reach less far in it
+    than finite differences' few. The accepted model is fitted again with
+    finite differences throughout."""
+    return "finite_difference" if flexible else "broyden"
 
 
 def screening_ftol(n: int) -> float:
@@ -588,7 +580,7 @@ def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ..
 
     def attempt(start: Mapping[str, float]) -> FitResult:
         return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol,
-                   jacobian=screening_jacobian(current.model.flexible, current.n), errors=False)
+                   jacobian=screening_jacobian(current.model.flexible), errors=False)
 
     def better_from(start: Mapping[str, float], trial: FitResult) -> FitResult:
         # Fitted again only from a start better than where the fit ended
