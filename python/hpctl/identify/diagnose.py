@@ -517,10 +517,10 @@ def screening_jacobian(flexible: bool) -> str:
     the bundled 75-minute heat run its screening fit of heat build-up ended
     3.6e5 higher in BIC (-1.212e6 against -1.573e6), and the accepted
     model's fit, started there, stayed at 1.86 x the noise (stop 38,
-    docs/foreign-rig.md). Not the screening budget: with 200 evaluations
-    instead of 60 that fit ended at -1.217e6, its convergence confirmed by
-    finite differences: Broyden's steps led it to another optimum. The accepted model is fitted again with
-    finite differences throughout."""
+    docs/foreign-rig.md). Not for want of the screening budget: with 200
+    evaluations instead of 60 that fit ended at -1.217e6, barely lower:
+    Broyden's steps led it toward another optimum. The accepted model is
+    fitted again with finite differences throughout."""
     return "finite_difference" if flexible else "broyden"
 
 
