@@ -86,3 +86,42 @@ def test_each_pressure_transducer_has_its_own_offset(seed_unit: hpctl.Unit) -> N
     np.testing.assert_allclose(r["p_gas2_pa"] - r["p_gas2_true_pa"], -1.5e4, atol=1e-6)
     # The older positional form keeps its meaning: force, pressure, lag.
     assert Sensor(1.0, 2.0, 0.03).time_constant_s == 0.03 and Sensor(1.0, 2.0, 0.03).pressure2_offset_pa == 0.0
+
+
+def test_the_core_dict_is_asdicts_without_the_copies(seed_unit: hpctl.Unit) -> None:
+    """Unit.to_dict and Damper.to_dict build the dict per run without
+    dataclasses.asdict's deep copies (hpctl.model.unit.plain): the same
+    dict as asdict, for a unit with every effect set and a two-stage
+    damper branch."""
+    import dataclasses
+
+    from hpctl import _core
+    from hpctl.model import unit as um
+
+    effects = {}
+    for t in _core.EFFECT_PARAMETERS:
+        cls = getattr(um, t["name"])
+        values = {g["field"]: g["default"] if g["default"] is not None else max(g["range"][0], min(0.5, g["range"][1])) for g in t["fields"]}
+        effects[t["key"]] = cls(**values)
+    branch = dataclasses.replace(seed_unit.damper.on_rebound, blowoff2_pa=3e6, blowoff2_slope_pa_s_per_m3=1e9, blowoff_knee=0.2)
+    u = seed_unit.replace(damper=dataclasses.replace(seed_unit.damper, on_rebound=branch), polytropic_exponent=1.3).with_effects(**effects)
+    expected = dataclasses.asdict(u)
+    assert set(expected["effects"]) == set(effects)  # every effect is set, so none is left out
+    assert u.to_dict() == expected
+    assert u.damper.to_dict() == dataclasses.asdict(u.damper)
+    assert u.to_dict()["damper"]["on_rebound"]["blowoff2_pa"] == 3e6
+    # Absent effects are left out, as before.
+    assert seed_unit.to_dict()["effects"] == {k: v for k, v in dataclasses.asdict(seed_unit)["effects"].items() if v is not None}
+    # A new dict each time: a caller's change to one never reaches the unit's next.
+    d = u.to_dict()
+    d["damper"]["on_rebound"]["blowoff_pa"] = -1.0
+    assert u.to_dict()["damper"]["on_rebound"]["blowoff_pa"] == branch.blowoff_pa
+
+
+@pytest.mark.parametrize("flags", [np.array([True, False, True]), np.array([1, 0, 1]), np.array([1.0, 0.0, 1.0]), [1, 0, 1], [True, False, True]])
+def test_flags_arrays_become_python_bools(flags: object) -> None:
+    from hpctl.errors import check_flags
+
+    out = check_flags(flags, "spring_hard")
+    assert out == [True, False, True]
+    assert isinstance(out, list) and all(type(x) is bool for x in out)

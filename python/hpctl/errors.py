@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -131,8 +131,11 @@ def check_flags(value: Any, name: str) -> bool | list[bool]:
     if isinstance(value, (str, bytes)) or np.ndim(value) != 1:
         raise bad_argument(name, value, expected)
     a = np.asarray(value)
+    # tolist, not a loop of bool(): a run's flags are a record's samples,
+    # and a flexible fit is thousands of runs (2.5 s of the bundled
+    # campaign's 50 s fit, stop 39).
     if a.dtype == np.bool_:
-        return [bool(x) for x in a]
+        return cast(list[bool], a.tolist())
     if np.issubdtype(a.dtype, np.number) and np.all((a == 0) | (a == 1)):
-        return [bool(x) for x in a]
+        return cast(list[bool], (a != 0).tolist())
     raise bad_argument(name, value, expected)

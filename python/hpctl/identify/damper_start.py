@@ -32,14 +32,12 @@ from __future__ import annotations
 import dataclasses
 import warnings
 from collections.abc import Sequence
-from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from hpctl import _core
-from hpctl._coretypes import DamperDict
 from hpctl.identify.dataset import Dataset
 from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
 from hpctl.model.unit import Damper
@@ -222,4 +220,4 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
 
 
 def _drop_pa(damper: Damper, q_m3_s: FloatArray, bypass_open: float) -> FloatArray:
-    return _core.damper_pressure_drop_pa(cast(DamperDict, dataclasses.asdict(damper)), q_m3_s, bypass_open)
+    return _core.damper_pressure_drop_pa(damper.to_dict(), q_m3_s, bypass_open)
