@@ -80,7 +80,9 @@ impl fmt::Display for Error {
             Error::StateOutOfRange { name, value, min, max, time_s } => write!(
                 f,
                 "state {name} = {} left the valid range [{}, {}] at t = {} s \
-                 (reduce the step size or the excitation)",
+                 (a fixed step too long for the model's fastest dynamics, or \
+                 parameters or an excitation that take the unit out of the \
+                 model's range, such as a leak that emptied the gas)",
                 Num(value),
                 Num(min),
                 Num(max),
