@@ -198,9 +198,26 @@ impl DamperCurve {
     /// The smooth-knee curve (see the type's description) and its slope
     /// `d(dp)/dq`, at flow `q_m3_s >= 0`.
     fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
-        let s = self.blowoff_slope_pa_s_per_m3;
+        self.smooth_at(&self.knees(), q_m3_s)
+    }
+
+    /// What the smooth and two-stage curves need that does not depend on
+    /// the flow: computed once where a curve is inverted (Newton's
+    /// iterations on every evaluation of a model with compressible oil),
+    /// each in the same expression as before, so the curve is the same
+    /// to the last bit.
+    fn knees(&self) -> Knees {
         let q_b = self.blowoff_flow_m3_s();
-        let (ramp_q, ramp_slope) = rounded_ramp(q_m3_s, q_b, self.blowoff_knee * q_b);
+        let first = Ramp::new(q_b, self.blowoff_knee * q_b);
+        let x_2 = (self.blowoff2_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3;
+        Knees { first, second: Ramp::new(x_2, self.blowoff_knee * x_2) }
+    }
+
+    /// [`DamperCurve::smooth_pressure_drop_pa`] with its [`Knees`].
+    #[inline]
+    fn smooth_at(&self, k: &Knees, q_m3_s: f64) -> (f64, f64) {
+        let s = self.blowoff_slope_pa_s_per_m3;
+        let (ramp_q, ramp_slope) = k.first.at(q_m3_s);
         let (g, g_slope) = self.below_blowoff_signed(q_m3_s - ramp_q);
         (g + s * ramp_q, g_slope * (1.0 - ramp_slope) + s * ramp_slope)
     }
@@ -209,11 +226,15 @@ impl DamperCurve {
     /// flow `q_m3_s >= 0`; a knee of 0 gives the sharp ramps (the rounded
     /// ramp's formula is exact at zero width).
     fn staged_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
+        self.staged_at(&self.knees(), q_m3_s)
+    }
+
+    /// [`DamperCurve::staged_pressure_drop_pa`] with its [`Knees`].
+    #[inline]
+    fn staged_at(&self, k: &Knees, q_m3_s: f64) -> (f64, f64) {
         let (s, s2) = (self.blowoff_slope_pa_s_per_m3, self.blowoff2_slope_pa_s_per_m3);
-        let q_b = self.blowoff_flow_m3_s();
-        let (r1, r1_slope) = rounded_ramp(q_m3_s, q_b, self.blowoff_knee * q_b);
-        let x_2 = (self.blowoff2_pa - self.blowoff_pa) / s;
-        let (r2, rho_slope) = rounded_ramp(r1, x_2, self.blowoff_knee * x_2);
+        let (r1, r1_slope) = k.first.at(q_m3_s);
+        let (r2, rho_slope) = k.second.at(r1);
         let r2_slope = rho_slope * r1_slope;
         let (g, g_slope) = self.below_blowoff_signed(q_m3_s - r1);
         (g + s * (r1 - r2) + s2 * r2, g_slope * (1.0 - r1_slope) + s * (r1_slope - r2_slope) + s2 * r2_slope)
@@ -233,10 +254,12 @@ impl DamperCurve {
     /// ```
     pub fn flow_m3_s(&self, dp_pa: f64) -> f64 {
         if self.staged() {
-            return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_pressure_drop_pa(q));
+            let k = self.knees();
+            return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_at(&k, q));
         }
         if self.smooth() {
-            return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_pressure_drop_pa(q));
+            let k = self.knees();
+            return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_at(&k, q));
         }
         if dp_pa <= self.blowoff_pa {
             self.orifice_flow_m3_s(dp_pa)
@@ -316,18 +339,43 @@ impl DamperCurve {
 ///   `r  = q^2 (s_a s_b + w^2 + q_b (q - q_b)) / ((s_a + s_b)^2 (s_b + q_b))`
 ///   `r' = q (s_b + q_b (q - 2 q_b) / (s_a + s_b)) / (s_a (s_b + q_b))`
 /// (the first numerator is at least 2 w^2 by Cauchy-Schwarz). Exact at
-/// `w = 0`: the sharp ramp and its step.
-#[inline]
-fn rounded_ramp(q: f64, q_b: f64, w: f64) -> (f64, f64) {
-    let a = q - q_b;
-    let s_a = sqrt(a * a + w * w);
-    let s_b = sqrt(q_b * q_b + w * w);
-    let sum = s_a + s_b;
-    let den = sum * sum * (s_b + q_b);
-    let ramp = if den > 0.0 { q * q * (s_a * s_b + w * w + q_b * a) / den } else { 0.0 };
-    let slope_den = s_a * (s_b + q_b);
-    let slope = if slope_den > 0.0 && sum > 0.0 { q * (s_b + q_b * (q - 2.0 * q_b) / sum) / slope_den } else { 0.0 };
-    (ramp, slope)
+/// `w = 0`: the sharp ramp and its step. `s_b` does not depend on the
+/// flow: computed once per knee ([`Ramp::new`]).
+#[derive(Debug, Clone, Copy)]
+struct Ramp {
+    q_b: f64,
+    w: f64,
+    s_b: f64,
+}
+
+/// The flow-independent parts of a curve's knees ([`DamperCurve::knees`]):
+/// the first blow-off's ramp over the flow, the second stage's over the
+/// first ramp (unused by a one-stage curve).
+#[derive(Debug, Clone, Copy)]
+struct Knees {
+    first: Ramp,
+    second: Ramp,
+}
+
+impl Ramp {
+    #[inline]
+    fn new(q_b: f64, w: f64) -> Self {
+        Ramp { q_b, w, s_b: sqrt(q_b * q_b + w * w) }
+    }
+
+    /// The ramp and its slope at `q >= 0`.
+    #[inline]
+    fn at(&self, q: f64) -> (f64, f64) {
+        let Ramp { q_b, w, s_b } = *self;
+        let a = q - q_b;
+        let s_a = sqrt(a * a + w * w);
+        let sum = s_a + s_b;
+        let den = sum * sum * (s_b + q_b);
+        let ramp = if den > 0.0 { q * q * (s_a * s_b + w * w + q_b * a) / den } else { 0.0 };
+        let slope_den = s_a * (s_b + q_b);
+        let slope = if slope_den > 0.0 && sum > 0.0 { q * (s_b + q_b * (q - 2.0 * q_b) / sum) / slope_den } else { 0.0 };
+        (ramp, slope)
+    }
 }
 
 /// Positive root q of `r q + k q^2 = dp`, in the cancellation-free form.
