@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
+from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, noise_colours, prepare, traits, uses_damper
 from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
@@ -792,7 +793,9 @@ def diagnose(
     n_workers = workers or default_workers()
     pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
     try:
-        return _diagnose(records, start_effects, candidates, max_rounds, clock, pool, flexible)
+        # Held for the whole diagnosis, not only while a fit runs: see hpctl.identify.blas.
+        with one_blas_thread():
+            return _diagnose(records, start_effects, candidates, max_rounds, clock, pool, flexible)
     except BaseException:
         # Ctrl-C or an error: the fits not started yet are dropped (the
         # ones running finish; a thread cannot be stopped from outside).

@@ -26,6 +26,7 @@ from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
 from hpctl.identify import MAX_NFEV, MAX_NFEV_LIMIT
+from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STATIC_TERMS, static_damper_values
 from hpctl.identify.dataset import (
     Dataset,
@@ -434,23 +435,24 @@ def fit(
     peak hidden under the smoothing: a valley of its own) is fitted again
     from a peak above it (:data:`STRIBECK_RESTART`), and the lower cost is
     kept; the message says which."""
-    run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
-                            held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors, place_switches=place_switches)
-    result = run(initial=initial)
-    if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
+    with one_blas_thread():  # see hpctl.identify.blas
+        run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
+                                held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors, place_switches=place_switches)
+        result = run(initial=initial)
+        if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
+            return result
+        try:
+            again = run(initial={**result.values, **STRIBECK_RESTART})
+        except HpctlError as e:
+            # The restart is a second opinion: its failure never costs the first fit.
+            result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
+            return result
+        gain = objective(result) - objective(again)
+        if gain > 0.0:
+            again.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {gain:.3g} lower, kept"
+            return again
+        result.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {-gain:.3g} higher, the first optimum kept"
         return result
-    try:
-        again = run(initial={**result.values, **STRIBECK_RESTART})
-    except HpctlError as e:
-        # The restart is a second opinion: its failure never costs the first fit.
-        result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
-        return result
-    gain = objective(result) - objective(again)
-    if gain > 0.0:
-        again.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {gain:.3g} lower, kept"
-        return again
-    result.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {-gain:.3g} higher, the first optimum kept"
-    return result
 
 
 def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
