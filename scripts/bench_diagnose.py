@@ -37,6 +37,7 @@ printed with every time: the machine is shared.
 
     python scripts/bench_diagnose.py [--only decimation,campaign,heat,fit,breakdown,parallel] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
     python scripts/bench_diagnose.py --flexible [--only campaign,fit,breakdown] [--screening-jacobian broyden]
+    python scripts/bench_diagnose.py --only steps
 
 ``--flexible`` times the flexible model instead (``hpctl diagnose/fit
 --flexible``: the damper characteristic, the friction's shape, the static
@@ -351,6 +352,61 @@ def decimation_check(campaign: Path) -> dict[str, dict[int, tuple[float, float]]
     return out
 
 
+def step_counts(campaign: Path, heat: Path) -> dict[str, Any]:
+    """Where a run's steps go (the flexible model at its start, the fits'
+    tolerance, the reference gas's table): the campaign's heat piece with
+    its sampled drive and with the same sine as an analytic one (a step
+    ends at every sample of a sampled drive), and the heat run with and
+    without oil compliance, whose stiff oil mode sets the steps of its
+    candidate's runs, at several bulk moduli and tolerances."""
+    import numpy as np
+
+    import hpctl.identify.fit as ft
+    from hpctl.data.records import read_record
+    from hpctl.identify.dataset import prepare
+    from hpctl.model.effects import parse_model
+    from hpctl.sim.run import Case, Sine, characterisation_rig, run_many
+
+    out: dict[str, Any] = {}
+    piece = prepare([read_record(campaign / "heat_piece.toml")])
+    m = ft.model_for(piece, parse_model("seed"), flexible=True)
+    unit = m.unit_for(piece[0], ft.values_from_x(m.params, ft._start_x(m.params, {})))
+    test = piece[0].record.test
+    for label, rig in (("sampled drive", piece[0].rig), ("analytic sine", characterisation_rig(Sine(test.amplitude_m, test.frequency_hz)))):
+        case = Case(unit, rig, piece[0].times_s, spring_hard=True, damper_on=True, rtol=ft.FIT_RTOL, gas_table=True, record_steps=True,
+                    channels=["time_s", "force_n"])
+        t0 = time.perf_counter()
+        r = run_many([case])[0]
+        el = time.perf_counter() - t0
+        n = len(np.asarray(getattr(r, "step_end_s")))
+        out[f"heat_piece, {label}"] = {"steps": n, "s": el}
+        print(f"  heat_piece ({len(piece[0].times_s)} samples), {label}: {n} steps, {el * 1e3:.1f} ms")
+    run = prepare([read_record(p) for p in sorted(heat.glob("*.toml"))])
+    base_rtol = ft.FIT_RTOL
+    try:
+        for effects, bulk, rtol in (("heat_transfer,real_gas", None, base_rtol), ("heat_transfer,real_gas,oil_compliance", 2.9e9, 1e-6),
+                                    ("heat_transfer,real_gas,oil_compliance", 2.9e9, base_rtol), ("heat_transfer,real_gas,oil_compliance", 2.9e9, 1e-8),
+                                    ("heat_transfer,real_gas,oil_compliance", 3e8, base_rtol)):
+            ft.FIT_RTOL = rtol  # the fits' runs read it (hpctl.identify.fit._case)
+            m = ft.model_for(run, parse_model(effects), flexible=True)
+            values = ft.values_from_x(m.params, ft._start_x(m.params, {}))
+            if bulk is not None:
+                values["oil_bulk_modulus_pa"] = bulk
+            t0 = time.perf_counter()
+            sim = ft.simulate_all(m, run, [values], record_steps=True)[0][0]
+            el = time.perf_counter() - t0
+            if isinstance(sim, Exception):
+                raise sim
+            ends = np.asarray(sim["step_end_s"])
+            h = np.diff(ends)
+            label = f"heat run, {effects}" + ("" if bulk is None else f", B {bulk:.3g} Pa") + f", rtol {rtol:g}"
+            out[label] = {"steps": len(ends), "s": el, "median_step_s": float(np.median(h))}
+            print(f"  {label}: {len(ends)} steps (median {np.median(h) * 1e3:.2f} ms), {el:.2f} s")
+    finally:
+        ft.FIT_RTOL = base_rtol
+    return out
+
+
 def parallel_ratio(campaign: Path) -> dict[str, Any]:
     """The campaign's first round (every candidate's screening fit,
     cross-validation, the accepted model's fit) with the candidates one at
@@ -381,7 +437,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", default="decimation,campaign,heat,fit,breakdown,parallel",
                     help="which timings (comma-separated): campaign, heat, fit (each in a fresh hpctl process), breakdown (the campaign's "
-                         "diagnosis in this process, by phase), parallel (its first round with one worker and with the pool), decimation (how far the records' drives could be decimated)")
+                         "diagnosis in this process, by phase), parallel (its first round with one worker and with the pool), decimation (how far the records' drives could be decimated), "
+                         "steps (not by default: a run's steps with a sampled and an analytic drive, and with oil compliance)")
     ap.add_argument("--timeout-s", type=float, default=1800.0, help="give up on a timing after this long (reported as not finished)")
     ap.add_argument("--json", type=Path, default=None, help="also write the results here")
     ap.add_argument("--flexible", action="store_true",
@@ -394,7 +451,7 @@ def main() -> int:
     print("python " + " ".join([str(Path(sys.argv[0]))] + sys.argv[1:]))
     print(f"hpctl benchmark (issue 12 item 4), {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, load {uptime()}")
     campaign = records("campaign", CAMPAIGN_EFFECT, CAMPAIGN_SEED, CAMPAIGN_TESTS)
-    heat = records("heat-run", HEAT_EFFECT, HEAT_SEED, HEAT_TESTS) if "heat" in only else None
+    heat = records("heat-run", HEAT_EFFECT, HEAT_SEED, HEAT_TESTS) if only & {"heat", "steps"} else None
     out = CACHE / "runs"
     hpctl = [sys.executable, "-m", "hpctl"]
     model = ["--model", "seed"] + (["--flexible"] if a.flexible else [])
@@ -402,7 +459,7 @@ def main() -> int:
     rows = []
     if "campaign" in only:
         rows.append(timed(hpctl + ["diagnose", str(campaign), *model, "--json", "--force", "--out", str(out / f"campaign{tag}")], f"campaign{tag}", a.timeout_s))
-    if heat is not None:
+    if heat is not None and "heat" in only:
         rows.append(timed(hpctl + ["diagnose", str(heat), *model, "--json", "--force", "--out", str(out / f"heat{tag}")], f"heat{tag}", a.timeout_s))
     if "fit" in only:
         rows.append(timed(hpctl + ["fit", str(campaign), *model, "--json", "-q", "--force", "--out", str(out / f"fit{tag}")], f"fit{tag}", a.timeout_s))
@@ -420,6 +477,8 @@ def main() -> int:
         result["decimation"] = decimation_check(campaign)
     if "breakdown" in only:
         result["breakdown"] = breakdown(campaign, a.flexible, a.screening_jacobian)
+    if "steps" in only and heat is not None:
+        result["steps"] = step_counts(campaign, heat)
     if a.json is not None:
         a.json.parent.mkdir(parents=True, exist_ok=True)
         a.json.write_text(json.dumps(result, indent=1, default=str) + "\n")
