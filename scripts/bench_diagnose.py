@@ -378,7 +378,9 @@ def step_counts(campaign: Path, heat: Path) -> dict[str, Any]:
         t0 = time.perf_counter()
         r = run_many([case])[0]
         el = time.perf_counter() - t0
-        n = len(np.asarray(getattr(r, "step_end_s")))
+        if isinstance(r, Exception):
+            raise r
+        n = len(np.asarray(r.step_end_s))
         out[f"heat_piece, {label}"] = {"steps": n, "s": el}
         print(f"  heat_piece ({len(piece[0].times_s)} samples), {label}: {n} steps, {el * 1e3:.1f} ms")
     run = prepare([read_record(p) for p in sorted(heat.glob("*.toml"))])

@@ -198,26 +198,30 @@ impl DamperCurve {
     /// The smooth-knee curve (see the type's description) and its slope
     /// `d(dp)/dq`, at flow `q_m3_s >= 0`.
     fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
-        self.smooth_at(&self.knees(), q_m3_s)
+        self.smooth_at(&self.first_knee(), q_m3_s)
     }
 
-    /// What the smooth and two-stage curves need that does not depend on
-    /// the flow: computed once where a curve is inverted (Newton's
-    /// iterations on every evaluation of a model with compressible oil),
-    /// each in the same expression as before, so the curve is the same
-    /// to the last bit.
-    fn knees(&self) -> Knees {
+    /// What the smooth curve needs that does not depend on the flow (the
+    /// first blow-off's ramp); with [`DamperCurve::knees`], computed once
+    /// where a curve is inverted (Newton's iterations on every evaluation
+    /// of a model with compressible oil), each in the same expression as
+    /// before, so the curve is the same to the last bit.
+    fn first_knee(&self) -> Ramp {
         let q_b = self.blowoff_flow_m3_s();
-        let first = Ramp::new(q_b, self.blowoff_knee * q_b);
-        let x_2 = (self.blowoff2_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3;
-        Knees { first, second: Ramp::new(x_2, self.blowoff_knee * x_2) }
+        Ramp::new(q_b, self.blowoff_knee * q_b)
     }
 
-    /// [`DamperCurve::smooth_pressure_drop_pa`] with its [`Knees`].
+    /// The two-stage curve's flow-independent parts: both blow-offs' ramps.
+    fn knees(&self) -> Knees {
+        let x_2 = (self.blowoff2_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3;
+        Knees { first: self.first_knee(), second: Ramp::new(x_2, self.blowoff_knee * x_2) }
+    }
+
+    /// [`DamperCurve::smooth_pressure_drop_pa`] with its first knee.
     #[inline]
-    fn smooth_at(&self, k: &Knees, q_m3_s: f64) -> (f64, f64) {
+    fn smooth_at(&self, first: &Ramp, q_m3_s: f64) -> (f64, f64) {
         let s = self.blowoff_slope_pa_s_per_m3;
-        let (ramp_q, ramp_slope) = k.first.at(q_m3_s);
+        let (ramp_q, ramp_slope) = first.at(q_m3_s);
         let (g, g_slope) = self.below_blowoff_signed(q_m3_s - ramp_q);
         (g + s * ramp_q, g_slope * (1.0 - ramp_slope) + s * ramp_slope)
     }
@@ -258,8 +262,8 @@ impl DamperCurve {
             return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_at(&k, q));
         }
         if self.smooth() {
-            let k = self.knees();
-            return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_at(&k, q));
+            let first = self.first_knee();
+            return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_at(&first, q));
         }
         if dp_pa <= self.blowoff_pa {
             self.orifice_flow_m3_s(dp_pa)
@@ -348,9 +352,9 @@ struct Ramp {
     s_b: f64,
 }
 
-/// The flow-independent parts of a curve's knees ([`DamperCurve::knees`]):
-/// the first blow-off's ramp over the flow, the second stage's over the
-/// first ramp (unused by a one-stage curve).
+/// The flow-independent parts of a two-stage curve's knees
+/// ([`DamperCurve::knees`]): the first blow-off's ramp over the flow, the
+/// second stage's over the first ramp.
 #[derive(Debug, Clone, Copy)]
 struct Knees {
     first: Ramp,
