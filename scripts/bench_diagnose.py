@@ -282,7 +282,7 @@ def breakdown(campaign: Path, flexible: bool, screening_jacobian: str | None) ->
 
         chosen = dg.screening_jacobian
         if screening_jacobian is not None:
-            dg.screening_jacobian = lambda _flexible: screening_jacobian
+            dg.screening_jacobian = lambda _flexible, _n: screening_jacobian
         try:
             diag = dg.diagnose(recs, start_effects, progress=say, flexible=flexible)
         finally:

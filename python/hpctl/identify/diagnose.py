@@ -294,6 +294,12 @@ class Candidate:
     #: noise, a larger budget) against the model it extends; a candidate
     #: whose gain does not hold there is not accepted (:func:`_diagnose`).
     refit_delta_bic: float | None = None
+    #: How its screening fit got its Jacobian (:func:`screening_jacobian`).
+    screened_by: str = "finite_difference"
+    #: Where a flexible model's Broyden screening was done again with
+    #: finite differences before weighing the candidate (:func:`_confirmed`):
+    #: Broyden's BIC change (:attr:`delta_bic` is then the other's).
+    broyden_delta_bic: float | None = None
 
     @property
     def effect(self) -> str:
@@ -406,7 +412,7 @@ def cross_validation(
     def fold(train: int) -> float:
         # Read only for its prediction: no errors, the screening's tolerance.
         r = fit(datasets, effects, initial=start, fit_damper=fit_damper, fold=train, input_noise=False, held=held,
-                jacobian=screening_jacobian(False), errors=False, ftol=screening_ftol(n_fold))  # the shape held: the few other parameters
+                jacobian=screening_jacobian(False, n_fold), errors=False, ftol=screening_ftol(n_fold))  # the shape held: the few other parameters
         # The fit ran every record whole: the other fold's residuals are in its runs.
         rest = residual_vector(datasets, r.sims, fold=1 - train)
         return float(rest @ rest)
@@ -506,23 +512,35 @@ def _try_all(
 SCREENING_BIC_STEP = 0.1
 
 
-def screening_jacobian(flexible: bool) -> str:
-    """How a screening fit or a cross-validation fold gets its Jacobian
-    (:func:`~hpctl.identify.fit.fit`'s ``jacobian``). Their optimum only
-    ranks models, so for the fixed-shape models Broyden's updates between
-    finite differences (about one run per iteration instead of one per
-    parameter: the bundled heat run 153 s instead of 221 s, BENCHMARKS.md).
-    The flexible model's fits (20-odd parameters) keep finite differences.
-    Broyden there was 1.8-2.3 x faster on long records with the same
-    verdict (the bundled campaign, the foreign heat build-up case), but on
-    the bundled 75-minute heat run its screening fit of heat build-up ended
-    3.6e5 higher in BIC (-1.212e6 against -1.573e6), and the accepted
-    model's fit, started there, stayed at 1.86 x the noise (stop 38,
-    docs/foreign-rig.md). Not for want of the screening budget: with 200
-    evaluations instead of 60 that fit ended at -1.217e6, barely lower:
-    Broyden's steps led it toward another optimum. The accepted model is
-    fitted again with finite differences throughout."""
-    return "finite_difference" if flexible else "broyden"
+#: Residuals (samples x channels) from which the flexible model's
+#: screening fits use Broyden's updates (:func:`screening_jacobian`).
+BROYDEN_FLEXIBLE_MIN_RESIDUALS = 25_000
+
+
+def screening_jacobian(flexible: bool, n: int) -> str:
+    """How a screening fit or a cross-validation fold on ``n`` residuals
+    gets its Jacobian (:func:`~hpctl.identify.fit.fit`'s ``jacobian``).
+    Their optimum only ranks models, so for the fixed-shape models
+    Broyden's updates between finite differences (about one run per
+    iteration instead of one per parameter: the bundled heat run 153 s
+    instead of 221 s, BENCHMARKS.md).
+
+    The flexible model's fits (20-odd parameters) use them only on long
+    records, from :data:`BROYDEN_FLEXIBLE_MIN_RESIDUALS`, where a run of
+    the records costs more than the optimiser's own work and Broyden's
+    extra iterations, one run each, are cheaper than a Jacobian's 20-odd
+    runs (a flexible fit of the foreign heat build-up case, 39,612
+    residuals: 60 s against 27 s, the same optimum). On short records the
+    finite differences' runs, one parallel batch, cost little and the
+    extra iterations more (the foreign leak case, 12,252: 3.8 s against
+    11 s). There the flexible screening only ranks: Broyden's end can be
+    another optimum than the finite differences' (the bundled 75-minute
+    heat run's heat build-up: -1.212e6 against -1.573e6 in BIC, and the
+    accepted model's fit started there stayed at 1.86 x the noise, stop
+    38), so a candidate weighed for acceptance is screened again with
+    finite differences first (:func:`_confirmed`): what is accepted, and
+    every fit after it, is what the finite differences give."""
+    return "broyden" if not flexible or n >= BROYDEN_FLEXIBLE_MIN_RESIDUALS else "finite_difference"
 
 
 def screening_ftol(n: int) -> float:
@@ -571,16 +589,19 @@ def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[s
     return stop
 
 
-def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...]) -> Candidate:
+def _try(
+    datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], jacobian: str | None = None
+) -> Candidate:
     # A screening fit: without errors (the few candidates weighed for
     # acceptance get theirs, :func:`_with_errors`; the accepted one is
     # fitted again with the input noise carried through).
     stop = at_null_and_no_better(add, current.rss)
     ftol = screening_ftol(current.n)
+    jacobian = jacobian or screening_jacobian(current.model.flexible, current.n)
 
     def attempt(start: Mapping[str, float]) -> FitResult:
         return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol,
-                   jacobian=screening_jacobian(current.model.flexible), errors=False)
+                   jacobian=jacobian, errors=False)
 
     def better_from(start: Mapping[str, float], trial: FitResult) -> FitResult:
         # Fitted again only from a start better than where the fit ended
@@ -634,7 +655,21 @@ def _try(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ..
         trial = better_from({**current.values, **{p.name: p.initial for p in current.model.params if p.name in stand_ins}}, trial)
     added = len(trial.model.params) - len(current.model.params)
     excess = max(current.rss - current.n, 1e-12)
-    return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess)
+    return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess, screened_by=jacobian)
+
+
+def _confirmed(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], c: Candidate, clock: _Clock) -> Candidate:
+    """``c`` screened again with finite differences if the flexible
+    model's screening used Broyden's updates (:func:`screening_jacobian`),
+    in place: its result, BIC change and share explained then the finite
+    differences', Broyden's BIC change kept beside them."""
+    if not (c.result.model.flexible and c.screened_by == "broyden"):
+        return c
+    clock.tell(f"screening {c.effect} again with finite differences", clock.ACCEPT_FITS)
+    fd = _try(datasets, current, effects, c.effects, jacobian="finite_difference")
+    c.broyden_delta_bic = c.delta_bic
+    c.added_params, c.result, c.delta_bic, c.explained, c.screened_by = fd.added_params, fd.result, fd.delta_bic, fd.explained, fd.screened_by
+    return c
 
 
 def pairs_to_try(singles: Sequence[str]) -> list[tuple[str, str]]:
@@ -735,6 +770,8 @@ def _accept(
     for c in ranked[:3]:
         if c.delta_bic <= BIC_STRONG:
             break
+        if _confirmed(datasets, current, effects, c, clock).delta_bic <= BIC_STRONG:
+            continue
         if c.explained < EXPLAINED_SHARE:
             continue
         if "sensor_offset" in c.effects:
@@ -977,7 +1014,8 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "loop_area_by_frequency": [vars(a) for a in loop_areas(diag.final)],
         "candidates_last_round": [
             {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score,
-             "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic}
+             "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic, "screened_by": c.screened_by,
+             "broyden_delta_bic": c.broyden_delta_bic}
             for c in (diag.rounds[-1].candidates if diag.rounds else [])
         ],
     }
