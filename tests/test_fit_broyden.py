@@ -177,7 +177,7 @@ def test_the_flexible_models_screening_fits_use_broyden_on_long_records_only() -
 
 
 def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_difference_fit(
-    request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch
+    request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     # Broyden's flexible screening only ranks: on the bundled 75-minute heat
     # run it ended at another optimum and the accepted model's fit started
@@ -207,3 +207,11 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
     assert others and all(c.screened_by == "broyden" for c in others)
     rows = {r["effect"]: r for r in dg.summary(br)["candidates_last_round"]}
     assert rows["leakage"]["screened_by"] == "finite_difference" and rows["leakage"]["broyden_delta_bic"] == leak.broyden_delta_bic
+    # And the report's table of candidates.
+    from hpctl.data.output import OutputDir
+    from hpctl.report.calibration import diagnosis_report
+
+    with OutputDir(tmp_path, "diagnose") as out:
+        report = diagnosis_report(br, out)
+    text = (tmp_path / report.name).read_text(encoding="utf-8")
+    assert f"finite difference (Broyden: {leak.broyden_delta_bic:.1f})" in text and "| broyden |" in text

@@ -301,10 +301,15 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         if not rnd.candidates:
             continue
         lines += ["", f"### Candidates tried at step {k}", "",
-                  "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | residual RMS / noise |",
-                  "|---|---|---|---|---|---|"]
+                  "Screening fits; on long records the flexible model's rank the candidates with Broyden's Jacobian updates, and a "
+                  "candidate weighed for acceptance is screened again with finite differences (its Broyden gain in brackets).", "",
+                  "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | "
+                  "residual RMS / noise | screening Jacobian |",
+                  "|---|---|---|---|---|---|---|"]
         for c in rnd.candidates:
-            lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {100 * c.explained:.1f} % | {c.result.rms_ratio:.3g} |")
+            jac = c.screened_by.replace("_", " ") + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f})")
+            lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {100 * c.explained:.1f} % | "
+                         f"{c.result.rms_ratio:.3g} | {jac} |")
     lines += ["", "## Final parameters", "", *params_table(final), "",
               "## Error before and after", "",
               f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units).", "",
