@@ -29,6 +29,7 @@ from foreign_rig import generate, sweep_tests
 from hpctl.cli import main as cli_main
 from hpctl.data.records import read_record
 from hpctl.identify.diagnose import NOISE_CEILING, Diagnosis, diagnose, summary
+from hpctl.identify.profile import profile_point
 
 SHORT = ("sine_0.03hz", "sine_0.3hz", "sine_1hz")
 SIGMA_KEY = {"force_n": "force_n", "p_gas_pa": "p_pa", "p_gas2_pa": "p_pa", "body_disp_m": "disp_m"}
@@ -385,6 +386,20 @@ def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
     # beside a CI run). 445 s a diagnosis alone (stop 33), the longest of
     # the foreign cases: about 7 of CI's 25-odd minutes.
     g, d, context = found_first_at_the_noise("heat_buildup", seed)
-    for name in ("wall_heat_capacity_j_per_k", "oil_heat_capacity_j_per_k"):
-        est, err, true = estimate(d, g, name)
-        assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"{name} {est} +- {err} vs {true}; {context}"
+    est, err, true = estimate(d, g, "wall_heat_capacity_j_per_k")
+    assert abs(est - true) <= max(3.0 * err, 0.1 * true), f"wall_heat_capacity_j_per_k {est} +- {err} vs {true}; {context}"
+    # The oil's heat capacity trades with the wall-to-oil time constant
+    # along a bending valley: its linear error missed the truth by 4.4 on
+    # FOREIGN_RIG_SEED=541759892 (+133 %; wall-to-oil -77 %, 13 errors),
+    # where the cost with it held at the truth rose 4.6 (6.2 for the wall-
+    # to-oil), inside the three-sigma profile interval. Its honest band is
+    # that profile, and the diagnosis says so (a profile_band warning for
+    # both); within 10 % needs no profile.
+    est, err, true = estimate(d, g, "oil_heat_capacity_j_per_k")
+    if abs(est - true) > 0.1 * true:
+        rise = profile_point(d.final, "oil_heat_capacity_j_per_k", true).rise
+        assert rise <= 9.0, f"oil_heat_capacity_j_per_k {est} +- {err} vs {true}: the cost rose {rise:.3g} there; {context}"
+    from hpctl.cli.calibrate import _diagnosis_caveats
+
+    banded = {c.details["param"] for c in _diagnosis_caveats(d) if c.code == "profile_band"}
+    assert {"oil_heat_capacity_j_per_k", "wall_to_oil_tau_s"} <= banded, context

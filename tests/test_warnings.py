@@ -307,3 +307,31 @@ def test_messages_are_printed_as_text_never_markup(capsys: pytest.CaptureFixture
     captured = capsys.readouterr()
     assert "record [/x]: [static] [bold]p[/bold] out of range" in captured.err
     assert "Wrote to out[/x]/" in captured.out
+
+
+def test_a_parameter_whose_error_understates_its_band_is_warned_unless_profiled(tmp_path: Path) -> None:
+    # Heat build-up's oil heat capacity and wall-to-oil time constant trade
+    # along a bending valley: their linear errors missed the foreign rig's
+    # truth by up to 13 errors where the profile held it
+    # (hpctl.model.effects.HEAT_BUILDUP_VALLEY). Even on hpctl's own rig the
+    # wall-to-oil time constant's two-sigma profile interval is several
+    # times its linear one, and lopsided. A fit says so for each, unless its
+    # profile was asked for (then the interval is in the output).
+    rig = tmp_path / "rig"
+    code, _, err = run("rig", "--out", str(rig), "--effect", "heat_buildup", "--seed", "3", "--quiet")
+    assert code == 0, err
+    code, stdout, err = run("fit", str(rig), "--model", "seed,heat_buildup", "--out", str(tmp_path / "fit"), "--json")
+    assert code == 0, err
+    s = json.loads(stdout)
+    band = {w["details"]["param"]: w for w in s["warnings"] if w["code"] == "profile_band"}
+    assert set(band) == {"oil_heat_capacity_j_per_k", "wall_to_oil_tau_s"}
+    assert "--profile wall_to_oil_tau_s" in band["wall_to_oil_tau_s"]["message"] and "profile_band" in err
+    code, stdout, err = run("fit", str(rig), "--model", "seed,heat_buildup", "--out", str(tmp_path / "fit2"), "--json",
+                            "--profile", "wall_to_oil_tau_s")
+    assert code == 0, err
+    s = json.loads(stdout)
+    assert [w["details"]["param"] for w in s["warnings"] if w["code"] == "profile_band"] == ["oil_heat_capacity_j_per_k"]
+    (iv,) = s["profile_intervals"]
+    est, se = iv["estimate"], iv["stderr"]
+    # The honest band, wider than the linear one and not symmetric about the estimate.
+    assert iv["upper"] - iv["lower"] > 4.0 * se and iv["upper"] - est > 2.0 * (est - iv["lower"])

@@ -67,6 +67,10 @@ class Code(StrEnum):
     #: their own errors understate what the records leave open; a quantity
     #: derived from both (their product) is what the records determine.
     CONFOUNDED = "confounded"
+    #: A fitted parameter whose standard error (a linearisation at the
+    #: optimum) is known to understate what the records leave open: its
+    #: profile interval (``hpctl fit --profile``) is the honest band.
+    PROFILE_BAND = "profile_band"
     #: A wheel left the ground (its tyre force reached zero): the vehicle
     #: results there depend on the lift-off model.
     WHEEL_LIFT_OFF = "wheel_lift_off"

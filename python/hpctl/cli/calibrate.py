@@ -67,7 +67,7 @@ def _record_caveats(recs: Sequence[RigRecord], gas: str) -> list[Caveat]:
     return [c for r in recs for c in checks.eos_range(gas, r.data, f"record {r.name}")]
 
 
-def _fit_caveats(result: FitResult, budget: int) -> list[Caveat]:
+def _fit_caveats(result: FitResult, budget: int, profiled: Sequence[str] = ()) -> list[Caveat]:
     """A fit that did not converge, or left more than noise."""
     from hpctl.identify import diagnose
 
@@ -78,7 +78,7 @@ def _fit_caveats(result: FitResult, budget: int) -> list[Caveat]:
                 if "maximum number of function evaluations" in result.message else "")
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}{more}",
                           {"message": result.message, "max_evaluations": budget}))
-    out += _bound_caveats(result) + _confounded_caveats(result)
+    out += _bound_caveats(result) + _confounded_caveats(result) + _profile_band_caveats(result, profiled)
     analysis = diagnose.analyse(result)
     if analysis.structured:
         worst = [r for r in analysis.rows if r.structured]
@@ -131,6 +131,19 @@ def _bound_caveats(result: FitResult) -> list[Caveat]:
         {"params": [b.name for b in near], "values": [b.value for b in near], "stderr": [b.stderr for b in near],
          "bounds": [b.bound for b in near]},
     )]
+
+
+def _profile_band_caveats(result: FitResult, profiled: Sequence[str] = ()) -> list[Caveat]:
+    """Fitted parameters whose standard errors are known to understate
+    what the records leave open (:attr:`hpctl.model.effects.Param.profile_band`),
+    unless their profile was asked for."""
+    bent = [p for p in result.model.params if p.profile_band is not None and p.name not in profiled and p.name in result.stderr]
+    return [Caveat(
+        Code.PROFILE_BAND,
+        f"{p.name} = {result.values[p.name]:.5g} +- {result.stderr[p.name]:.2g}: this standard error can understate what the "
+        f"records leave open ({p.profile_band}); its profile interval is the honest band: hpctl fit ... --profile {p.name}",
+        {"param": p.name, "value": result.values[p.name], "stderr": result.stderr[p.name]},
+    ) for p in bent]
 
 
 def _confounded_caveats(result: FitResult) -> list[Caveat]:
@@ -230,7 +243,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
                 # optimum (the report's are the fitted model's, above).
                 with status(rep, f"profile of {name}"):
                     profiles.append(profile_interval(fitted, name))
-            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget) + _profile_caveats(profiles)
+            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + _profile_caveats(profiles)
             report.fit_report(result, out, caveats, profiles)
             document = with_warnings(report.fit_summary(result, profiles), caveats)
             out.write_json("fit.json", document)
@@ -366,7 +379,7 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
     out = []
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
-    out += _bound_caveats(diag.final) + _confounded_caveats(diag.final)
+    out += _bound_caveats(diag.final) + _confounded_caveats(diag.final) + _profile_band_caveats(diag.final)
     j = diag.judgement
     if j is not None and j.structure_remains:
         found = f"after adding {', '.join(diag.found)} " if diag.found else "and no effect in the library explains it: "
