@@ -16,7 +16,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import Executor, Future, ThreadPoolExecutor, as_completed
+from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -300,15 +300,6 @@ class Candidate:
     #: finite differences before weighing the candidate (:func:`_confirmed`):
     #: Broyden's BIC change (:attr:`delta_bic` is then the other's).
     broyden_delta_bic: float | None = None
-    #: That finite-difference screening, started in the pool while the
-    #: round's last candidates still screened (:func:`_try_all`).
-    confirmation: Future[Candidate] | None = field(default=None, repr=False, compare=False)
-
-    @property
-    def needs_confirmation(self) -> bool:
-        """A flexible model's screening by Broyden's updates, which ranks
-        but is not what is accepted (:func:`screening_jacobian`)."""
-        return self.result.model.flexible and self.screened_by == "broyden"
 
     @property
     def effect(self) -> str:
@@ -497,23 +488,10 @@ def _try_all(
     out: list[Candidate | None] = [None] * len(adds)
     done = 0
     clock.tell(f"{kind}s 1-{len(adds)} of {len(adds)} started ({', '.join('+'.join(a) for a in adds)})", len(adds) + clock.ACCEPT_FITS)
-    cores = os.cpu_count() or 1
     for f in as_completed(futures):
         c = f.result()
         out[futures[f]] = c
         done += 1
-        lead = max((o for o in out if o is not None), key=lambda o: o.score)
-        if (len(adds) - done < cores and lead.needs_confirmation and lead.confirmation is None
-                and lead.delta_bic > BIC_STRONG and lead.explained >= EXPLAINED_SHARE):
-            # Fewer fits left than cores (a long record's Broyden fit is
-            # one core's: oil compliance on the bundled heat run ran alone
-            # for 160 s): the leader's finite-difference screening
-            # (_confirmed) uses the idle core. Started only then: with
-            # the cores busy it gains nothing, and leaders that are
-            # overtaken later waste their fit (the bundled campaign, where
-            # each was started at once: 149 s against 127 s). The same fit
-            # whenever it runs: the result does not depend on the timing.
-            lead.confirmation = pool.submit(_try, datasets, current, effects, lead.effects, "finite_difference")
         clock.fits += 1
         clock.fit_wall_s += time.perf_counter() - start
         start = time.perf_counter()
@@ -685,11 +663,10 @@ def _confirmed(datasets: Sequence[Dataset], current: FitResult, effects: tuple[s
     model's screening used Broyden's updates (:func:`screening_jacobian`),
     in place: its result, BIC change and share explained then the finite
     differences', Broyden's BIC change kept beside them."""
-    if not c.needs_confirmation:
+    if not (c.result.model.flexible and c.screened_by == "broyden"):
         return c
     clock.tell(f"screening {c.effect} again with finite differences", clock.ACCEPT_FITS)
-    fd = c.confirmation.result() if c.confirmation is not None else _try(datasets, current, effects, c.effects, jacobian="finite_difference")
-    c.confirmation = None
+    fd = _try(datasets, current, effects, c.effects, jacobian="finite_difference")
     c.broyden_delta_bic = c.delta_bic
     c.added_params, c.result, c.delta_bic, c.explained, c.screened_by = fd.added_params, fd.result, fd.delta_bic, fd.explained, fd.screened_by
     return c
