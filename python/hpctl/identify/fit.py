@@ -25,7 +25,7 @@ from scipy.optimize import least_squares
 from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD
 from hpctl.errors import HpctlError, SimulationError, bad_argument
-from hpctl.identify import MAX_NFEV, MAX_NFEV_LIMIT
+from hpctl.identify import MAX_NFEV, MAX_NFEV_LIMIT, output_only
 from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STATIC_TERMS, static_damper_values
 from hpctl.identify.dataset import (
@@ -137,7 +137,8 @@ def _case(
     """The run of ``d`` at ``values``, and which of its outputs are the
     record's samples (None: all; the others place valve switches the fit
     has estimated, :mod:`hpctl.identify.switching`)."""
-    channels = ["time_s", "disp_m", "force_n", "p_gas_pa", "p_gas2_pa", "body_disp_m", "t_gas_k", "damper_force_n", "friction_force_n"]
+    channels = ["time_s", "disp_m", "force_n", "p_gas_pa", "p_gas2_pa", "body_disp_m", "t_gas_k", "damper_force_n", "friction_force_n",
+                "flow_damper_m3_s", "p_gas_true_pa"]
     # The core's error-controlled steps (no step size to pick per model) at
     # FIT_RTOL. The reference gas through the table: a fit is hundreds of
     # runs, each about twice as fast so (the bundled heat run: 0.24 -> 0.11
@@ -495,6 +496,10 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     # outputs without running the model once more.
     runs: dict[str, tuple[bytes, list[dict[str, FloatArray] | Exception]]] = {}
 
+    # The base runs of the last few points evaluated, for the Jacobian's
+    # columns that need no runs of their own (hpctl.identify.output_only).
+    bases: dict[bytes, list[dict[str, FloatArray] | Exception]] = {}
+
     def evaluate(x: FloatArray) -> tuple[FloatArray, list[FloatArray | None]]:
         key = x.tobytes()
         if key not in cache:
@@ -502,6 +507,9 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             ends = [None if isinstance(s, Exception) else s.pop("step_end_s", None) for s in sims]
             cache[key] = (residual_vector(datasets, sims, fold), ends)
             runs["last"] = (key, sims)
+            bases[key] = sims
+            while len(bases) > 2:
+                del bases[next(iter(bases))]
         return cache[key]
 
     def prior_rows(x: FloatArray) -> FloatArray:
@@ -527,11 +535,16 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             xi[i] = x[i] + h if x[i] + h <= hi[i] else x[i] - h
             steps.append(xi[i] - x[i])
             xs.append(xi)
-        sims = simulate_all(model, datasets, [values_from_x(params, xi) for xi in xs], steps=ends, which=reaches)
+        perturbed = [values_from_x(params, xi) for xi in xs]
+        quiet = _output_only_columns(model, datasets, params, values_from_x(params, x), perturbed, reaches, bases.get(x.tobytes()))
+        which = [tuple(j for j in r if (i, j) not in quiet) for i, r in enumerate(reaches)]
+        sims = simulate_all(model, datasets, perturbed, steps=ends, which=which)
         jm = np.zeros((len(f0), len(x)))
         for i, (column_runs, h) in enumerate(zip(sims, steps)):
-            for j, s in zip(reaches[i], column_runs):
+            for j, s in zip(which[i], column_runs):
                 jm[blocks[j], i] = (residual_block(datasets[j], s, fold) - f0[blocks[j]]) / h
+        for (i, j), s in quiet.items():
+            jm[blocks[j], i] = (residual_block(datasets[j], s, fold) - f0[blocks[j]]) / steps[i]
         if prior:
             rows = np.zeros((len(prior), len(x)))
             for row, (i, _, sigma) in enumerate(prior):
@@ -836,6 +849,46 @@ def rss_at(datasets: Sequence[Dataset], effects: Sequence[str], initial: Mapping
     sims = simulate_all(model, datasets, [values_from_x(model.params, _start_x(model.params, initial))])[0]
     r = residual_vector(datasets, sims)
     return float(r @ r)
+
+
+#: Whether the Jacobian takes damper-shape columns on characterisation
+#: records from the base run's outputs (:mod:`hpctl.identify.output_only`)
+#: instead of a run each; the tests turn it off to compare.
+OUTPUT_ONLY_COLUMNS = True
+
+
+def _output_only_columns(
+    model: Model,
+    datasets: Sequence[Dataset],
+    params: Sequence[Param],
+    at: Mapping[str, float],
+    perturbed: Sequence[Mapping[str, float]],
+    reaches: Sequence[Sequence[int]],
+    bases: Sequence[dict[str, FloatArray] | Exception] | None,
+) -> dict[tuple[int, int], dict[str, FloatArray]]:
+    """The perturbed runs the finite-difference Jacobian need not make, by
+    (column, dataset): each the base run at ``at`` with the force the
+    perturbed damper gives (:mod:`hpctl.identify.output_only`)."""
+    out: dict[tuple[int, int], dict[str, FloatArray]] = {}
+    if not OUTPUT_ONLY_COLUMNS or bases is None:
+        return out
+    for j, (d, base) in enumerate(zip(datasets, bases)):
+        columns = [i for i, p in enumerate(params) if output_only.is_shape(p.name) and j in reaches[i]]
+        if not columns or isinstance(base, Exception) or not output_only.applies(model.effects, d):
+            continue
+        if any(c not in base for c in output_only.CHANNELS):
+            continue
+        unit = model.unit_for(d, at)
+        dampers = [model.unit_for(d, perturbed[i]).damper for i in columns]
+        area, vapour = unit.piston_area_m2, unit.vapour_pressure_pa
+        if not output_only.cannot_cavitate(d, [unit.damper, *dampers], base, area, vapour):
+            continue
+        changes = output_only.force_changes_n(d, base, unit.damper, dampers, area)
+        if changes is None:
+            continue
+        for i, change in zip(columns, changes):
+            out[(i, j)] = {**base, "force_n": base["force_n"] + change}
+    return out
 
 
 def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:
