@@ -222,3 +222,33 @@ def test_adding_oil_compliance_leaves_the_local_optimum_the_model_without_it_sit
 
 def test_adding_oil_compliance_reaches_the_noise_from_a_model_without_it(seed: int) -> None:
     _reaches_the_noise_from_a_model_without_oil_compliance(seed)
+
+
+def test_the_static_fit_is_computed_once_per_records_shape_and_shared_terms(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The cache gives what the fit gives, without fitting again, for the
+    # same records (the same objects), shape parameters and shared terms;
+    # anything else is fitted anew, and a caller's changes to what it got
+    # do not reach the next caller.
+    g = generate(None, 7, tests=[t for t in sweep_tests() if t.name in SHORT])
+    datasets = prepare([read_record(p) for p in g.records])
+    calls: list[tuple[str, ...]] = []
+    fitted = damper_start.fit_static_damper
+
+    def counted(ds: object, params: object, effects: tuple[str, ...] = ()) -> dict[str, float]:
+        calls.append(tuple(effects))
+        return fitted(ds, params, effects)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(damper_start, "fit_static_damper", counted)
+    monkeypatch.setattr(damper_start, "_cache", type(damper_start._cache)())
+    plain = model_for(datasets, ("heat_transfer", "real_gas"), flexible=True)
+    with_oil = model_for(datasets, ("heat_transfer", "real_gas", "oil_compliance"), flexible=True)
+    with_friction = model_for(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True)
+    first = damper_start.static_damper_values(datasets, plain.params, plain.effects)
+    first["damper_on_rebound_knee"] = -1.0
+    again = damper_start.static_damper_values(datasets, with_oil.params, with_oil.effects)  # no shared term more: the same fit
+    assert len(calls) == 1 and again == fitted(datasets, plain.params, plain.effects)
+    friction = damper_start.static_damper_values(datasets, with_friction.params, with_friction.effects)
+    assert len(calls) == 2 and "friction_coulomb_n" in friction
+    other = prepare([read_record(p) for p in g.records])  # equal records, other objects: fitted again
+    assert damper_start.static_damper_values(other, plain.params, plain.effects) == again
+    assert len(calls) == 3

@@ -17,7 +17,7 @@ from hpctl.identify import fit as fit_module
 from hpctl.identify import output_only, virtual_rig
 from hpctl.identify.dataset import Dataset, prepare
 from hpctl.identify.fit import fit, model_for, reach, simulate_all, values_from_x
-from hpctl.model.effects import DAMPER_SHAPE
+from hpctl.model.effects import DAMPER_SHAPE, FRICTION_SHAPE, LIBRARY
 from hpctl.sim.run import characterisation_rig, run
 
 #: The fits of these tests: the flexible model with the seed's effects.
@@ -58,8 +58,10 @@ def test_each_case_is_present(datasets: list[Dataset]) -> None:
     assert np.any(np.diff(switched.damper_on.astype(int)))
 
 
-def test_columns_from_the_outputs_are_the_perturbed_runs(datasets: list[Dataset]) -> None:
-    model = model_for(datasets, EFFECTS, flexible=True)
+@pytest.mark.parametrize("effects", [EFFECTS, (*EFFECTS, "friction"), (*EFFECTS, "friction", "oil_compliance")])
+def test_columns_from_the_outputs_are_the_perturbed_runs(datasets: list[Dataset], effects: tuple[str, ...]) -> None:
+    # With oil compliance the damper's columns are runs, the friction's not.
+    model = model_for(datasets, effects, flexible=True)
     params = model.params
     reaches = reach(params, datasets)
     x0 = np.array([p.to_x(p.initial) for p in params])
@@ -67,11 +69,16 @@ def test_columns_from_the_outputs_are_the_perturbed_runs(datasets: list[Dataset]
     base = simulate_all(model, datasets, [at], record_steps=True)[0]
     ends = [b.pop("step_end_s") for b in base if not isinstance(b, Exception)]
     shape = [i for i, p in enumerate(params) if p.name in {q.name for ps in DAMPER_SHAPE.values() for q in ps}]
+    friction = [i for i, p in enumerate(params) if p.name in {q.name for q in (*LIBRARY["friction"].params, *FRICTION_SHAPE)}]
+    assert len(friction) == (5 if "friction" in effects else 0)
     perturbed = [values_from_x(params, _perturbed(params, x0, i)) for i in range(len(params))]
     quiet = fit_module._output_only_columns(model, datasets, params, at, perturbed, reaches, base)
-    # Every shape column of every characterisation record in its reach, none
-    # of the SDOF record or of another parameter.
-    expected = {(i, j) for i in shape for j in reaches[i] if datasets[j].record.kind == "characterisation"}
+    # Every shape column (friction column) of every characterisation record
+    # in its reach, none of the SDOF record or of another parameter.
+    prescribed = {j for j, d in enumerate(datasets) if d.record.kind == "characterisation"}
+    expected = {(i, j) for i in friction for j in reaches[i] if j in prescribed}
+    if "oil_compliance" not in effects:
+        expected |= {(i, j) for i in shape for j in reaches[i] if j in prescribed}
     assert set(quiet) == expected and expected
     columns = sorted({i for i, _ in quiet})
     runs = simulate_all(model, datasets, [perturbed[i] for i in columns], steps=ends)
@@ -100,14 +107,17 @@ def test_a_fit_is_the_fit_with_every_column_run(datasets: list[Dataset], monkeyp
     # several shape parameters are all but unidentified (knees on their
     # bound, orifices beside a bleed: errors of 1-2 on values near 1), whose
     # columns are that rounding; the optimiser's steps along them follow it.
-    # Measured: values 0.0055 of their errors apart after 4 evaluations
-    # (0.22 after 30, each fit's error covering the other), the residual
-    # sum of squares 5e-7 apart; the standard errors of those unidentified
+    # Measured (with friction, whose columns come from the outputs too):
+    # values 0.0062 of their errors apart after 4 evaluations, the residual
+    # sum of squares 3.4e-7 apart (without friction 0.0055 and 5e-7; 0.22
+    # of the errors after 30 evaluations, each fit's error covering the
+    # other); the standard errors of those unidentified
     # parameters move by up to 60 % (the Hessian's smallest eigenvalues are
     # the rounding's), so they are not compared.
-    quick = fit(datasets, EFFECTS, flexible=True, max_nfev=4, input_noise=False)
+    effects = (*EFFECTS, "friction")
+    quick = fit(datasets, effects, flexible=True, max_nfev=4, input_noise=False)
     monkeypatch.setattr(fit_module, "OUTPUT_ONLY_COLUMNS", False)
-    runs = fit(datasets, EFFECTS, flexible=True, max_nfev=4, input_noise=False)
+    runs = fit(datasets, effects, flexible=True, max_nfev=4, input_noise=False)
     assert quick.rss == pytest.approx(runs.rss, rel=1e-5)
     for name, value in runs.values.items():
         assert abs(quick.values[name] - value) <= 0.05 * runs.stderr[name], name
@@ -116,8 +126,11 @@ def test_a_fit_is_the_fit_with_every_column_run(datasets: list[Dataset], monkeyp
 def test_models_whose_damper_reaches_the_state_run_every_column(datasets: list[Dataset]) -> None:
     for effect in output_only.STATE_COUPLED:
         assert not output_only.applies((*EFFECTS, effect), datasets[0])
-    assert output_only.applies(EFFECTS, datasets[0])
-    assert not output_only.applies(EFFECTS, next(d for d in datasets if d.record.kind == "sdof"))
+    for effect in output_only.FRICTION_COUPLED:
+        assert not output_only.friction_applies((*EFFECTS, effect), datasets[0])
+    assert output_only.applies(EFFECTS, datasets[0]) and output_only.friction_applies((*EFFECTS, "oil_compliance", "valve_lag"), datasets[0])
+    sdof = next(d for d in datasets if d.record.kind == "sdof")
+    assert not output_only.applies(EFFECTS, sdof) and not output_only.friction_applies(EFFECTS, sdof)
     model = model_for(datasets, (*EFFECTS, "oil_compliance"), flexible=True)
     params = model.params
     at = {p.name: p.initial for p in params}

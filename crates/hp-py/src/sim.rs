@@ -448,6 +448,27 @@ pub fn damper_pressure_drop_pa<'py>(
     .map(|dp| dp.into_pyarray(py))
 }
 
+/// The unit's seal friction force, N, at each strut velocity `vel_m_s`
+/// (compression positive): hp-core's `Friction::force_n`, zero for a unit
+/// without friction. For Jacobian columns of friction parameters on
+/// records whose motion is prescribed (`hpctl.identify.output_only`).
+#[pyfunction]
+pub fn friction_force_n<'py>(py: Python<'py>, unit: &Bound<'py, PyAny>, vel_m_s: &Bound<'py, PyAny>) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+    guard(|| {
+        let unit = Unit::new(params::unit(unit)?).map_err(to_py)?;
+        let v = f64_array(vel_m_s, "vel_m_s")?;
+        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            return Err(parameter(format!("vel_m_s[{i}] = {x}: expected finite velocities, m/s")));
+        }
+        let force: Vec<f64> = match unit.params().effects.friction {
+            Some(f) => v.iter().map(|&x| f.force_n(x)).collect(),
+            None => vec![0.0; v.len()],
+        };
+        Ok(force)
+    })
+    .map(|f| f.into_pyarray(py))
+}
+
 /// The gas pressure that carries `load_n` at rest, Pa.
 #[pyfunction]
 pub fn load_pressure_pa(unit: &Bound<'_, PyAny>, load_n: f64) -> PyResult<f64> {
@@ -569,6 +590,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(seed_oil_node, m)?)?;
     m.add_function(wrap_pyfunction!(load_pressure_pa, m)?)?;
     m.add_function(wrap_pyfunction!(damper_pressure_drop_pa, m)?)?;
+    m.add_function(wrap_pyfunction!(friction_force_n, m)?)?;
     m.add("CHANNELS", CHANNELS.to_vec())?;
     // The gas models by name, the default (the reference equation of state) first.
     m.add("GAS_MODELS", hp_core::gas::Gas::ALL.map(|g| g.name()).to_vec())?;

@@ -29,7 +29,9 @@ from it (:func:`hpctl.identify.fit.fit` says so in its message).
 
 from __future__ import annotations
 
+import collections
 import dataclasses
+import threading
 import warnings
 from collections.abc import Sequence
 
@@ -121,7 +123,41 @@ def _branch_samples(datasets: Sequence[Dataset], branch: str) -> _Samples | None
     return _Samples(q, y, s, a)
 
 
+#: Static fits kept for the fits that ask again (:func:`static_damper_values`).
+CACHE_SIZE = 16
+_cache: collections.OrderedDict[tuple[object, ...], tuple[tuple[Dataset, ...], dict[str, float]]] = collections.OrderedDict()
+_cache_lock = threading.Lock()
+
+
 def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
+    """:func:`fit_static_damper`, kept: a diagnosis asks for the same static
+    fit many times (the declared model's fit and every screening fit of an
+    effect without shared terms, such as oil compliance, ask for the one
+    without them; friction's screening, its confirmation and the accepted
+    model's fit for the one with the Coulomb force), and it depends only on
+    the records, the shape parameters and the shared terms. The records are
+    known by identity (a ``Dataset`` is not changed once prepared; the
+    entry holds them, so that no other record takes their ids)."""
+    key = (tuple(id(d) for d in datasets), tuple(p.name for p in params if p.name.startswith("damper_") or p.name in _STARTED),
+           tuple(e for e in STATIC_TERMS if e in effects))
+    with _cache_lock:
+        hit = _cache.get(key)
+        if hit is not None:
+            _cache.move_to_end(key)
+            return dict(hit[1])
+    found = fit_static_damper(datasets, params, effects)
+    with _cache_lock:
+        _cache[key] = (tuple(datasets), found)
+        while len(_cache) > CACHE_SIZE:
+            _cache.popitem(last=False)
+    return dict(found)
+
+
+#: The model's parameters the static fit also starts (its shared terms).
+_STARTED = ("friction_coulomb_n", "sensor_force_offset_n")
+
+
+def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
     """The flexible model's damper-shape ``params`` fitted to the records'
     force less the gas's (the module's docstring), every branch at once;
     branches the characterisation records do not exercise at speed are left
@@ -212,7 +248,7 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     # The shared terms as the model's parameters' starts: the Coulomb force;
     # the offset as the force transducer's (the pressure transducer's part,
     # A p_off, is the fit's to separate: the pressure channels show it).
-    for name, c in (("friction_coulomb_n", "coulomb"), ("sensor_force_offset_n", "offset")):
+    for name, c in zip(_STARTED, ("coulomb", "offset")):
         p = next((p for p in params if p.name == name), None)
         if p is not None and c in constants:
             out[name] = min(max(float(best.x[n_shape + constants.index(c)]), p.lower), p.upper)

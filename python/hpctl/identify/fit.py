@@ -138,7 +138,7 @@ def _case(
     record's samples (None: all; the others place valve switches the fit
     has estimated, :mod:`hpctl.identify.switching`)."""
     channels = ["time_s", "disp_m", "force_n", "p_gas_pa", "p_gas2_pa", "body_disp_m", "t_gas_k", "damper_force_n", "friction_force_n",
-                "flow_damper_m3_s", "p_gas_true_pa"]
+                "flow_damper_m3_s", "p_gas_true_pa", "vel_m_s"]
     # The core's error-controlled steps (no step size to pick per model) at
     # FIT_RTOL. The reference gas through the table: a fit is hundreds of
     # runs, each about twice as fast so (the bundled heat run: 0.24 -> 0.11
@@ -873,20 +873,23 @@ def _output_only_columns(
     if not OUTPUT_ONLY_COLUMNS or bases is None:
         return out
     for j, (d, base) in enumerate(zip(datasets, bases)):
-        columns = [i for i, p in enumerate(params) if output_only.is_shape(p.name) and j in reaches[i]]
-        if not columns or isinstance(base, Exception) or not output_only.applies(model.effects, d):
+        if isinstance(base, Exception) or any(c not in base for c in output_only.CHANNELS):
             continue
-        if any(c not in base for c in output_only.CHANNELS):
+        reached = [i for i, r in enumerate(reaches) if j in r]
+        shape = [i for i in reached if output_only.is_shape(params[i].name)] if output_only.applies(model.effects, d) else []
+        friction = [i for i in reached if output_only.is_friction(params[i].name)] if output_only.friction_applies(model.effects, d) else []
+        if not shape and not friction:
             continue
         unit = model.unit_for(d, at)
-        dampers = [model.unit_for(d, perturbed[i]).damper for i in columns]
-        area, vapour = unit.piston_area_m2, unit.vapour_pressure_pa
-        if not output_only.cannot_cavitate(d, [unit.damper, *dampers], base, area, vapour):
-            continue
-        changes = output_only.force_changes_n(d, base, unit.damper, dampers, area)
-        if changes is None:
-            continue
-        for i, change in zip(columns, changes):
+        changes: list[tuple[int, FloatArray]] = []
+        if shape:
+            dampers = [model.unit_for(d, perturbed[i]).damper for i in shape]
+            area = unit.piston_area_m2
+            if output_only.cannot_cavitate(d, [unit.damper, *dampers], base, area, unit.vapour_pressure_pa):
+                changes += zip(shape, output_only.force_changes_n(d, base, unit.damper, dampers, area) or [])
+        if friction:
+            changes += zip(friction, output_only.friction_changes_n(base, unit, [model.unit_for(d, perturbed[i]) for i in friction]) or [])
+        for i, change in changes:
             out[(i, j)] = {**base, "force_n": base["force_n"] + change}
     return out
 

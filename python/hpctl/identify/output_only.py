@@ -1,6 +1,13 @@
 """Jacobian columns without runs: parameters that change a record's outputs
 but not its state.
 
+The seal friction is the simplest case: on the characterisation rig it is
+a force on the prescribed piston, ``F_friction(v)``, added to the strut
+force, which nothing integrates unless its heat warms the oil
+(:data:`FRICTION_COUPLED`); a friction parameter's column is the change of
+hp-core's friction law at the base run's velocities. The damper's needs
+more care:
+
 On the characterisation rig the actuator prescribes the strut's motion, so
 the flow through the damper is the displaced oil ``A v``, whatever the
 damper. With incompressible oil and no void, the damper's pressure drop
@@ -34,8 +41,8 @@ from numpy.typing import NDArray
 from hpctl import _core
 from hpctl.errors import bad_argument
 from hpctl.identify.dataset import Dataset
-from hpctl.model.effects import DAMPER_BRANCHES, DAMPER_SHAPE
-from hpctl.model.unit import Damper
+from hpctl.model.effects import DAMPER_BRANCHES, DAMPER_SHAPE, FRICTION_SHAPE, LIBRARY
+from hpctl.model.unit import Damper, Unit
 from hpctl.sim.run import CharacterisationRig, Sampled
 
 FloatArray = NDArray[np.float64]
@@ -43,13 +50,18 @@ FloatArray = NDArray[np.float64]
 #: Effects with which the damper's pressure drop reaches more than the
 #: force output (module docstring).
 STATE_COUPLED = ("oil_compliance", "heat_buildup", "valve_lag", "sensor_lag")
+#: Effects with which the seal friction reaches more than the force output:
+#: its power warms the oil node; a lagging transducer filters the force
+#: after the run. (The oil's compliance and the valves' lag do not: the
+#: friction is a force on the prescribed piston only.)
+FRICTION_COUPLED = ("heat_buildup", "sensor_lag")
 #: How far below its lowest sample the gas pressure is assumed to dip
 #: between samples, as a share of it, when ruling out cavitation: between
 #: two samples the gas follows the displacement's cubic, whose own overshoot
 #: is a small part of the stroke.
 GAS_DIP = 0.1
 #: The channels a base run must give for the columns.
-CHANNELS = ("force_n", "damper_force_n", "flow_damper_m3_s", "p_gas_true_pa")
+CHANNELS = ("force_n", "damper_force_n", "flow_damper_m3_s", "p_gas_true_pa", "friction_force_n", "vel_m_s")
 #: Largest mismatch between a sample's damper force and the curve's at its
 #: flow, relative to the strut pressure's force: the rounding of
 #: ``A ((p_S + dp) - p_S)``. A larger one means the force was not the
@@ -57,24 +69,38 @@ CHANNELS = ("force_n", "damper_force_n", "flow_damper_m3_s", "p_gas_true_pa")
 MATCH_RTOL = 1e-9
 
 _SHAPE_NAMES = frozenset(p.name for b in DAMPER_BRANCHES for p in DAMPER_SHAPE[b])
+_FRICTION_NAMES = frozenset(p.name for p in (*LIBRARY["friction"].params, *FRICTION_SHAPE))
+
+
+def _prescribed(d: Dataset) -> bool:
+    return (
+        d.record.kind == "characterisation" and isinstance(d.rig, CharacterisationRig) and isinstance(d.rig.strut, Sampled) and d.rig.strut.vel_m_s is not None
+    )
 
 
 def applies(effects: Sequence[str], d: Dataset) -> bool:
     """Whether damper-shape columns of ``d`` can come from its outputs: a
     characterisation record and a model without :data:`STATE_COUPLED`
     effects."""
-    return (
-        d.record.kind == "characterisation"
-        and isinstance(d.rig, CharacterisationRig)
-        and isinstance(d.rig.strut, Sampled)
-        and d.rig.strut.vel_m_s is not None
-        and not set(effects) & set(STATE_COUPLED)
-    )
+    return _prescribed(d) and not set(effects) & set(STATE_COUPLED)
+
+
+def friction_applies(effects: Sequence[str], d: Dataset) -> bool:
+    """Whether friction columns of ``d`` can come from its outputs: a
+    characterisation record and a model without :data:`FRICTION_COUPLED`
+    effects."""
+    return _prescribed(d) and not set(effects) & set(FRICTION_COUPLED)
 
 
 def is_shape(name: str) -> bool:
     """Whether ``name`` is a damper-shape parameter (:data:`hpctl.model.effects.DAMPER_SHAPE`)."""
     return name in _SHAPE_NAMES
+
+
+def is_friction(name: str) -> bool:
+    """Whether ``name`` is a parameter of the seal friction (the effect's
+    and the flexible model's :data:`hpctl.model.effects.FRICTION_SHAPE`)."""
+    return name in _FRICTION_NAMES
 
 
 def extreme_flows_m3_s(d: Dataset, area_m2: float) -> tuple[float, float]:
@@ -142,3 +168,17 @@ def force_changes_n(d: Dataset, base: Mapping[str, FloatArray], damper: Damper, 
         after[~closed] = _core.damper_pressure_drop_pa(curve, q[~closed], 1.0)
         out.append(area_m2 * (after - before))
     return out
+
+
+def friction_changes_n(base: Mapping[str, FloatArray], unit: Unit, units: Sequence[Unit]) -> list[FloatArray] | None:
+    """The force's change at each output sample of the base run ``base``
+    (made with ``unit``) when its friction is each of ``units``', N, at the
+    run's own velocities (hp-core's ``Friction::force_n``,
+    ``_core.friction_force_n``); None where the run's friction force is not
+    ``unit``'s at them."""
+    v = np.asarray(base["vel_m_s"], float)
+    before = _core.friction_force_n(unit.to_dict(), v)
+    seen = np.asarray(base["friction_force_n"], float)
+    if not np.all(np.abs(before - seen) <= MATCH_RTOL * np.maximum(np.abs(seen), 1.0)):
+        return None
+    return [_core.friction_force_n(other.to_dict(), v) - before for other in units]
