@@ -13,11 +13,14 @@ import dataclasses
 import numpy as np
 import pytest
 
+from hpctl import _core
+from hpctl.errors import ParameterError
 from hpctl.identify import fit as fit_module
 from hpctl.identify import output_only, virtual_rig
 from hpctl.identify.dataset import Dataset, prepare
 from hpctl.identify.fit import fit, model_for, reach, simulate_all, values_from_x
 from hpctl.model.effects import DAMPER_SHAPE, FRICTION_SHAPE, LIBRARY
+from hpctl.model.unit import Friction, Unit
 from hpctl.sim.run import characterisation_rig, run
 
 #: The fits of these tests: the flexible model with the seed's effects.
@@ -191,3 +194,15 @@ def test_the_extreme_flows_are_hp_cores_drive(datasets: list[Dataset], index: in
     span = highest - lowest
     assert lowest - 1e-12 * span <= v.min() <= lowest + 1e-4 * span
     assert highest - 1e-4 * span <= v.max() <= highest + 1e-12 * span
+
+
+def test_the_core_friction_is_the_law_and_refuses_bad_velocities() -> None:
+    # hp-core's Friction::force_n as its documentation writes it out:
+    # [F_c + (F_s - F_c) exp(-(v/v_s)^2)] tanh(v/v_e) + c v.
+    unit = Unit.seed().with_effects(friction=Friction(400.0, 300.0, 1e-3, stribeck_ratio=1.5, stribeck_velocity_m_s=0.01))
+    v = np.array([-0.5, -0.004, 0.0, 0.0007, 0.02, 0.3])
+    law = 400.0 * (1.0 + 0.5 * np.exp(-((v / 0.01) ** 2))) * np.tanh(v / 1e-3) + 300.0 * v
+    np.testing.assert_allclose(_core.friction_force_n(unit.to_dict(), v), law, rtol=1e-12, atol=1e-12)
+    assert np.array_equal(_core.friction_force_n(Unit.seed().to_dict(), v), np.zeros(len(v)))
+    with pytest.raises(ParameterError, match=r"vel_m_s\[1\] = NaN: expected finite"):
+        _core.friction_force_n(unit.to_dict(), [0.1, float("nan")])
