@@ -496,10 +496,6 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     # outputs without running the model once more.
     runs: dict[str, tuple[bytes, list[dict[str, FloatArray] | Exception]]] = {}
 
-    # The base runs of the last few points evaluated, for the Jacobian's
-    # columns that need no runs of their own (hpctl.identify.output_only).
-    bases: dict[bytes, list[dict[str, FloatArray] | Exception]] = {}
-
     def evaluate(x: FloatArray) -> tuple[FloatArray, list[FloatArray | None]]:
         key = x.tobytes()
         if key not in cache:
@@ -507,9 +503,6 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             ends = [None if isinstance(s, Exception) else s.pop("step_end_s", None) for s in sims]
             cache[key] = (residual_vector(datasets, sims, fold), ends)
             runs["last"] = (key, sims)
-            bases[key] = sims
-            while len(bases) > 2:
-                del bases[next(iter(bases))]
         return cache[key]
 
     def prior_rows(x: FloatArray) -> FloatArray:
@@ -536,7 +529,11 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             steps.append(xi[i] - x[i])
             xs.append(xi)
         perturbed = [values_from_x(params, xi) for xi in xs]
-        quiet = _output_only_columns(model, datasets, params, values_from_x(params, x), perturbed, reaches, bases.get(x.tobytes()))
+        # The columns that need no run of their own come from the runs at x
+        # (kept in ``runs`` when x was the last point evaluated or the
+        # optimiser's iterate; else every column is run).
+        at_x = next((v for k, v in runs.values() if k == x.tobytes()), None)
+        quiet = _output_only_columns(model, datasets, params, values_from_x(params, x), perturbed, reaches, at_x)
         which = [tuple(j for j in r if (i, j) not in quiet) for i, r in enumerate(reaches)]
         sims = simulate_all(model, datasets, perturbed, steps=ends, which=which)
         jm = np.zeros((len(f0), len(x)))
@@ -851,9 +848,10 @@ def rss_at(datasets: Sequence[Dataset], effects: Sequence[str], initial: Mapping
     return float(r @ r)
 
 
-#: Whether the Jacobian takes damper-shape columns on characterisation
-#: records from the base run's outputs (:mod:`hpctl.identify.output_only`)
-#: instead of a run each; the tests turn it off to compare.
+#: Whether the Jacobian takes damper-shape and friction columns on
+#: characterisation records from the base run's outputs
+#: (:mod:`hpctl.identify.output_only`) instead of a run each; the tests turn
+#: it off to compare.
 OUTPUT_ONLY_COLUMNS = True
 
 
@@ -868,7 +866,7 @@ def _output_only_columns(
 ) -> dict[tuple[int, int], dict[str, FloatArray]]:
     """The perturbed runs the finite-difference Jacobian need not make, by
     (column, dataset): each the base run at ``at`` with the force the
-    perturbed damper gives (:mod:`hpctl.identify.output_only`)."""
+    perturbed damper or friction gives (:mod:`hpctl.identify.output_only`)."""
     out: dict[tuple[int, int], dict[str, FloatArray]] = {}
     if not OUTPUT_ONLY_COLUMNS or bases is None:
         return out
