@@ -206,3 +206,20 @@ def test_the_core_friction_is_the_law_and_refuses_bad_velocities() -> None:
     assert np.array_equal(_core.friction_force_n(Unit.seed().to_dict(), v), np.zeros(len(v)))
     with pytest.raises(ParameterError, match=r"vel_m_s\[1\] = NaN: expected finite"):
         _core.friction_force_n(unit.to_dict(), [0.1, float("nan")])
+
+
+def test_bad_inputs_are_refused_naming_them(datasets: list[Dataset]) -> None:
+    # The drive's extremes need a characterisation rig driven by samples
+    # and their velocities; the friction binding a whole unit and a
+    # sequence of velocities. Each refusal a ValueError naming what.
+    sdof = next(d for d in datasets if d.record.kind == "sdof")
+    with pytest.raises(ParameterError, match=r"d\.rig = 'SdofRig': expected a characterisation rig"):
+        output_only.extreme_flows_m3_s(sdof, 1.0)
+    unit = Unit.seed().to_dict()
+    broken = {k: v for k, v in unit.items() if k != "piston_area_m2"}
+    with pytest.raises(ParameterError, match="piston_area_m2"):
+        _core.friction_force_n(broken, [0.1])  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="vel_m_s"):
+        _core.friction_force_n(unit, "fast")  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match=r"vel_m_s\[0\] = inf"):
+        _core.friction_force_n(unit, [float("inf")])
