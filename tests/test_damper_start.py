@@ -14,7 +14,9 @@ import pytest
 from foreign_rig import generate, sweep_tests
 from foreign_rig.damper import Damper as ForeignDamper
 from foreign_rig.draw import draw_case
+from foreign_rig.unit import Friction as ForeignFriction
 from hpctl import _core
+from hpctl._effect_params import Friction
 from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
 from hpctl.identify import damper_start
@@ -79,27 +81,36 @@ def _true_force_n(effect: str | None, seed: int, branch: str, q_m3_s: np.ndarray
     f = unit.effects.friction
     if f is not None:
         assert f.pressure_coefficient == 0.0  # the foreign rig's friction case draws none
-        v = q_m3_s / area_m2
-        stribeck = f.coulomb_n + (f.coulomb_n * f.static_ratio - f.coulomb_n) * np.exp(-((v / f.stribeck_velocity_m_s) ** 2))
-        force = force + stribeck * np.tanh(v / f.smoothing_velocity_m_s) + f.viscous_n_s_per_m * v
+        force = force + _true_friction_n(f, q_m3_s / area_m2)
     return np.asarray(force)
+
+
+def _true_friction_n(f: ForeignFriction, v: np.ndarray, viscous: bool = True) -> np.ndarray:
+    """The foreign rig's friction at speeds ``v`` (its formula, written
+    out), with its viscous part or without."""
+    stribeck = f.coulomb_n + (f.coulomb_n * f.static_ratio - f.coulomb_n) * np.exp(-((v / f.stribeck_velocity_m_s) ** 2))
+    return np.asarray(stribeck * np.tanh(v / f.smoothing_velocity_m_s) + (f.viscous_n_s_per_m * v if viscous else 0.0))
 
 
 #: The static fit's RMS distance from the foreign rig's force, in the
 #: samples' noise: measured 0.13-0.41 without friction (seeds 1, 2, 3, 7;
-#: 0.3 Hz sweeps and the heat run), 0.13-3.3 with it (seeds 1-3, 7,
-#: 100-119: the foreign friction's Stribeck peak is not the model's; the
-#: nominal curve 14-65).
+#: 0.3 Hz sweeps and the heat run); with friction 0.07-0.45 (seeds 1-3, 7,
+#: 100-119, 200-204, 345813898; the nominal curve 14-78), since the static
+#: fit takes the friction's Stribeck peak and smoothing as the model has
+#: them. With the Coulomb force alone it had been 0.13-5.15 (seed
+#: 345813898: a peak of 1.35 x 1,063 N over 8 mm/s).
 STATIC_CEILING = 1.0
-FRICTION_STATIC_CEILING = 5.0
-#: The Coulomb force from the static fit lies between the foreign
-#: friction's kinetic level and its static (Stribeck) peak: the slow
-#: samples that pin it sit below the Stribeck velocity (3-30 mm/s), where
-#: the friction is up to 1.5 x the kinetic. Measured on seeds 100-119:
-#: 0.95-1.50 x the kinetic, 0.89-1.12 x the peak (1, 2, 3, 7: +7 to +20 %
-#: of the kinetic). Asserted with a margin for the noise: from 0.8 x the
-#: kinetic to 1.25 x the peak.
-COULOMB_BAND = (0.8, 1.25)
+#: The static fit's largest friction force (over the speeds) against the
+#: foreign friction's (its Stribeck peak as its own smoothing lets it
+#: rise; its viscous part, a force in proportion to the speed, is the
+#: bleed's to take up beside a friction without one, as the static fit
+#: has): the slow samples the force is judged on sit below the Stribeck
+#: velocity, where the two frictions' shapes differ and a damper's
+#: blow-off at low flow can take up part of a small friction. Measured
+#: 0.67-1.02 on the seeds above and 300-479 (the low end where the
+#: friction is small, 160-270 N, and rises over 2-3 mm/s); asserted with
+#: a margin.
+PEAK_BAND = (0.6, 1.1)
 
 
 @pytest.mark.parametrize(("effect", "effects"), [(None, ()), ("friction", ("friction",)), ("sensor_offset", ("sensor_offset",))])
@@ -119,24 +130,30 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
     values = damper_start.static_damper_values(datasets, model.params, model.effects)
     context = f"FOREIGN_RIG_SEED={seed} ({effect}): "
     assert {p.name for p in model.params if p.name.startswith("damper_")} <= set(values), context
-    coulomb = values.get("friction_coulomb_n", 0.0)
+    friction = Friction(values.get("friction_coulomb_n", 0.0), 0.0, values.get("friction_smoothing_velocity_m_s", FRICTION_SMOOTHING_VELOCITY_M_S),
+                        values.get("friction_stribeck_ratio", 1.0), values.get("friction_stribeck_velocity_m_s", 0.01))
+    unit = Unit.seed().with_effects(friction=friction).to_dict()
     for branch in model.damper_branches:
         s = damper_start._branch_samples(datasets, branch)
         assert s is not None, context + branch
         true = _true_force_n(effect, seed, branch, s.q_m3_s, s.area_m2)
         bypass = 0.0 if branch.startswith("on_") else 1.0
         errors = {}
-        for name, v, c in (("nominal", {}, 0.0), ("static", values, coulomb)):
+        for name, v, with_friction in (("nominal", {}, False), ("static", values, True)):
             force = s.area_m2 * _core.damper_pressure_drop_pa(_dict(shaped_damper(datasets[0].base.damper, v)), s.q_m3_s, bypass)  # type: ignore[arg-type]
-            force += c * np.tanh(s.q_m3_s / s.area_m2 / FRICTION_SMOOTHING_VELOCITY_M_S)
+            if with_friction:
+                force += _core.friction_force_n(unit, s.q_m3_s / s.area_m2)
             errors[name] = float(np.sqrt(np.mean((force - true) ** 2)) / np.median(s.sigma_n))
         context += f"{branch} {errors['nominal']:.1f} -> {errors['static']:.2f} x the noise; "
-        assert errors["static"] <= (FRICTION_STATIC_CEILING if effect == "friction" else STATIC_CEILING), context
+        assert errors["static"] <= STATIC_CEILING, context
         assert errors["nominal"] > 5.0 * errors["static"], context
     if effect == "friction":
-        f = draw_case(effect, seed).unit.effects.friction
-        lo, hi = COULOMB_BAND[0] * f.coulomb_n, COULOMB_BAND[1] * f.coulomb_n * f.static_ratio
-        assert lo <= coulomb <= hi, context + f"Coulomb {coulomb:.0f} N against the truth's {f.coulomb_n:.0f} N (peak x {f.static_ratio:.2f})"
+        # The peak and smoothing the static fit found start the model's.
+        assert {"friction_coulomb_n", "friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s"} <= set(values)
+        v = np.linspace(1e-5, 0.05, 5000)
+        peak = float(np.max(_core.friction_force_n(unit, v)))
+        true_peak = float(np.max(_true_friction_n(draw_case(effect, seed).unit.effects.friction, v, viscous=False)))
+        assert PEAK_BAND[0] <= peak / true_peak <= PEAK_BAND[1], context + f"largest friction {peak:.0f} N against the truth's {true_peak:.0f} N"
     else:
         assert "friction_coulomb_n" not in values, context
     if effect == "sensor_offset":

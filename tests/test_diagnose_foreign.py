@@ -274,13 +274,20 @@ def test_fit_cli_reports_the_breakaway_force_and_warns_when_its_factors_trade(tm
     assert "| `friction_breakaway_n` |" in (out / "fit.md").read_text()
 
 
-def test_a_flexible_fit_with_its_stribeck_peak_under_the_smoothing_is_restarted() -> None:
+def test_a_flexible_fit_with_its_stribeck_peak_under_the_smoothing_is_restarted(monkeypatch: pytest.MonkeyPatch) -> None:
     # Seed 2122707468 (found on a random draw, stop 35): the flexible fit
-    # stopped with the Stribeck velocity at 1.5 mm/s, next to the smoothing
-    # velocity (1.4), where the force never reaches F_c r: the breakaway
-    # force read +12.4 % (291 +- 56 N against 259). Restarted from a peak
-    # above the smoothing it ends at a lower cost and within 3 %.
-    from hpctl.identify import MAX_NFEV_FLEXIBLE
+    # started from the static fit's Coulomb force alone stopped with the
+    # Stribeck velocity at 1.5 mm/s, next to the smoothing velocity (1.4),
+    # where the force never reaches F_c r: the breakaway force read +12.4 %
+    # (291 +- 56 N against 259). Restarted from a peak above the smoothing
+    # it ends at a lower cost and within 3 %. The static fit now starts the
+    # friction's shape too, and from there the fit stays out of that valley
+    # (6.5 mm/s against a smoothing of 1.2; stop 42) at a cost lower still
+    # (5,921.1 against the restart's 5,924.3), the breakaway force 8 % low
+    # (238 +- 8 N): at the noise either way (0.992 x), the records pin it
+    # no closer than the damper's shape lets (the test above's claim):
+    # asserted first; the restart then on the start as it was.
+    from hpctl.identify import MAX_NFEV_FLEXIBLE, damper_start
     from hpctl.identify.dataset import prepare
     from hpctl.identify.derived import derived
     from hpctl.identify.fit import STRIBECK_VALLEY_RATIO, _fit, fit, objective
@@ -288,14 +295,20 @@ def test_a_flexible_fit_with_its_stribeck_peak_under_the_smoothing_is_restarted(
     g = generate("friction", 2122707468)
     datasets = prepare([read_record(p) for p in g.records])
     model = ("heat_transfer", "real_gas", "friction")
+    truth = g.truth["hpctl_params"]["friction_coulomb_n"] * g.truth["foreign_params"]["friction_static_ratio"]
     defaults = {k: q.default for k, q in inspect.signature(fit).parameters.items() if q.kind is q.KEYWORD_ONLY}
-    first = _fit(datasets, model, **{**defaults, "flexible": True, "max_nfev": MAX_NFEV_FLEXIBLE})  # fit without the restart
+    now = _fit(datasets, model, **{**defaults, "flexible": True, "max_nfev": MAX_NFEV_FLEXIBLE})  # fit without the restart
+    v = now.values
+    assert v["friction_stribeck_velocity_m_s"] >= STRIBECK_VALLEY_RATIO * v["friction_smoothing_velocity_m_s"], v
+    (d,) = derived(now)
+    assert abs(d.value / truth - 1.0) <= 0.10, (d, truth)
+    monkeypatch.setattr(damper_start, "_PEAK", ())  # the static fit without the friction's shape
+    first = _fit(datasets, model, **{**defaults, "flexible": True, "max_nfev": MAX_NFEV_FLEXIBLE})
     v = first.values
     assert v["friction_stribeck_velocity_m_s"] < STRIBECK_VALLEY_RATIO * v["friction_smoothing_velocity_m_s"], v
     r = fit(datasets, model, flexible=True, max_nfev=MAX_NFEV_FLEXIBLE)
     assert "restarted with the Stribeck peak above the smoothing velocity" in r.message and "lower, kept" in r.message, r.message
     assert objective(r) < objective(first)
-    truth = g.truth["hpctl_params"]["friction_coulomb_n"] * g.truth["foreign_params"]["friction_static_ratio"]
     (d,) = derived(r)
     assert abs(d.value / truth - 1.0) <= 0.05, (d, truth)
 
