@@ -302,7 +302,7 @@ def test_a_flexible_fit_with_its_stribeck_peak_under_the_smoothing_is_restarted(
     assert v["friction_stribeck_velocity_m_s"] >= STRIBECK_VALLEY_RATIO * v["friction_smoothing_velocity_m_s"], v
     (d,) = derived(now)
     assert abs(d.value / truth - 1.0) <= 0.10, (d, truth)
-    monkeypatch.setattr(damper_start, "_PEAK", ())  # the static fit without the friction's shape
+    monkeypatch.setattr(damper_start, "_FRICTION_SHAPE", ())  # the static fit without the friction's shape
     first = _fit(datasets, model, **{**defaults, "flexible": True, "max_nfev": MAX_NFEV_FLEXIBLE})
     v = first.values
     assert v["friction_stribeck_velocity_m_s"] < STRIBECK_VALLEY_RATIO * v["friction_smoothing_velocity_m_s"], v

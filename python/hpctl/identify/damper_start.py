@@ -42,8 +42,8 @@ from scipy.optimize import least_squares
 
 from hpctl import _core
 from hpctl.identify.dataset import Dataset
-from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
-from hpctl.model.unit import Damper
+from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, FRICTION_STRIBECK_VELOCITY_M_S, Param, shaped_damper
+from hpctl.model.unit import Damper, Friction
 
 FloatArray = NDArray[np.float64]
 
@@ -139,7 +139,7 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     the records, the shape parameters and the shared terms. The records are
     known by identity (a ``Dataset`` is not changed once prepared; the
     entry holds them, so that no other record takes their ids)."""
-    key = (tuple(id(d) for d in datasets), tuple(p.name for p in params if p.name.startswith("damper_") or p.name in (*_STARTED, *_PEAK)),
+    key = (tuple(id(d) for d in datasets), tuple(p.name for p in params if p.name.startswith("damper_") or p.name in (*_STARTED, *_FRICTION_SHAPE)),
            tuple(e for e in STATIC_TERMS if e in effects))
     with _cache_lock:
         hit = _cache.get(key)
@@ -158,7 +158,7 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
 #: and the friction's shape where the model has it (the Stribeck peak's
 #: ratio and velocity, the smoothing velocity).
 _STARTED = ("friction_coulomb_n", "sensor_force_offset_n")
-_PEAK = ("friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s")
+_FRICTION_SHAPE = ("friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s")
 
 
 def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
@@ -185,7 +185,8 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     multipliers scale (every dataset of a fit shares it)."""
     if not datasets:
         return {}
-    nominal = datasets[0].base.damper
+    nominal_unit = datasets[0].base
+    nominal = nominal_unit.damper
     found = [(b, mine, s) for b in DAMPER_BRANCHES
              if (mine := [p for p in params if p.name.startswith(f"damper_{b}_")]) and (s := _branch_samples(datasets, b)) is not None]
     if not found:
@@ -204,8 +205,8 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     # branches 5.1 x the noise off the truth, 0.13-0.17 x with the shape;
     # with the peak but the smoothing fixed, 1.6 x, and the peak took up
     # the smoothings' difference: ratios of 1.5-3 at 2 mm/s).
-    peak = [p for name in _PEAK for p in params if p.name == name] if "coulomb" in constants else []
-    if len(peak) != len(_PEAK):
+    peak = [p for name in _FRICTION_SHAPE for p in params if p.name == name] if "coulomb" in constants else []
+    if len(peak) != len(_FRICTION_SHAPE):
         peak = []
     fitted = [*shape, *peak]
     lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants]
@@ -213,16 +214,23 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants) + [p.x_bounds()[1] for p in peak])
     index = [*range(n_shape), *range(n_fixed, n_fixed + len(peak))]
     prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in zip(index, fitted) if p.prior_sigma is not None]
-    smoothing_m_s = next((p.initial for p in params if p.name == "friction_smoothing_velocity_m_s"), FRICTION_SMOOTHING_VELOCITY_M_S)
     speeds = [s.q_m3_s / s.area_m2 for _, _, s in found]
+    cuts = np.cumsum([len(v) for v in speeds])[:-1]
+    every = np.concatenate(speeds)
+    # Without the shape the model's fixed one: a smoothed Coulomb force.
+    fixed_shape = {"friction_stribeck_ratio": 1.0, "friction_stribeck_velocity_m_s": FRICTION_STRIBECK_VELOCITY_M_S,
+                   "friction_smoothing_velocity_m_s": FRICTION_SMOOTHING_VELOCITY_M_S}
 
     def columns(x: FloatArray) -> list[FloatArray]:
-        level, smooth = [np.ones(len(v)) for v in speeds], smoothing_m_s
-        if peak:
-            ratio, velocity_m_s, smooth = (p.from_x(float(xi)) for p, xi in zip(peak, x[n_fixed:]))
-            level = [1.0 + (ratio - 1.0) * np.exp(-((v / velocity_m_s) ** 2)) for v in speeds]
-        return [np.array([np.ones(len(v)) if c == "offset" else lv * np.tanh(v / smooth) for c in constants])
-                .reshape(len(constants), len(v)).T for v, lv in zip(speeds, level)]
+        shape_now = {**fixed_shape, **{p.name: p.from_x(float(xi)) for p, xi in zip(peak, x[n_fixed:])}}
+        # hp-core's own friction law (`Friction::force_n`) per newton of
+        # Coulomb force: the column the Coulomb force multiplies.
+        unit = nominal_unit.with_effects(friction=Friction(
+            coulomb_n=1.0, smoothing_velocity_m_s=shape_now["friction_smoothing_velocity_m_s"],
+            stribeck_ratio=shape_now["friction_stribeck_ratio"], stribeck_velocity_m_s=shape_now["friction_stribeck_velocity_m_s"]))
+        per_newton = np.split(_core.friction_force_n(unit.to_dict(), every), cuts) if "coulomb" in constants else [np.empty(0)] * len(speeds)
+        return [np.array([np.ones(len(v)) if c == "offset" else f for c in constants]).reshape(len(constants), len(v)).T
+                for v, f in zip(speeds, per_newton)]
 
     def residual(x: FloatArray) -> FloatArray:
         values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
