@@ -26,7 +26,7 @@ from hpctl.errors import ParameterError
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit
-from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, profile_interval, profile_point
+from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, held_rise, profile_interval, profile_point
 from hpctl.model.unit import Unit
 from hpctl.report.calibration import LINEAR_ERRORS
 
@@ -122,6 +122,32 @@ def test_a_profile_point_is_the_intervals_own(friction_fit: tuple[FitResult, dic
     context = f"seed={seed} {iv.describe()} rise at the limit {at_limit.rise}, halfway {inside.rise}"
     assert at_limit.value == iv.upper and at_limit.converged and abs(at_limit.rise - 4.0) < 2 * RISE_TOLERANCE * 4.0, context
     assert 0.0 < inside.rise < at_limit.rise, context
+
+
+def test_values_held_together_rise_as_one_profile_point_and_not_at_the_estimate(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                              seed: int) -> None:
+    # One value held is the profile point's refit, to the last bit; two held
+    # at the estimate rise by no more than the refit's tolerance; held two
+    # standard errors out together (a parabola here), the rise is at least
+    # the one's alone.
+    result, _ = friction_fit
+    v, se = result.values, result.stderr
+    out = v["tau_s"] + 2.0 * se["tau_s"]
+    assert held_rise(result, {"tau_s": out}) == profile_point(result, "tau_s", out).rise
+    at_estimate = held_rise(result, {"tau_s": v["tau_s"], "friction_coulomb_n": v["friction_coulomb_n"]})
+    assert abs(at_estimate) <= RISE_TOLERANCE * 4.0, f"seed={seed}: {at_estimate}"
+    both = held_rise(result, {"tau_s": out, "friction_coulomb_n": v["friction_coulomb_n"] + 2.0 * se["friction_coulomb_n"]})
+    assert both >= profile_point(result, "tau_s", out).rise - RISE_TOLERANCE * 4.0, f"seed={seed}: {both}"
+
+
+@pytest.mark.parametrize("values, expected", [({}, "values"), ({"nope": 1.0}, "values"), ({"tau_s": math.nan}, "values['tau_s']"),
+                                              ({"tau_s": 1e6}, "values['tau_s']"), ({"tau_s": 1.0, "friction_coulomb_n": -1.0},
+                                                                                    "values['friction_coulomb_n']")])
+def test_values_held_that_the_model_does_not_fit_or_outside_their_range_are_refused(
+        friction_fit: tuple[FitResult, dict[str, float]], values: dict[str, float], expected: str) -> None:
+    with pytest.raises(ParameterError) as e:
+        held_rise(friction_fit[0], values)
+    assert isinstance(e.value, ValueError) and e.value.parameter == expected  # type: ignore[attr-defined]
 
 
 def test_a_profile_of_a_fit_without_errors_is_refused(friction_fit: tuple[FitResult, dict[str, float]]) -> None:

@@ -168,6 +168,31 @@ def profile_point(result: FitResult, name: str, value: float) -> ProfilePoint:
     return _point(result, name, value, result.values, cost(result, result.values))
 
 
+def held_rise(result: FitResult, values: Mapping[str, float]) -> float:
+    """The rise of the fit's cost over ``result``'s with several parameters
+    held at ``values`` together (the others fitted again, warm from
+    ``result``, as :func:`profile_point` fits): whether values of
+    parameters that trade, such as a rig's truth of the Coulomb force and
+    the Stribeck ratio whose product the records show, are consistent with
+    the records (inside their joint region of probability ``P`` when the
+    rise is below the chi-square quantile ``P`` of as many degrees of
+    freedom as values held)."""
+    if not values:
+        raise bad_argument("values", dict(values), "at least one fitted parameter and its value")
+    params = {p.name: p for p in result.model.params}
+    for name, value in values.items():
+        if name not in params:
+            raise bad_argument("values", name, f"parameters the model fitted ({', '.join(params)})")
+        p = params[name]
+        if not (math.isfinite(value) and p.lower <= value <= p.upper):
+            raise bad_argument(f"values[{name!r}]", value, f"a value of {name} inside its fit range [{p.lower:g}, {p.upper:g}]")
+    m = result.model
+    r = fit(result.datasets, m.effects, initial={**result.values, **values}, fit_damper=m.fit_damper, flexible=m.flexible,
+            held=m.held or None, fixed={**m.fixed, **values}, input_noise=False, errors=False, place_switches=False,
+            max_nfev=POINT_MAX_NFEV)
+    return cost(r, r.values) - cost(result, result.values)
+
+
 def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> ProfileInterval:
     """The ``sigmas`` profile-likelihood interval of the parameter ``name``
     of the fitted ``result`` (a fit with its errors: they set the first
