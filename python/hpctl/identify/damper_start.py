@@ -193,7 +193,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
         return {}
     shape = [p for _, mine, _ in found for p in mine]
     # The shared terms, a column each per branch: 1 for the offset, the
-    # model's smoothed sign of the speed for the Coulomb friction.
+    # model's friction per newton of Coulomb force.
     constants = [c for e, c in STATIC_TERMS.items() if e in effects]
     n_shape, n_fixed = len(shape), len(shape) + len(constants)
     # The friction's shape where the model has one to start: the Stribeck
@@ -205,14 +205,14 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     # branches 5.1 x the noise off the truth, 0.13-0.17 x with the shape;
     # with the peak but the smoothing fixed, 1.6 x, and the peak took up
     # the smoothings' difference: ratios of 1.5-3 at 2 mm/s).
-    peak = [p for name in _FRICTION_SHAPE for p in params if p.name == name] if "coulomb" in constants else []
-    if len(peak) != len(_FRICTION_SHAPE):
-        peak = []
-    fitted = [*shape, *peak]
+    friction_shape = [p for name in _FRICTION_SHAPE for p in params if p.name == name] if "coulomb" in constants else []
+    if len(friction_shape) != len(_FRICTION_SHAPE):
+        friction_shape = []
+    fitted = [*shape, *friction_shape]
     lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants]
-                  + [p.x_bounds()[0] for p in peak])
-    hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants) + [p.x_bounds()[1] for p in peak])
-    index = [*range(n_shape), *range(n_fixed, n_fixed + len(peak))]
+                  + [p.x_bounds()[0] for p in friction_shape])
+    hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants) + [p.x_bounds()[1] for p in friction_shape])
+    index = [*range(n_shape), *range(n_fixed, n_fixed + len(friction_shape))]
     prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in zip(index, fitted) if p.prior_sigma is not None]
     speeds = [s.q_m3_s / s.area_m2 for _, _, s in found]
     cuts = np.cumsum([len(v) for v in speeds])[:-1]
@@ -222,7 +222,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
                    "friction_smoothing_velocity_m_s": FRICTION_SMOOTHING_VELOCITY_M_S}
 
     def columns(x: FloatArray) -> list[FloatArray]:
-        shape_now = {**fixed_shape, **{p.name: p.from_x(float(xi)) for p, xi in zip(peak, x[n_fixed:])}}
+        shape_now = {**fixed_shape, **{p.name: p.from_x(float(xi)) for p, xi in zip(friction_shape, x[n_fixed:])}}
         # hp-core's own friction law (`Friction::force_n`) per newton of
         # Coulomb force: the column the Coulomb force multiplies.
         unit = nominal_unit.with_effects(friction=Friction(
@@ -259,12 +259,12 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     # force is small beside the friction's: started at zero, the curves
     # took the friction up as a blow-off at no flow and kept it (foreign
     # friction case, seed 7: 0 N Coulomb against the truth's 883 N).
-    # The peak starts where the model starts it.
-    peak_x0 = [p.to_x(p.initial) for p in peak]
+    # The friction's shape starts where the model starts it.
+    friction_x0 = [p.to_x(p.initial) for p in friction_shape]
     c0 = np.zeros(len(constants))
     if constants:
         slow = [(abs(s.q_m3_s / s.area_m2) <= SLOW_SPEED_M_S) for _, _, s in found]
-        a = np.concatenate([cols[m] for cols, m in zip(columns(np.array([0.0] * n_fixed + peak_x0)), slow)])
+        a = np.concatenate([cols[m] for cols, m in zip(columns(np.array([0.0] * n_fixed + friction_x0)), slow)])
         if len(a) >= MIN_SLOW_SAMPLES:
             y = np.concatenate([s.force_n[m] for (_, _, s), m in zip(found, slow)])
             c0 = np.linalg.lstsq(a, y, rcond=None)[0]
@@ -273,7 +273,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     for orifice, blowoff in STARTS:
         start = {p.name: orifice if p.name.endswith("_orifice_scale") else blowoff if p.name.endswith("_blowoff_scale") else p.initial
                  for p in shape}
-        x0 = np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0) + peak_x0)
+        x0 = np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0) + friction_x0)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -293,7 +293,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
         p = next((p for p in params if p.name == name), None)
         if p is not None and c in constants:
             out[name] = min(max(float(best.x[n_shape + constants.index(c)]), p.lower), p.upper)
-    out.update({p.name: p.from_x(float(xi)) for p, xi in zip(peak, best.x[n_fixed:])})
+    out.update({p.name: p.from_x(float(xi)) for p, xi in zip(friction_shape, best.x[n_fixed:])})
     return out
 
 
