@@ -147,10 +147,15 @@ def _param(result: FitResult, name: str) -> Param:
     return params[name]
 
 
-def _point(result: FitResult, name: str, value: float, start: Mapping[str, float], base: float) -> ProfilePoint:
+def _refit(result: FitResult, values: Mapping[str, float], start: Mapping[str, float]) -> FitResult:
+    """``result``'s model fitted again with ``values`` held, from ``start``."""
     m = result.model
-    r = fit(result.datasets, m.effects, initial=start, fit_damper=m.fit_damper, flexible=m.flexible, held=m.held or None,
-            fixed={**m.fixed, name: value}, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
+    return fit(result.datasets, m.effects, initial=start, fit_damper=m.fit_damper, flexible=m.flexible, held=m.held or None,
+               fixed={**m.fixed, **values}, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
+
+
+def _point(result: FitResult, name: str, value: float, start: Mapping[str, float], base: float) -> ProfilePoint:
+    r = _refit(result, {name: value}, start)
     return ProfilePoint(value, cost(r, r.values) - base, r.values, r.success)
 
 
@@ -186,10 +191,7 @@ def held_rise(result: FitResult, values: Mapping[str, float]) -> float:
         p = params[name]
         if not (math.isfinite(value) and p.lower <= value <= p.upper):
             raise bad_argument(f"values[{name!r}]", value, f"a value of {name} inside its fit range [{p.lower:g}, {p.upper:g}]")
-    m = result.model
-    r = fit(result.datasets, m.effects, initial={**result.values, **values}, fit_damper=m.fit_damper, flexible=m.flexible,
-            held=m.held or None, fixed={**m.fixed, **values}, input_noise=False, errors=False, place_switches=False,
-            max_nfev=POINT_MAX_NFEV)
+    r = _refit(result, values, {**result.values, **values})
     return cost(r, r.values) - cost(result, result.values)
 
 
