@@ -14,7 +14,7 @@ import pytest
 
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import fit, model_for, simulate_all, values_from_x
+from hpctl.identify.fit import _place_step, fit, model_for, simulate_all, values_from_x
 from hpctl.identify.switching import EDGE, PROBE_LEADS, best_lead, extrapolated_leads, switch_samples, timeline
 
 
@@ -203,3 +203,36 @@ def test_passes_that_converge_steadily_are_extrapolated_to_their_end(switching_d
     bare = replace(d, switch_leads=np.zeros(0))  # type: ignore[type-var]
     out, got_move, jumped = extrapolated_leads([bare, *placed], [bare, *settled], previous)
     assert jumped and out[0] is bare and got_move.shape == (n,)
+
+
+def test_the_joint_step_of_places_and_parameters_goes_along_their_valley() -> None:
+    # A linear model whose parameter and two places trade (columns 0.95
+    # alike): with the parameter held, each place's best lies short of the
+    # joint optimum, and alternating the two crawls. The joint step reaches
+    # the optimum in one, and a place the optimum puts past its interval's
+    # edge goes to the edge, the rest solved again with it there.
+    rng = np.random.default_rng(5)
+    n = 200
+    u = rng.normal(size=n)
+    v = rng.normal(size=n)
+    w = rng.normal(size=n)
+    theta_col = u
+    places = np.column_stack([0.95 * u + 0.31 * v, 0.9 * u + 0.43 * w])
+    truth_theta, truth_places = 0.3, np.array([0.8, 0.6])
+    y = theta_col * truth_theta + places @ truth_places
+    leads = np.array([0.5, 0.5])
+    # The fit at the start: the parameter at its optimum with the places held.
+    theta = float(theta_col @ (y - places @ leads) / (theta_col @ theta_col))
+    r = theta_col * theta + places @ leads - y
+    x, lo, hi = np.array([theta]), np.array([-10.0]), np.array([10.0])
+    step = _place_step(x, lo, hi, theta_col[:, None], np.zeros((0, 1)), r, np.zeros(0), places, leads)
+    assert step == pytest.approx(truth_places - leads, abs=1e-9)
+    # A truth past the edge: the place pinned at 0.99, the other the best with it there.
+    y = theta_col * truth_theta + places @ np.array([1.4, 0.6])
+    theta = float(theta_col @ (y - places @ leads) / (theta_col @ theta_col))
+    r = theta_col * theta + places @ leads - y
+    step = _place_step(np.array([theta]), lo, hi, theta_col[:, None], np.zeros((0, 1)), r, np.zeros(0), places, leads)
+    assert leads[0] + step[0] == pytest.approx(0.99)
+    a = np.column_stack([theta_col, places[:, 1]])
+    best = np.linalg.lstsq(a, y - places[:, 0] * 0.99, rcond=None)[0]
+    assert leads[1] + step[1] == pytest.approx(best[1], abs=1e-9)
