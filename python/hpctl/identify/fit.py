@@ -1097,8 +1097,8 @@ def _joint_places(result: FitResult, placed: Sequence[Dataset], effects: Sequenc
     says of it. Placing with the parameters held and fitting with the
     places held, in turn, crawls along a valley where the two trade: on the
     foreign rig's valve-lag case (FOREIGN_RIG_SEED=1137061372, 5 ms samples,
-    a 13.5 ms valve, every switch logged a sample late) the passes left two
-    closings of valve 6 at 0.5 of their intervals and the valve's time
+    a 13.5 ms valve, four of its seven switches logged a sample late) the
+    passes left two closings of valve 6 at 0.5 of their intervals and the valve's time
     constant at 12.5 +- 0.13 ms, the cost 10,300 above the fit at the true
     places (13.51 +- 0.10 ms). Each joint step (:attr:`FitResult.place_step`,
     the places kept inside their intervals) is followed by a fit of the
