@@ -39,7 +39,7 @@ from hpctl.identify.dataset import (
     with_input_noise,
 )
 from hpctl.identify.serial import output_meat
-from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, extrapolated_leads, switch_samples, timeline
+from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, extrapolated_leads, moved_leads, switch_samples, timeline
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_BRANCHES,
@@ -1064,7 +1064,7 @@ def _place_step(x: FloatArray, lo: FloatArray, hi: FloatArray, j_data: FloatArra
     free = _free(x, lo, hi)
     m = places.shape[1]
     a_theta = np.vstack([j_data[:, free], j_prior[:, free]])
-    zeros = np.zeros((j_prior.shape[0], m))
+    zeros = np.zeros((j_prior.shape[0], m))  # the places' prior rows: they have none
     b = -np.concatenate([r, prior_r])
     edge = np.full(m, np.nan)  # the step of a place pinned to its edge
     for _ in range(m + 1):
@@ -1072,7 +1072,7 @@ def _place_step(x: FloatArray, lo: FloatArray, hi: FloatArray, j_data: FloatArra
         pinned = np.where(moving, 0.0, edge)
         a = np.hstack([a_theta, np.vstack([places[:, moving], zeros[:, moving]])])
         try:
-            step = np.linalg.lstsq(a, b - np.concatenate([places @ pinned, zeros @ pinned]), rcond=None)[0][a_theta.shape[1]:]
+            step = np.linalg.lstsq(a, b - np.concatenate([places @ pinned, np.zeros(j_prior.shape[0])]), rcond=None)[0][a_theta.shape[1]:]
         except np.linalg.LinAlgError:
             return np.zeros(m)
         out = pinned.copy()
@@ -1108,11 +1108,7 @@ def _joint_places(result: FitResult, placed: Sequence[Dataset], effects: Sequenc
         step = result.place_step
         if step is None or float(np.max(np.abs(step), initial=0.0)) <= PLACE_SETTLED:
             break
-        moved, k = [], 0
-        for d in placed:
-            m = d.switch_leads.size
-            moved.append(replace(d, switch_leads=d.switch_leads + step[k:k + m]) if m else d)
-            k += m
+        moved = moved_leads(placed, step)
         try:
             warm = _fit(moved, effects, initial=result.values, input_noise=False, errors=False, **again).values
             candidate = _fit(moved, effects, initial=warm, input_noise=input_noise, errors=errors, **again)

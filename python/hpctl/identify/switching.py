@@ -221,10 +221,16 @@ def extrapolated_leads(placed: Sequence[Dataset], settled: Sequence[Dataset], pr
     rho = mp / pp
     if not (0.0 < rho < 0.9 and mp / np.sqrt(pp * mm) >= np.cos(np.radians(25.0))):
         return out, move, False
-    k = 0
-    for i, d in enumerate(settled):
+    return moved_leads(settled, move * rho / (1.0 - rho)), move, True
+
+
+def moved_leads(datasets: Sequence[Dataset], move: FloatArray) -> list[Dataset]:
+    """The datasets with their switches' places moved by ``move`` (every
+    placed switch's, in the datasets' order), kept within the intervals'
+    edges (:data:`EDGE`)."""
+    out, k = [], 0
+    for d in datasets:
         n = d.switch_leads.size
-        if n:
-            out[i] = replace(d, switch_leads=np.clip(d.switch_leads + move[k:k + n] * rho / (1.0 - rho), EDGE, 1.0 - EDGE))
-            k += n
-    return out, move, True
+        out.append(replace(d, switch_leads=np.clip(d.switch_leads + move[k:k + n], EDGE, 1.0 - EDGE)) if n else d)
+        k += n
+    return out
