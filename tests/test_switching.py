@@ -146,6 +146,40 @@ def test_hpctl_fit_reports_where_it_placed_each_switch(tmp_path: Path) -> None:
     md = (tmp_path / "out" / "fit.md").read_text()
     section = md.split("## Valve switches")[1].split("## Plots")[0]
     assert section.count("| valve_switching |") == 7, section
+    # Places at their joint optimum with the parameters: no warning of them.
+    assert not [w for w in s["warnings"] if "places" in w["message"]], s["warnings"]
+
+
+def test_places_left_short_of_their_joint_optimum_are_a_warning(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A fit whose joint steps of the places and the parameters ran out while
+    # one more would still move a place (here: none allowed, and the step
+    # from the optimum made 0.4 of an interval for two of the seven
+    # switches) says so in the output and the JSON, with the records, and
+    # exits 0 only without --strict.
+    from click.testing import CliRunner
+
+    from hpctl.cli import main
+    from hpctl.data.records import write_record
+    from hpctl.identify import fit as fit_module
+
+    rec = virtual_rig.record_test(virtual_rig.truth_unit((), {}), virtual_rig.effect_tests()["switching"], virtual_rig.Noise(),
+                                  np.random.default_rng(2))
+    csv, toml = write_record(rec, tmp_path / "rec" / "valve_switching")
+    step = np.zeros(7)
+    step[[2, 5]] = [0.4, -0.25]
+    monkeypatch.setattr(fit_module, "JOINT_PLACE_STEPS", 0)
+    monkeypatch.setattr(fit_module, "_place_step", lambda *args: step)
+    args = ["fit", str(toml), "--model", "seed", "--json", "--quiet"]
+    r = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "out")])
+    assert r.exit_code == 0, r.stderr
+    warned = [w for w in json.loads(r.stdout)["warnings"] if "places" in w["message"]]
+    assert len(warned) == 1, warned
+    w = warned[0]
+    assert w["code"] == "not_converged"
+    assert w["details"] == {"place_step_max": 0.4, "moved": 2, "switches": 7, "records": ["valve_switching"]}
+    assert "2 of 7" in w["message"] and "0.40" in w["message"], w["message"]
+    strict = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "strict"), "--strict"])
+    assert strict.exit_code == 3 and "places" in strict.stderr, strict.stderr
 
 
 def test_the_places_uncertainty_goes_into_the_parameters_errors() -> None:
