@@ -50,7 +50,14 @@ echo "== Rust tests (workspace)"
 cargo test --workspace --release
 
 echo "== Python tests"
-python3 -m pytest -q
+# One pytest worker per core (pytest-xdist): the tests' fits and
+# simulations run on one core each but for short parallel stretches
+# (measured: tests/test_flexible_fit.py 618 s of CPU in 660 s), so a
+# 2-core machine runs the suite in about half the time. --dist loadfile
+# keeps a file's tests on one worker, in order: a module's fixtures (a
+# fitted campaign, a generated foreign case) are made once, not per worker.
+# The slowest tests are listed at the end (where CI time goes).
+python3 -m pytest -q -n auto --dist loadfile --durations=30
 
 if [ -z "$firmware_missing" ]; then
     echo "== Firmware (cross-build, size/panic checks, lints, figures)"
