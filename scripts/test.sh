@@ -56,11 +56,8 @@ echo "== Python tests"
 # 2-core machine runs the suite in about half the time. --dist loadfile
 # keeps a file's tests on one worker, in order: a module's fixtures (a
 # fitted campaign, a generated foreign case) are made once, not per worker.
-# Files go to the workers in collection order (--no-loadscope-reorder;
-# xdist would otherwise order them by their number of tests), which
-# tests/conftest.py starts with the longest file (LONGEST_FIRST).
 # The slowest tests are listed at the end (where CI time goes).
-python3 -m pytest -q -n auto --dist loadfile --no-loadscope-reorder --durations=30
+python3 -m pytest -q -n auto --dist loadfile --durations=30
 
 if [ -z "$firmware_missing" ]; then
     echo "== Firmware (cross-build, size/panic checks, lints, figures)"
