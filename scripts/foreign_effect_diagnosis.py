@@ -27,8 +27,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from foreign_rig import generate  # noqa: E402
@@ -81,7 +79,7 @@ def main() -> None:
                 line |= {"time_s": round(time.time() - t0, 1), "found": d.found, "verdict": d.verdict, "rms": d.final.rms_ratio,
                          "worst": j.worst_rms_ratio if j else None, "true_ratio": true_noise_ratio(d, g.truth),
                          "params": against_truth(d.final, truth),
-                         "place_step_max": None if d.final.place_step is None else float(np.max(np.abs(d.final.place_step), initial=0.0)),
+                         "place_step_max": d.final.place_step_max,
                          "message": d.final.message}
             print(json.dumps(line), flush=True)
 

@@ -143,13 +143,12 @@ def _place_caveats(result: FitResult) -> list[Caveat]:
     it, the valve's time constant 13 % short)."""
     from hpctl.identify.fit import PLACE_SETTLED
 
-    step = result.place_step
-    if step is None or not float(np.max(np.abs(step), initial=0.0)) > PLACE_SETTLED:
+    step, worst = result.place_step, result.place_step_max
+    if step is None or worst is None or not worst > PLACE_SETTLED:
         return []
     records = [d.record.name for d in result.datasets for _ in range(d.switch_leads.size)]
     moved = [i for i, s in enumerate(step) if abs(float(s)) > PLACE_SETTLED]
-    where = sorted({records[i] for i in moved if i < len(records)})
-    worst = float(np.max(np.abs(step)))
+    where = sorted({records[i] for i in moved})
     return [Caveat(
         Code.NOT_CONVERGED,
         f"the valve switches' places are not at their optimum with the parameters: one more joint step would move "

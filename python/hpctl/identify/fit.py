@@ -276,6 +276,12 @@ class FitResult:
     place_step: FloatArray | None = field(default=None, repr=False)
 
     @property
+    def place_step_max(self) -> float | None:
+        """The largest move of :attr:`place_step`, in shares of an interval
+        (None: no places, or fitted without errors)."""
+        return None if self.place_step is None else float(np.max(np.abs(self.place_step), initial=0.0))
+
+    @property
     def k(self) -> int:
         return len(self.model.params)
 
@@ -1105,8 +1111,8 @@ def _joint_places(result: FitResult, placed: Sequence[Dataset], effects: Sequenc
     parameters at the new places and kept only where the cost falls."""
     taken, gained, note = 0, 0.0, ""
     for _ in range(JOINT_PLACE_STEPS):
-        step = result.place_step
-        if step is None or float(np.max(np.abs(step), initial=0.0)) <= PLACE_SETTLED:
+        step, most = result.place_step, result.place_step_max
+        if step is None or most is None or most <= PLACE_SETTLED:
             break
         moved = moved_leads(placed, step)
         try:
