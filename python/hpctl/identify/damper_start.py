@@ -43,7 +43,6 @@ from scipy.optimize import least_squares
 from hpctl import _core
 from hpctl.identify.dataset import Dataset
 from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
-from hpctl.model.unit import Damper
 
 FloatArray = NDArray[np.float64]
 
@@ -230,12 +229,24 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
         return [np.array([np.ones(len(v)) if c == "offset" else lv * np.tanh(v / smooth) for c in constants])
                 .reshape(len(constants), len(v)).T for v, lv in zip(speeds, level)]
 
+    # The branches' flows by valve 5's state, each state's in one call of
+    # the core: a call reads the whole damper and picks each sample's branch
+    # by its flow's sign, so one call per state gives every branch's drop
+    # (the same per sample) for half the calls' overhead.
+    by_state = [(bypass, ks, np.concatenate([found[k][2].q_m3_s for k in ks]), np.cumsum([len(found[k][2].q_m3_s) for k in ks])[:-1])
+                for bypass, ks in ((0.0, [k for k, f in enumerate(found) if f[0].startswith("on_")]),
+                                   (1.0, [k for k, f in enumerate(found) if not f[0].startswith("on_")])) if ks]
+
     def residual(x: FloatArray) -> FloatArray:
         values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
-        damper = shaped_damper(nominal, values)
+        damper = shaped_damper(nominal, values).to_dict()
+        drops: list[FloatArray] = [np.empty(0)] * len(found)
+        for bypass, ks, q, cuts in by_state:
+            for k, dp in zip(ks, np.split(_core.damper_pressure_drop_pa(damper, q, bypass), cuts)):
+                drops[k] = dp
         rows = []
-        for (b, _, s), cols in zip(found, columns(x)):
-            force = s.area_m2 * _drop_pa(damper, s.q_m3_s, 0.0 if b.startswith("on_") else 1.0) + cols @ x[n_shape:n_fixed]
+        for (_, _, s), cols, dp in zip(found, columns(x), drops):
+            force = s.area_m2 * dp + cols @ x[n_shape:n_fixed]
             rows.append((force - s.force_n) / s.sigma_n)
         return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
 
@@ -293,7 +304,3 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
             out[name] = min(max(float(best.x[n_shape + constants.index(c)]), p.lower), p.upper)
     out.update({p.name: p.from_x(float(xi)) for p, xi in zip(friction_shape, best.x[n_fixed:])})
     return out
-
-
-def _drop_pa(damper: Damper, q_m3_s: FloatArray, bypass_open: float) -> FloatArray:
-    return _core.damper_pressure_drop_pa(damper.to_dict(), q_m3_s, bypass_open)
