@@ -98,13 +98,13 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     # sleep in place of the fit): at each completion the estimate of the
     # screening time left (cross-validation and the accepted fit left out)
     # is compared with the time the batch then really took: within a factor
-    # 3 (measured 2.2 x at most, equal durations' first). Counting only the finished fits, the first to finish made the
-    # rate one fit per its whole duration while three others were as far
-    # along: 4.2 s said where 0.6 s were left (equal durations: 7 x); now
-    # 1.3 s (a fit that has run as long as the finished ones took counts
-    # half done). The mixed durations finish shortest first, so their estimates
-    # fall short (0.5-0.7 x while half the fits are left): the fits still to
-    # come are the long ones.
+    # 3 (measured 2.2 x at most, equal durations' first). Counting only the
+    # finished fits, the first to finish made the rate one fit per its whole
+    # duration while three others were as far along: 4.2 s said where 0.6 s
+    # were left (equal durations: 7 x); now 1.3 s (a fit that has run as
+    # long as the finished ones took counts half done). The mixed durations
+    # finish shortest first, so their estimates fall short (0.5-0.7 x while
+    # half the fits are left): the fits still to come are the long ones.
     def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...]) -> Any:
         time.sleep(durations_s[effects_.index(add[0])])
         return diagnose_module.Candidate(effects=add, added_params=1, result=None, delta_bic=0.0)  # type: ignore[arg-type]

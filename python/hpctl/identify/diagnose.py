@@ -491,8 +491,8 @@ def running_credit(finished_s: Sequence[float], running_s: Sequence[float]) -> f
     too: on the bundled campaign (scripts/bench_diagnose.py, four workers,
     six candidates) each estimate of round 1 was 1.9-3.6 x the time it took
     (10 min 13 s left said where 2 min 48 s were); with the running fits
-    counted so, 1.2-1.9 x (the rest is cross-validation and the accepted
-    fit's share, :data:`_Clock.ACCEPT_FITS`)."""
+    counted so, 1.4-2.6 x (BENCHMARKS.md, stop 45; most of what is still
+    over is the round's tail, :data:`_Clock.ACCEPT_FITS`)."""
     if not finished_s or not running_s:
         return 0.0
     mean = sum(finished_s) / len(finished_s)
