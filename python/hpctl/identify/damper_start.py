@@ -270,9 +270,6 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     # that converge took 2-4 x longer to (foreign rig, sweeps, seeds 1, 7
     # and 345813898 with friction, an offset or neither: 1.9-7.6 s against
     # 0.8-2.7 s, every start's end as low or lower; BENCHMARKS.md, stop 46).
-    # Written here because SciPy's grouped differences are private
-    # (`scipy.optimize._numdiff`) and its public `approx_fprime` runs the
-    # residual once per column.
     sizes = [len(s.q_m3_s) for _, _, s in found]
     edges = np.concatenate([[0], np.cumsum(sizes)])
     sparsity = np.zeros((int(edges[-1]) + len(prior), len(lo)), bool)
