@@ -237,14 +237,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
                 for bypass, ks in ((0.0, [k for k, f in enumerate(found) if f[0].startswith("on_")]),
                                    (1.0, [k for k, f in enumerate(found) if not f[0].startswith("on_")])) if ks]
 
-    last: list[tuple[bytes, FloatArray]] = []
-
     def residual(x: FloatArray) -> FloatArray:
-        # The optimiser evaluates the iterate, then asks for its Jacobian,
-        # which starts from the same residuals. Copies: SciPy scales the
-        # residuals it holds in place for the robust loss.
-        if last and last[0][0] == x.tobytes():
-            return last[0][1].copy()
         values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
         damper = shaped_damper(nominal, values).to_dict()
         drops: list[FloatArray] = [np.empty(0)] * len(found)
@@ -255,21 +248,11 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
         for (_, _, s), cols, dp in zip(found, columns(x), drops):
             force = s.area_m2 * dp + cols @ x[n_shape:n_fixed]
             rows.append((force - s.force_n) / s.sigma_n)
-        r = np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
-        last[:] = [(x.tobytes(), r.copy())]
-        return r
+        return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
 
     # Which residual rows each parameter moves: a branch's shape its own
-    # samples (and its prior row), the constants every sample. The finite
-    # differences perturb the branches' columns together (one run of the
-    # residual per group of columns whose rows do not meet: 8-11 where
-    # there are 30-40 columns) into a dense Jacobian, and the trust region
-    # is solved exactly (an SVD of some thousands of rows by tens of
-    # columns, a few ms). SciPy's own sparse differences with LSMR took the
-    # same runs of the residual, but their steps were inexact, and the fits
-    # that converge took 2-4 x longer to (foreign rig, sweeps, seeds 1, 7
-    # and 345813898 with friction, an offset or neither: 1.9-7.6 s against
-    # 0.8-2.7 s, every start's end as low or lower; BENCHMARKS.md, stop 46).
+    # samples (and its prior row), the constants every sample. Finite
+    # differences then perturb the branches' columns together.
     sizes = [len(s.q_m3_s) for _, _, s in found]
     edges = np.concatenate([[0], np.cumsum(sizes)])
     sparsity = np.zeros((int(edges[-1]) + len(prior), len(lo)), bool)
@@ -280,30 +263,6 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     sparsity[:edges[-1], n_shape:] = True
     for row, (i, _, _) in enumerate(prior):
         sparsity[edges[-1] + row, i] = True
-
-    groups: list[list[int]] = []
-    for col in range(sparsity.shape[1]):
-        for g in groups:
-            if not np.any(sparsity[:, g].any(axis=1) & sparsity[:, col]):
-                g.append(col)
-                break
-        else:
-            groups.append([col])
-    rows_of = [np.flatnonzero(sparsity[:, col]) for col in range(sparsity.shape[1])]
-
-    def grouped_jac(x: FloatArray) -> FloatArray:
-        r0 = residual(x)
-        jm = np.zeros((len(r0), len(x)))
-        # SciPy's forward step, inwards at an upper bound.
-        h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
-        h = np.where(x + h <= hi, h, -h)
-        for g in groups:
-            xg = x.copy()
-            xg[g] += h[g]
-            dr = residual(xg) - r0
-            for col in g:
-                jm[rows_of[col], col] = dr[rows_of[col]] / h[col]
-        return jm
 
     # The constants start from the slowest samples, where the damper's
     # force is small beside the friction's: started at zero, the curves
@@ -327,8 +286,8 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                sol = least_squares(residual, x0, jac=grouped_jac, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=LOSS_SCALE,
-                                    x_scale="jac", tr_solver="exact", max_nfev=MAX_NFEV)
+                sol = least_squares(residual, x0, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=LOSS_SCALE, x_scale="jac",
+                                    jac_sparsity=sparsity, max_nfev=MAX_NFEV)
         except (ValueError, _core.HpctlError):
             continue
         if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
