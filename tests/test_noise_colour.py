@@ -16,6 +16,7 @@ from scipy.linalg import toeplitz
 from scipy.signal import lfilter
 from scipy.stats import binom
 
+from hpctl.identify.dataset import _channel_var
 from hpctl.identify.signals import NoiseLevel, difference_share, differences_are_noise, noise_colour, noise_level, noise_sigma
 
 # The foreign rig's five-sine sweep: two cycles of 0.01-1 Hz, 200 samples a cycle.
@@ -29,11 +30,12 @@ def ou(rng: np.random.Generator, n: int, dt_s: float, corr_time_s: float, sigma:
     return np.asarray(lfilter([1.0], [1.0, -a], e))[2000:]  # stationary after the burn-in
 
 
-def levels(rng: np.random.Generator, white: float, coloured: float, corr_time_s: float) -> list[tuple[float, int, NoiseLevel]]:
+def levels(rng: np.random.Generator, white: float, coloured: float, corr_time_s: float, dts: tuple[float, ...] = SWEEP_DT_S,
+           samples: int = SAMPLES) -> list[tuple[float, int, NoiseLevel]]:
     out = []
-    for dt in SWEEP_DT_S:
-        y = rng.normal(0.0, white, SAMPLES) + (ou(rng, SAMPLES, dt, corr_time_s, coloured) if coloured > 0 else 0.0)
-        out.append((dt, SAMPLES, noise_level(y)))
+    for dt in dts:
+        y = rng.normal(0.0, white, samples) + (ou(rng, samples, dt, corr_time_s, coloured) if coloured > 0 else 0.0)
+        out.append((dt, samples, noise_level(y)))
     return out
 
 
@@ -99,13 +101,16 @@ def foreign_noise_total(rng: np.random.Generator, dts: tuple[float, ...]) -> flo
     foreign rig's draw (tests/foreign_rig/draw.py: up to half the variance
     correlated, over 2-50 ms; the total 1)."""
     frac, corr_time_s = rng.uniform(0.0, 0.5), math.exp(rng.uniform(math.log(2e-3), math.log(5e-2)))
-    lv = [(dt, SAMPLES + 1, noise_level(rng.normal(0.0, math.sqrt(1 - frac), SAMPLES + 1) + ou(rng, SAMPLES + 1, dt, corr_time_s, math.sqrt(frac))))
-          for dt in dts]
-    k = noise_colour("force_n", lv)
-    if k is not None:
-        return math.sqrt(k.white_var + k.coloured_var)
-    checked = [(n, level.sigma) for _, n, level in lv if level.checked]
-    return math.sqrt(sum(n * s**2 for n, s in checked) / sum(n for n, _ in checked))
+    lv = levels(rng, math.sqrt(1 - frac), math.sqrt(frac), corr_time_s, dts, SAMPLES + 1)
+    return math.sqrt(channel_noise_var(lv))
+
+
+def channel_noise_var(lv: list[tuple[float, int, NoiseLevel]]) -> float:
+    """The channel's noise variance as `prepare` takes it from its records'
+    levels (the colour's total where one is found)."""
+    var = _channel_var(lv, noise_colour("force_n", lv))
+    assert var is not None
+    return var
 
 
 def test_three_records_do_not_extrapolate_a_correlation_they_barely_see() -> None:
@@ -115,9 +120,8 @@ def test_three_records_do_not_extrapolate_a_correlation_they_barely_see() -> Non
     # was 29.1 N white and 40.5 N correlated over 167 ms, 50 N in all
     # (1.35 x), the heat run's weights with it.
     lv = [(1 / 6, 401, NoiseLevel(41.49, 4, True)), (1 / 60, 401, NoiseLevel(28.88, 4, True)), (0.005, 401, NoiseLevel(32.11, 4, True))]
-    k = noise_colour("force_n", lv)
-    total = math.sqrt(k.white_var + k.coloured_var) if k is not None else 41.49
-    assert total <= 1.25 * 37.0, (total, k)
+    total = math.sqrt(channel_noise_var(lv))
+    assert total <= 1.25 * 37.0, (total, noise_colour("force_n", lv))
     # Over the foreign rig's draws sampled as those records: read over 1.25 x
     # the truth in 30 of 4,000 with that bound, 1 with a third of it (stop
     # 46); the count below is at most 5 with probability 0.999 at a rate of
