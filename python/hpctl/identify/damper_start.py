@@ -5,7 +5,10 @@ On a characterisation rig the strut force less the gas pressure's force on
 the piston is the damper's pressure drop on the piston plus the seal's
 friction: ``F - A (p_S - p_amb) = A dp(A v) + F_friction`` (hp-core's
 ``Unit``: the pack sits between the strut and accumulator S, whose pressure
-the record's ``p_gas_pa`` is). Every branch (valve 5's state, the
+the record's ``p_gas_pa`` is). On an SDOF rig no transducer measures ``F``,
+but the body shows it: the strut holds the body's weight and accelerates
+it, ``F = m (g + a)``, with ``a`` the measured body displacement's second
+derivative (:func:`_strut_force`). Every branch (valve 5's state, the
 direction of flow) is fitted to that per sample by hp-core's own curve
 (``_core.damper_pressure_drop_pa``) with the flexible model's parameters
 and priors, beside what else the model makes of that force (a Coulomb
@@ -20,6 +23,13 @@ at ``FOREIGN_RIG_SEED=1197046202`` the heat run's force stayed at 3.3 x
 the noise after 60 evaluations from the nominal curve (1.3 x after 200),
 while the family follows that damper within 3 N statically
 (``scripts/foreign_damper_family.py``).
+
+The SDOF steps matter most: they drive the damper at up to about 1.2 m/s,
+where a campaign's slow characterisation records reach 0.016 m/s with the
+damper off (the bundled campaign of ``scripts/bench_diagnose.py``); without
+them the static curve is extrapolated there, and the dynamic fit started
+from it at 2,403 x the noise in the steps' body displacement (a residual
+sum of squares of 2.5e9 against 5.8e6 with them).
 
 What it cannot see: the gas's and the oil's dynamics between the piston
 and the transducer (the oil's compliance delays the flow at speed), the
@@ -39,10 +49,12 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from hpctl import _core
 from hpctl.identify.dataset import Dataset
 from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
+from hpctl.model.unit import STANDARD_GRAVITY_M_S2
 
 FloatArray = NDArray[np.float64]
 
@@ -93,34 +105,96 @@ class _Samples:
     force_n: FloatArray
     sigma_n: FloatArray
     area_m2: FloatArray
+    transducer: FloatArray
 
 
 def _branch_samples(datasets: Sequence[Dataset], branch: str) -> _Samples | None:
     on, compression = branch.startswith("on_"), branch.endswith("_compression")
     parts: list[tuple[FloatArray, ...]] = []
     for d in datasets:
-        if d.record.kind != "characterisation" or "force_n" not in d.targets or "p_gas_pa" not in d.targets:
+        measured = _strut_force(d)
+        if measured is None:
             continue
+        y, sigma_force, transducer = measured
         v = d.strut_vel_m_s
         near_switch = np.zeros(len(v), bool)
         for i in np.flatnonzero(np.diff(d.damper_on.astype(np.int8))):
             near_switch[max(i + 1 - SWITCH_GUARD_SAMPLES, 0):i + 1 + SWITCH_GUARD_SAMPLES] = True
         area = d.base.piston_area_m2
-        y = d.targets["force_n"] - area * (d.targets["p_gas_pa"] - d.base.ambient_pressure_pa)
+        y = y - area * (d.targets["p_gas_pa"] - d.base.ambient_pressure_pa)
         keep = ((d.damper_on == on) & ((v > MIN_SPEED_M_S) if compression else (v < -MIN_SPEED_M_S)) & ~near_switch
                 & np.isfinite(y) & np.isfinite(v))
         if keep.any():
-            sigma = float(np.hypot(d.sigma["force_n"], area * d.sigma["p_gas_pa"]))
+            sigma = np.hypot(sigma_force, area * d.sigma["p_gas_pa"])
             n = int(keep.sum())
-            parts.append((area * v[keep], y[keep], np.full(n, sigma), np.full(n, area)))
+            parts.append((area * v[keep], y[keep], np.broadcast_to(sigma, v.shape)[keep], np.full(n, area), np.full(n, transducer)))
     if not parts or sum(len(p[0]) for p in parts) < MIN_SAMPLES:
         return None
-    q, y, s, a = (np.concatenate(c) for c in zip(*parts))
+    q, y, s, a, f = (np.concatenate(c) for c in zip(*parts))
     if len(q) > MAX_SAMPLES:
         # Evenly over the speeds' order: each speed range as the records hold it.
         pick = np.argsort(np.abs(q))[np.linspace(0, len(q) - 1, MAX_SAMPLES).astype(int)]
-        q, y, s, a = q[pick], y[pick], s[pick], a[pick]
-    return _Samples(q, y, s, a)
+        q, y, s, a, f = q[pick], y[pick], s[pick], a[pick], f[pick]
+    return _Samples(q, y, s, a, f)
+
+
+#: The body's acceleration on an SDOF record: a Savitzky-Golay second
+#: derivative of its measured displacement, quartic over 15 samples (75 ms
+#: at the SDOF rig's 5 ms: the noise's gain is small). Where that window
+#: cannot follow the motion (the step's 50 ms rise, where the damper sees
+#: its highest speeds) a quadratic over 7 samples, with the two's
+#: difference as its error: left out, those samples took the damper's
+#: speeds above 0.02-0.4 m/s away, and the fit started from the rest at
+#: 1.0e8 (55 iterations to 2.63 x the noise, the bundled campaign) against
+#: 6.0e6 (34 to 2.45 x).
+SDOF_ACCEL_WINDOW = 15
+SDOF_ACCEL_ORDER = 4
+SDOF_ACCEL_SHORT_WINDOW = 7
+SDOF_ACCEL_SHORT_ORDER = 2
+#: An SDOF record's samples slower than this are left out, m/s (:func:`_strut_force`).
+SDOF_MIN_SPEED_M_S = 0.01
+
+
+def _strut_force(d: Dataset) -> tuple[FloatArray, FloatArray | float, float] | None:
+    """The strut's force on a record (NaN where it is not known), its noise
+    per sample and whether it is the force transducer's (1.0: a sensor
+    offset applies) or the body's weight and inertia (0.0). A
+    characterisation record measures it; on an SDOF record it is what holds
+    the body up and accelerates it, ``m (g + a)``, with ``a`` the measured
+    body displacement's second derivative. None where a record has neither
+    (or no gas pressure, or too few samples)."""
+    if "p_gas_pa" not in d.targets:
+        return None
+    if d.record.kind == "characterisation" and "force_n" in d.targets:
+        return d.targets["force_n"], float(d.sigma["force_n"]), 1.0
+    mass = d.record.sprung_mass_kg
+    if d.record.kind != "sdof" or "body_disp_m" not in d.targets or mass is None or len(d.times_s) < 2 * SDOF_ACCEL_WINDOW:
+        return None
+    dt = float(np.median(np.diff(d.times_s)))
+    x = d.targets["body_disp_m"]
+    sigma_x = float(d.sigma["body_disp_m"])
+    accel, gain = _second_derivative(x, dt, SDOF_ACCEL_WINDOW, SDOF_ACCEL_ORDER)
+    short, short_gain = _second_derivative(x, dt, SDOF_ACCEL_SHORT_WINDOW, SDOF_ACCEL_SHORT_ORDER)
+    # Where the long quartic does not follow the displacement within its
+    # noise (the step's rise), its second derivative is biased: the short
+    # window's there, its noise and the two's difference (the bias it may
+    # still have) its error.
+    bent = np.abs(savgol_filter(x, SDOF_ACCEL_WINDOW, SDOF_ACCEL_ORDER) - x) > 4.0 * max(sigma_x, 1e-12)
+    bent = np.convolve(bent.astype(float), np.ones(SDOF_ACCEL_WINDOW), "same") > 0
+    force = mass * (STANDARD_GRAVITY_M_S2 + np.where(bent, short, accel))
+    # Slow samples out: near a reversal the strut's speed, estimated from
+    # two smoothed displacements, is a few mm/s off, where the friction
+    # turns over (foreign friction case, seed 4: the samples below 2 mm/s
+    # 650-960 N off the true force, half its Coulomb force).
+    force[np.abs(d.strut_vel_m_s) < SDOF_MIN_SPEED_M_S] = np.nan
+    sigma = np.where(bent, np.hypot(mass * short_gain * sigma_x, mass * (short - accel)), mass * gain * sigma_x)
+    return force, sigma, 0.0
+
+
+def _second_derivative(x: FloatArray, dt: float, window: int, order: int) -> tuple[FloatArray, float]:
+    """Savitzky-Golay second derivative and its noise gain (per unit noise)."""
+    return (np.asarray(savgol_filter(x, window, order, deriv=2, delta=dt)),
+            float(np.linalg.norm(savgol_coeffs(window, order, deriv=2, delta=dt))))
 
 
 #: Static fits kept for the fits that ask again (:func:`static_damper_values`).
@@ -163,13 +237,16 @@ _FRICTION_SHAPE = ("friction_stribeck_ratio", "friction_stribeck_velocity_m_s", 
 def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
     """The flexible model's damper-shape ``params`` fitted to the records'
     force less the gas's (the module's docstring), every branch at once;
-    branches the characterisation records do not exercise at speed are left
-    out (they start where the model starts them). Beside the curves, what
-    the model with ``effects`` adds to that force at speed: a Coulomb
-    friction (``friction``: the same magnitude in every branch, against the
-    motion, smoothed as the model smooths it) and an offset
+    branches the records (characterisation and SDOF) do not exercise at
+    speed are left out (they start where the model starts them). Beside the
+    curves, what the model with ``effects`` adds to that force at speed: a
+    Coulomb friction (``friction``: the same magnitude in every branch,
+    against the motion, smoothed as the model smooths it) and an offset
     (``sensor_offset``: the force transducer's less the pressure
-    transducer's on the piston), each shared by every branch.
+    transducer's on the piston), each shared by every branch; the offset
+    only on samples of the force transducer (an SDOF record's force comes
+    from the body's motion: the pressure transducer's part there is left
+    to the dynamic fit).
     Where the model has the friction's Stribeck peak and smoothing
     (the flexible model's ``FRICTION_SHAPE``), they shape that Coulomb force
     as hp-core's `Friction` does and are fitted too, inside their bounds
@@ -226,8 +303,8 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
         if friction_shape:
             ratio, velocity_m_s, smooth = (p.from_x(float(xi)) for p, xi in zip(friction_shape, x[n_fixed:]))
             level = [1.0 + (ratio - 1.0) * np.exp(-((v / velocity_m_s) ** 2)) for v in speeds]
-        return [np.array([np.ones(len(v)) if c == "offset" else lv * np.tanh(v / smooth) for c in constants])
-                .reshape(len(constants), len(v)).T for v, lv in zip(speeds, level)]
+        return [np.array([s.transducer if c == "offset" else lv * np.tanh(v / smooth) for c in constants])
+                .reshape(len(constants), len(v)).T for v, lv, (_, _, s) in zip(speeds, level, found)]
 
     # The branches' flows by valve 5's state, each state's in one call of
     # the core: a call reads the whole damper and picks each sample's branch
