@@ -28,6 +28,7 @@ from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, noise_colours, prepare, traits, uses_damper
 from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
+from hpctl.identify.signals import RateNoise, derivative, rate_noise
 from hpctl.identify.switching import places
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, Param, flexible_params
 
@@ -173,17 +174,30 @@ class Place:
     regimes: dict[str, float]
     worst_regimes: dict[str, str]
     correlates_with: list[tuple[str, float]]
+    #: Where the residual's size grows with the channel's rate of change
+    #: (:func:`hpctl.identify.signals.rate_noise`): the sample-time jitter
+    #: that would make it. A hint at the measurement, not an effect fitted.
+    rate_noise: RateNoise | None = None
 
     def describe(self) -> str:
         where = ", ".join(f"{r} ({self.regimes[r]:.2g}x)" for r in self.worst_regimes.values())
         corr = ", ".join(f"{q} (r={c:+.2f})" for q, c in self.correlates_with)
         return (f"{self.record}/{self.channel}: {self.rms_ratio:.2g}x noise" + (f", most in {where}" if where else "")
-                + (f"; correlates with {corr}" if corr else ""))
+                + (f"; correlates with {corr}" if corr else "") + (f"; {self.describe_rate()}" if self.rate_noise else ""))
+
+    def describe_rate(self) -> str:
+        n = self.rate_noise
+        if n is None:
+            return ""
+        return (f"grows with the channel's rate of change, not its sign, as a sample-time jitter of {n.jitter_s * 1e6:.3g} us "
+                f"would make it ({n.rms_ratio:.2g}x with that in the weights)")
 
     def to_json(self) -> dict[str, Any]:
+        n = self.rate_noise
         return {"record": self.record, "channel": self.channel, "rms_ratio": self.rms_ratio, "autocorr": self.autocorr,
                 "regimes": self.regimes, "worst_regimes": self.worst_regimes,
-                "correlates_with": [{"quantity": q, "r": c} for q, c in self.correlates_with], "text": self.describe()}
+                "correlates_with": [{"quantity": q, "r": c} for q, c in self.correlates_with],
+                "rate_noise": None if n is None else {"jitter_s": n.jitter_s, "t": n.t, "rms_ratio": n.rms_ratio}, "text": self.describe()}
 
 
 @dataclass(frozen=True)
@@ -265,8 +279,10 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
         corr = sorted(((c.regressor, c.r) for c in a.correlations
                        if c.record == row.record and c.channel == row.channel and math.isfinite(c.r)),
                       key=lambda qc: -abs(qc[1]))
+        sim = result.sims[i]
+        rate = None if isinstance(sim, Exception) else rate_noise(r, d.weight_sigma[row.channel], derivative(d.times_s, sim[row.channel]))
         places.append(Place(row.record, row.channel, row.rms_ratio, row.autocorr, regimes, worst_regimes,
-                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3]))
+                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3], rate))
     return Judgement(result.rms_ratio, worst, at_noise, places)
 
 

@@ -316,3 +316,66 @@ def velocity_noise_gain(dt_s: float) -> float:
     unit of white input noise."""
     coeffs = savgol_coeffs(SMOOTH_WINDOW, SMOOTH_ORDER)
     return float(np.sqrt(np.sum((np.convolve(coeffs, FIVE_POINT) / dt_s) ** 2)))
+
+
+#: A residual's growth with its channel's rate of change is reported when
+#: its estimate stands this many standard errors above zero ...
+RATE_NOISE_MIN_T = 3.0
+#: ... and, in the weights, it would take at least this share of the
+#: residual's variance above the noise's.
+RATE_NOISE_MIN_SHARE = 1.0 / 3.0
+
+
+@dataclass(frozen=True)
+class RateNoise:
+    """A residual whose size grows with its channel's rate of change
+    without following its sign (:func:`rate_noise`): what a sample-time
+    jitter of ``jitter_s`` (standard deviation) would make, ``t`` standard
+    errors from none, and the residual's RMS over the noise with that
+    jitter's variance in the weights."""
+
+    jitter_s: float
+    t: float
+    rms_ratio: float
+
+
+def rate_noise(residual: FloatArray, sigma: FloatArray | float, rate: FloatArray) -> RateNoise | None:
+    """Whether a residual holds noise in proportion to its channel's rate of
+    change, as sampling at instants off the logged ones does: a sample
+    taken ``delta`` late reads ``y + rate * delta``, so independent
+    instants of standard deviation ``s_t`` add ``(rate s_t)^2`` to each
+    sample's variance. A sensor's lag also grows with the rate, but follows
+    its sign (the residual's correlation with the rate, reported apart).
+
+    ``s_t^2`` by least squares on the squares, ``r^2 - sigma^2 = rate^2
+    s_t^2`` (each weighted alike; its standard error from the squares'
+    variance, ``2 (sigma^2 + rate^2 s_t^2)^2`` for a normal residual),
+    after the residual's part in proportion to the rate is taken out (a
+    lag's: the squares of ``-tau rate`` grow with the rate too).
+    None unless it stands :data:`RATE_NOISE_MIN_T` errors above zero and
+    takes :data:`RATE_NOISE_MIN_SHARE` of the excess variance, or where the
+    inputs are not finite. Measured on the foreign rig's bundled campaign
+    (friction found): the damper-off SDOF step's body displacement read
+    23.2 us at 3.3 errors, 1.32 -> 1.15 x the noise, where the foreign
+    rig's clock jitter was 20.4 us (docs/foreign-rig.md, stop 47)."""
+    r = np.asarray(residual, float)
+    s2 = np.broadcast_to(np.asarray(sigma, float) ** 2, r.shape)
+    v = np.asarray(rate, float)
+    a = v * v
+    if not (len(r) and np.all(np.isfinite(r)) and np.all(np.isfinite(s2)) and np.all(np.isfinite(a))) or np.any(s2 <= 0.0):
+        return None
+    aa = float(a @ a)
+    if aa <= 0.0:
+        return None
+    r0, r = r, r - v * (float(v @ r) / float(v @ v))
+    excess = r * r - s2
+    st2 = float(a @ excess) / aa
+    if st2 <= 0.0:
+        return None
+    t = float(a @ excess) / math.sqrt(float(np.sum(a * a * 2.0 * (s2 + a * st2) ** 2)))
+    before = float(np.mean(r * r / s2))
+    after = float(np.mean(r * r / (s2 + a * st2)))
+    if t < RATE_NOISE_MIN_T or before <= 1.0 or before - after < RATE_NOISE_MIN_SHARE * (before - 1.0):
+        return None
+    # The residual's own RMS (its part along the rate kept) with the jitter in the weights.
+    return RateNoise(math.sqrt(st2), t, math.sqrt(float(np.mean(r0 * r0 / (s2 + a * st2)))))

@@ -277,7 +277,10 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
                       "| record | channel | RMS / noise | lag-1 autocorrelation | most in | correlates with |", "|---|---|---|---|---|---|"]
             for pl in j.places:
                 most = ", ".join(f"{r} ({pl.regimes[r]:.2g}x)" for r in pl.worst_regimes.values()) or "evenly spread"
-                corr = ", ".join(f"{q} ({c:+.2f})" for q, c in pl.correlates_with) or "-"
+                what = [", ".join(f"{q} ({c:+.2f})" for q, c in pl.correlates_with)] if pl.correlates_with else []
+                if pl.rate_noise is not None:
+                    what.append(pl.describe_rate())
+                corr = "; ".join(what) or "-"
                 lines.append(f"| {pl.record} | {pl.channel} | {pl.rms_ratio:.3g} | {pl.autocorr:.2f} | {most} | {corr} |")
     lines += ["", *warnings_section(caveats)]
     lines += ["## Records", "", "| record | kind | excitation | frequency [Hz] | amplitude [m] | samples |", "|---|---|---|---|---|---|"]
