@@ -6,10 +6,13 @@ the jitter it reads is the one drawn."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from foreign_rig.sensors import jittered
+from hpctl.identify.diagnose import Place
 from hpctl.identify.signals import RATE_NOISE_MIN_T, derivative, rate_noise
 
 #: An SDOF step's body, as the foreign campaign's damper-off step: 43 mm
@@ -74,3 +77,18 @@ def test_bad_input_reads_no_jitter() -> None:
     assert rate_noise(r, 0.0, v) is None
     assert rate_noise(r, np.full(len(r), np.nan), v) is None
     assert rate_noise(np.zeros(0), SIGMA_M, np.zeros(0)) is None
+
+
+def test_a_place_says_what_jitter_would_make_its_residual() -> None:
+    # The verdict's place carries it in its text and its JSON; a place
+    # without one says nothing of it and carries null.
+    r, v = residual(5e-5, 3)
+    n = rate_noise(r, SIGMA_M, v)
+    assert n is not None
+    with_rate = Place("sdof_step_hard_off", "body_disp_m", 1.4, 0.37, {}, {}, [], n)
+    text = with_rate.describe()
+    assert f"sample-time jitter of {n.jitter_s * 1e6:.3g} us" in text and "not its sign" in text, text
+    assert with_rate.to_json()["rate_noise"] == {"jitter_s": n.jitter_s, "t": n.t, "rms_ratio": n.rms_ratio}
+    json.dumps(with_rate.to_json())  # plain numbers
+    plain = Place("sdof_step_hard_off", "body_disp_m", 1.4, 0.37, {}, {}, [])
+    assert "jitter" not in plain.describe() and plain.to_json()["rate_noise"] is None
