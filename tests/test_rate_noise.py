@@ -68,6 +68,21 @@ def test_white_noise_and_a_lag_are_not_taken_for_a_jitter() -> None:
     assert len(lagged) <= 1, f"a lag read as a jitter in draws {lagged}"
 
 
+def test_a_smooth_error_at_speed_is_not_taken_for_a_jitter() -> None:
+    # A model's error that grows with the rate without its sign (here as
+    # its square, 50 um at the fastest: a damper's quadratic term missed,
+    # 3.1-3.2 x the noise) is smooth in time; a jitter's is drawn sample by
+    # sample. Without the whiteness asked where the rate is largest, all 40
+    # draws below read as a jitter.
+    t = np.arange(0.0, DURATION_S + DT_S / 2, DT_S)
+    v = derivative(t, body_m(t))
+    readings = []
+    for seed in range(40):
+        r = 5e-5 * (v / 0.3) ** 2 + np.random.default_rng(seed).normal(0.0, SIGMA_M, len(t))
+        readings.append(rate_noise(r, SIGMA_M, v))
+    assert sum(n is not None for n in readings) <= 1, readings
+
+
 def test_bad_input_reads_no_jitter() -> None:
     r, v = residual(1e-4, 0)
     assert rate_noise(r, SIGMA_M, v) is not None

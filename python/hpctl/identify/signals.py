@@ -322,8 +322,13 @@ def velocity_noise_gain(dt_s: float) -> float:
 #: its estimate stands this many standard errors above zero ...
 RATE_NOISE_MIN_T = 3.0
 #: ... and, in the weights, it would take at least this share of the
-#: residual's variance above the noise's.
+#: residual's variance above the noise's ...
 RATE_NOISE_MIN_SHARE = 1.0 / 3.0
+#: ... and, among the tenth of the samples where the rate is largest,
+#: consecutive residuals correlate less than this: a jitter's instants are
+#: drawn one by one, a model's error there is smooth (the foreign
+#: campaign's damper-off step: 0.21).
+RATE_NOISE_MAX_AUTOCORR = 0.5
 
 
 @dataclass(frozen=True)
@@ -352,8 +357,9 @@ def rate_noise(residual: FloatArray, sigma: FloatArray | float, rate: FloatArray
     variance, ``2 (sigma^2 + rate^2 s_t^2)^2`` for a normal residual),
     after the residual's part in proportion to the rate is taken out (a
     lag's: the squares of ``-tau rate`` grow with the rate too).
-    None unless it stands :data:`RATE_NOISE_MIN_T` errors above zero and
-    takes :data:`RATE_NOISE_MIN_SHARE` of the excess variance, or where the
+    None unless it stands :data:`RATE_NOISE_MIN_T` errors above zero, takes
+    :data:`RATE_NOISE_MIN_SHARE` of the excess variance and is white where
+    the rate is largest (:data:`RATE_NOISE_MAX_AUTOCORR`), or where the
     inputs are not finite. Measured on the foreign rig's bundled campaign
     (friction found): the damper-off SDOF step's body displacement read
     23.2 us at 3.3 errors, 1.32 -> 1.15 x the noise, where the foreign
@@ -376,6 +382,10 @@ def rate_noise(residual: FloatArray, sigma: FloatArray | float, rate: FloatArray
     before = float(np.mean(r * r / s2))
     after = float(np.mean(r * r / (s2 + a * st2)))
     if t < RATE_NOISE_MIN_T or before <= 1.0 or before - after < RATE_NOISE_MIN_SHARE * (before - 1.0):
+        return None
+    fast = np.flatnonzero(a >= np.quantile(a, 0.9))
+    pairs = fast[np.isin(fast + 1, fast)]
+    if len(pairs) < 3 or float(np.corrcoef(r[pairs], r[pairs + 1])[0, 1]) >= RATE_NOISE_MAX_AUTOCORR:
         return None
     # The residual's own RMS (its part along the rate kept) with the jitter in the weights.
     return RateNoise(math.sqrt(st2), t, math.sqrt(float(np.mean(r0 * r0 / (s2 + a * st2)))))
