@@ -455,7 +455,12 @@ def default_workers() -> int:
 
 def _fmt_s(s: float) -> str:
     s = max(0.0, s)
-    return f"{s:.0f} s" if s < 90 else f"{s / 60:.0f} min {s % 60:02.0f} s" if s < 3600 else f"{s / 3600:.1f} h"
+    if s >= 3600:
+        return f"{s / 3600:.1f} h"
+    whole = round(s)
+    # Whole minutes and seconds of the rounded time: the minutes rounded
+    # on their own said 155 s as "3 min 35 s", and 119.6 s as "2 min 60 s".
+    return f"{whole} s" if whole < 90 else f"{whole // 60} min {whole % 60:02d} s"
 
 
 class _Clock:
