@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import secrets
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -331,3 +332,31 @@ def test_the_static_fit_is_computed_once_per_records_shape_and_shared_terms(monk
     other = prepare([read_record(p) for p in g.records])  # equal records, other objects: fitted again
     assert damper_start.static_damper_values(other, plain.params, plain.effects) == again
     assert len(calls) == 3
+
+
+def test_an_sdof_records_dropped_sample_leaves_out_only_its_neighbourhood(tmp_path: Path) -> None:
+    # The body's acceleration takes the samples as evenly spaced; a record
+    # that lost one sample keeps the rest of its force, the same as the
+    # whole record's, and none near the gap (without the check, measured:
+    # the gap's neighbours read the body's inertial force as -5.4 to
+    # +10.8 kN where the whole record reads 1.6-2.9 kN).
+    g = generate(None, 3, tests=[t for t in extra_tests()["sdof_all"] if t.name == "sdof_step_hard_off"])
+    stem = g.records[0]
+    lines = stem.with_suffix(".csv").read_text().splitlines()
+    dropped = 200  # a data row (after the header), the body still moving after the step (0.5 s) at 1 s
+    (tmp_path / f"{stem.name}.csv").write_text("\n".join(lines[:dropped + 1] + lines[dropped + 2:]) + "\n")
+    (tmp_path / f"{stem.name}.toml").write_text(stem.with_suffix(".toml").read_text())
+    whole, cut = (prepare([read_record(p)])[0] for p in (stem, tmp_path / stem.name))
+    full, part = damper_start._strut_force(whole), damper_start._strut_force(cut)
+    assert full is not None and part is not None
+    j = np.arange(len(cut.times_s))
+    # The gap lies between samples dropped - 1 and dropped: every window
+    # that spans it is out.
+    reach = damper_start.SDOF_ACCEL_WINDOW // 2
+    assert np.all(np.isnan(part[0][(j >= dropped - 1 - reach) & (j <= dropped + reach)]))
+    # The same samples of the whole record: before the gap at the same
+    # index, after it one further on.
+    same = np.where(j < dropped, j, j + 1)
+    far = (np.abs(j - dropped) > 2 * damper_start.SDOF_ACCEL_WINDOW) & np.isfinite(part[0]) & np.isfinite(full[0][same])
+    assert far[j < dropped].sum() > 50 and far[j > dropped].sum() > 50
+    np.testing.assert_allclose(part[0][far], full[0][same][far], rtol=1e-12)

@@ -29,7 +29,7 @@ where a campaign's slow characterisation records reach 0.016 m/s with the
 damper off (the bundled campaign of ``scripts/bench_diagnose.py``); without
 them the static curve is extrapolated there, and the dynamic fit started
 from it at 2,403 x the noise in the steps' body displacement (a residual
-sum of squares of 2.5e9 against 5.8e6 with them).
+sum of squares of 2.5e9 against 6.2e6 with them).
 
 What it cannot see: the gas's and the oil's dynamics between the piston
 and the transducer (the oil's compliance delays the flow at speed), the
@@ -182,6 +182,13 @@ def _strut_force(d: Dataset) -> tuple[FloatArray, FloatArray | float, float] | N
     bent = np.abs(savgol_filter(x, SDOF_ACCEL_WINDOW, SDOF_ACCEL_ORDER) - x) > 4.0 * max(sigma_x, 1e-12)
     bent = np.convolve(bent.astype(float), np.ones(SDOF_ACCEL_WINDOW), "same") > 0
     force = mass * (STANDARD_GRAVITY_M_S2 + np.where(bent, short, accel))
+    # The filter takes the samples as evenly spaced: around an interval more
+    # than 1 % off the record's (a dropped sample) its derivative is not
+    # the acceleration, so those samples, with the window's reach, are out.
+    uneven = np.zeros(len(x), bool)
+    gaps = np.flatnonzero(np.abs(np.diff(d.times_s) - dt) > 0.01 * dt)
+    uneven[gaps] = uneven[gaps + 1] = True
+    force[np.convolve(uneven.astype(float), np.ones(SDOF_ACCEL_WINDOW), "same") > 0] = np.nan
     # Slow samples out: near a reversal the strut's speed, estimated from
     # two smoothed displacements, is a few mm/s off, where the friction
     # turns over (foreign friction case, seed 4: the samples below 2 mm/s
