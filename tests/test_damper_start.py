@@ -17,11 +17,12 @@ from foreign_rig.damper import Damper as ForeignDamper
 from foreign_rig.draw import draw_case
 from foreign_rig.unit import Friction as ForeignFriction
 from hpctl import _core
+from hpctl._coretypes import UnitDict
 from hpctl._effect_params import Friction
 from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
 from hpctl.identify import damper_start
-from hpctl.identify.dataset import prepare
+from hpctl.identify.dataset import Dataset, prepare
 from hpctl.identify.diagnose import NOISE_CEILING
 from hpctl.identify.fit import fit, model_for, rss_at
 from hpctl.model.effects import FRICTION_SMOOTHING_VELOCITY_M_S, shaped_damper
@@ -93,6 +94,25 @@ def _true_friction_n(f: ForeignFriction, v: np.ndarray, viscous: bool = True) ->
     return np.asarray(stribeck * np.tanh(v / f.smoothing_velocity_m_s) + (f.viscous_n_s_per_m * v if viscous else 0.0))
 
 
+def _static_unit(values: dict[str, float]) -> UnitDict:
+    """The seed unit with the friction the static fit found in ``values``."""
+    friction = Friction(values.get("friction_coulomb_n", 0.0), 0.0, values.get("friction_smoothing_velocity_m_s", FRICTION_SMOOTHING_VELOCITY_M_S),
+                        values.get("friction_stribeck_ratio", 1.0), values.get("friction_stribeck_velocity_m_s", 0.01))
+    return Unit.seed().with_effects(friction=friction).to_dict()
+
+
+def _curve_forces_n(datasets: list[Dataset], values: dict[str, float], branch: str, s: damper_start._Samples) -> dict[str, np.ndarray]:
+    """hpctl's force at one branch's samples: the nominal curve's, and the
+    static fit's ``values`` with the friction it found (hp-core's law)."""
+    unit = _static_unit(values)
+    bypass = 0.0 if branch.startswith("on_") else 1.0
+    out = {}
+    for name, v in (("nominal", {}), ("static", values)):
+        out[name] = s.area_m2 * _core.damper_pressure_drop_pa(_dict(shaped_damper(datasets[0].base.damper, v)), s.q_m3_s, bypass)  # type: ignore[arg-type]
+    out["static"] = out["static"] + _core.friction_force_n(unit, s.q_m3_s / s.area_m2)
+    return out
+
+
 #: The static fit's RMS distance from the foreign rig's force, in the
 #: samples' noise: measured 0.13-0.41 without friction (seeds 1, 2, 3, 7;
 #: 0.3 Hz sweeps and the heat run); with friction 0.07-0.45 (seeds 1-3, 7,
@@ -131,20 +151,12 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
     values = damper_start.static_damper_values(datasets, model.params, model.effects)
     context = f"FOREIGN_RIG_SEED={seed} ({effect}): "
     assert {p.name for p in model.params if p.name.startswith("damper_")} <= set(values), context
-    friction = Friction(values.get("friction_coulomb_n", 0.0), 0.0, values.get("friction_smoothing_velocity_m_s", FRICTION_SMOOTHING_VELOCITY_M_S),
-                        values.get("friction_stribeck_ratio", 1.0), values.get("friction_stribeck_velocity_m_s", 0.01))
-    unit = Unit.seed().with_effects(friction=friction).to_dict()
     for branch in model.damper_branches:
         s = damper_start._branch_samples(datasets, branch)
         assert s is not None, context + branch
         true = _true_force_n(effect, seed, branch, s.q_m3_s, s.area_m2)
-        bypass = 0.0 if branch.startswith("on_") else 1.0
-        errors = {}
-        for name, v, with_friction in (("nominal", {}, False), ("static", values, True)):
-            force = s.area_m2 * _core.damper_pressure_drop_pa(_dict(shaped_damper(datasets[0].base.damper, v)), s.q_m3_s, bypass)  # type: ignore[arg-type]
-            if with_friction:
-                force += _core.friction_force_n(unit, s.q_m3_s / s.area_m2)
-            errors[name] = float(np.sqrt(np.mean((force - true) ** 2)) / np.median(s.sigma_n))
+        errors = {name: float(np.sqrt(np.mean((force - true) ** 2)) / np.median(s.sigma_n))
+                  for name, force in _curve_forces_n(datasets, values, branch, s).items()}
         context += f"{branch} {errors['nominal']:.1f} -> {errors['static']:.2f} x the noise; "
         assert errors["static"] <= STATIC_CEILING, context
         assert errors["nominal"] > 5.0 * errors["static"], context
@@ -152,7 +164,7 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
         # The peak and smoothing the static fit found start the model's.
         assert {"friction_coulomb_n", "friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s"} <= set(values)
         v = np.linspace(1e-5, 0.05, 5000)
-        peak = float(np.max(_core.friction_force_n(unit, v)))
+        peak = float(np.max(_core.friction_force_n(_static_unit(values), v)))
         true_peak = float(np.max(_true_friction_n(draw_case(effect, seed).unit.effects.friction, v, viscous=False)))
         assert PEAK_BAND[0] <= peak / true_peak <= PEAK_BAND[1], context + f"largest friction {peak:.0f} N against the truth's {true_peak:.0f} N"
     else:
@@ -200,9 +212,6 @@ def test_the_static_fit_reads_the_damper_from_an_sdof_bodys_motion(effect: str |
     model = model_for(datasets, ("heat_transfer", "real_gas", *effects), flexible=True)
     values = damper_start.fit_static_damper(datasets, model.params, model.effects)
     context = f"FOREIGN_RIG_SEED={seed} ({effect}): "
-    friction = Friction(values.get("friction_coulomb_n", 0.0), 0.0, values.get("friction_smoothing_velocity_m_s", FRICTION_SMOOTHING_VELOCITY_M_S),
-                        values.get("friction_stribeck_ratio", 1.0), values.get("friction_stribeck_velocity_m_s", 0.01))
-    unit = Unit.seed().with_effects(friction=friction).to_dict()
     off: dict[str, list[np.ndarray]] = {"nominal": [], "static": [], "samples": []}
     for branch in model.damper_branches:
         s = damper_start._branch_samples(datasets, branch)
@@ -214,11 +223,7 @@ def test_the_static_fit_reads_the_damper_from_an_sdof_bodys_motion(effect: str |
         assert not s.transducer.any(), context + "the force comes from the body, not a transducer"
         assert {p.name for p in model.params if p.name.startswith(f"damper_{branch}_")} <= set(values), context + branch
         true = _true_force_n(effect, seed, branch, s.q_m3_s, s.area_m2)
-        bypass = 0.0 if branch.startswith("on_") else 1.0
-        for name, v, with_friction in (("nominal", {}, False), ("static", values, True)):
-            force = s.area_m2 * _core.damper_pressure_drop_pa(_dict(shaped_damper(datasets[0].base.damper, v)), s.q_m3_s, bypass)  # type: ignore[arg-type]
-            if with_friction:
-                force += _core.friction_force_n(unit, s.q_m3_s / s.area_m2)
+        for name, force in _curve_forces_n(datasets, values, branch, s).items():
             off[name].append((force - true) / s.sigma_n)
         off["samples"].append((s.force_n - true) / s.sigma_n)
     assert off["static"], context + "no branch has samples"

@@ -53,6 +53,7 @@ from scipy.signal import savgol_coeffs, savgol_filter
 
 from hpctl import _core
 from hpctl.identify.dataset import Dataset
+from hpctl.identify.signals import filter_bends, within_reach
 from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
 from hpctl.model.unit import STANDARD_GRAVITY_M_S2
 
@@ -179,8 +180,7 @@ def _strut_force(d: Dataset) -> tuple[FloatArray, FloatArray | float, float] | N
     # noise (the step's rise), its second derivative is biased: the short
     # window's there, its noise and the two's difference (the bias it may
     # still have) its error.
-    bent = np.abs(savgol_filter(x, SDOF_ACCEL_WINDOW, SDOF_ACCEL_ORDER) - x) > 4.0 * max(sigma_x, 1e-12)
-    bent = np.convolve(bent.astype(float), np.ones(SDOF_ACCEL_WINDOW), "same") > 0
+    bent = filter_bends(x, savgol_filter(x, SDOF_ACCEL_WINDOW, SDOF_ACCEL_ORDER), sigma_x, SDOF_ACCEL_WINDOW)
     force = mass * (STANDARD_GRAVITY_M_S2 + np.where(bent, short, accel))
     # The filter takes the samples as evenly spaced: around an interval more
     # than 1 % off the record's (a dropped sample) its derivative is not
@@ -188,7 +188,7 @@ def _strut_force(d: Dataset) -> tuple[FloatArray, FloatArray | float, float] | N
     uneven = np.zeros(len(x), bool)
     gaps = np.flatnonzero(np.abs(np.diff(d.times_s) - dt) > 0.01 * dt)
     uneven[gaps] = uneven[gaps + 1] = True
-    force[np.convolve(uneven.astype(float), np.ones(SDOF_ACCEL_WINDOW), "same") > 0] = np.nan
+    force[within_reach(uneven, SDOF_ACCEL_WINDOW)] = np.nan
     # Slow samples out: near a reversal the strut's speed, estimated from
     # two smoothed displacements, is a few mm/s off, where the friction
     # turns over (foreign friction case, seed 4: the samples below 2 mm/s

@@ -273,10 +273,20 @@ def smooth(t: FloatArray, x: FloatArray) -> FloatArray:
     if len(x) < 2 * SMOOTH_WINDOW:
         return x
     smooth = np.asarray(savgol_filter(x, SMOOTH_WINDOW, SMOOTH_ORDER))
-    distorted = np.abs(smooth - x) > 4.0 * max(noise_sigma(x), 1e-12)
-    # Keep the raw samples around distortions too (the filter's reach).
-    distorted = np.convolve(distorted.astype(float), np.ones(SMOOTH_WINDOW), "same") > 0
-    return np.where(distorted, x, smooth)
+    return np.where(filter_bends(x, smooth, noise_sigma(x), SMOOTH_WINDOW), x, smooth)
+
+
+def filter_bends(x: FloatArray, filtered: FloatArray, sigma: float, window: int) -> NDArray[np.bool_]:
+    """Where a filter of ``window`` samples moved the signal ``x`` by more
+    than four times its noise ``sigma`` (a feature sharper than the window),
+    and the filter's reach around those samples (:func:`within_reach`)."""
+    return within_reach(np.abs(np.asarray(filtered) - x) > 4.0 * max(sigma, 1e-12), window)
+
+
+def within_reach(mask: NDArray[np.bool_], window: int) -> NDArray[np.bool_]:
+    """The samples a centred window of ``window`` samples around any sample
+    of ``mask`` covers."""
+    return np.asarray(np.convolve(mask.astype(float), np.ones(window), "same") > 0)
 
 
 FIVE_POINT = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
