@@ -60,7 +60,9 @@ def measured_as(result: FitResult, measurement: np.ndarray) -> FitResult:
 
 def test_a_clock_jitter_is_counted_in_the_noise_and_said(at_noise: FitResult, seed: int) -> None:
     rng = np.random.default_rng(seed)
-    jitter_s = float(np.exp(rng.uniform(np.log(6e-5), np.log(2e-4))))
+    # From 80 us: at 60 us the channel read 1.32-1.52 x without it in 20
+    # draws, too near the ceiling for "above the noise without it" to hold.
+    jitter_s = float(np.exp(rng.uniform(np.log(8e-5), np.log(2e-4))))
     d, sim = at_noise.datasets[0], at_noise.sims[0]
     assert not isinstance(sim, Exception)
     t = d.times_s
