@@ -162,8 +162,8 @@ CARRIED_WINDOW = 31
 
 
 def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
-    """Each characterisation record's weights with the noise its measured
-    input displacement puts into the model's outputs: the outputs' change
+    """Each record's weights with the noise its measured input
+    displacement puts into the model's outputs: the outputs' change
     when the record's unit (:func:`base_unit`) is driven by the measured
     input plus a fresh draw of its noise (:func:`with_input_noise`), as a
     moving mean of squares. Not from the data's own slopes: a sliding
@@ -172,20 +172,24 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     not have at the noise's frequencies, and carried 3-7 x the noise the
     model receives (2.2-10.3 kPa against 0.45-1.5 on the foreign rig's sweep,
     seed 7): the residual over the noise read 0.90 where it was 0.99, 0.68 on
-    the 1 Hz sine's pressure (stop 29). An SDOF body filters its base's noise
-    through its dynamics: those records carry none. A record its unit cannot
-    run keeps the output noise alone."""
-    chars = carried_records(datasets)
-    if not chars:
+    the 1 Hz sine's pressure (stop 29). An SDOF record carries its base's
+    noise the same way: the body filters it through the spring, but the
+    damper passes the base's noisy speed on as force (hpctl's own virtual
+    rig's SDOF step fitted by its own model, seeds 3 and 4: the body read
+    1.43-1.44 x its transducer's noise with the damper on, 1.12-1.14 off;
+    1.23-1.28 and 1.07 with the base's noise carried; until stop 48 these
+    records carried none). A record its unit cannot run keeps the output
+    noise alone."""
+    carried = carried_records(datasets)
+    if not carried:
         return datasets
-    drives = carried_drives(datasets, chars)
-    channels = ["time_s", *OUTPUTS["characterisation"]]
-    cases = [Case(d.base, d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on, ambient_k=d.ambient_k, channels=channels,
-                  gas_table=True, switch_lead=LOGGED_SWITCH_LEAD) for drive in drives for d in drive]
+    drives = carried_drives(datasets, carried)
+    cases = [Case(d.base, d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on, ambient_k=d.ambient_k,
+                  channels=["time_s", *OUTPUTS[d.record.kind]], gas_table=True, switch_lead=LOGGED_SWITCH_LEAD) for drive in drives for d in drive]
     results = run_many(cases)
     out = list(datasets)
     k = CARRIED_DRAWS + 1
-    for j, i in enumerate(chars):
+    for j, i in enumerate(carried):
         done = [r.channels for r in results[j * k:(j + 1) * k] if not isinstance(r, Exception)]
         if len(done) == k:
             out[i] = with_carried_noise(datasets[i], done[0], done[1:])
@@ -194,8 +198,9 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
 
 def carried_records(datasets: Sequence[Dataset]) -> list[int]:
     """The indices of the records whose weights carry their input's noise:
-    characterisation records with a noise level on their input."""
-    return [i for i, d in enumerate(datasets) if d.record.kind == "characterisation" and d.input_noise_m > 0.0 and len(d.times_s) > 1]
+    records with a noise level on their input (the strut's on the
+    characterisation rig, the base's on the SDOF rig)."""
+    return [i for i, d in enumerate(datasets) if d.input_noise_m > 0.0 and len(d.times_s) > 1]
 
 
 def carried_drives(datasets: Sequence[Dataset], chars: Sequence[int]) -> list[list[Dataset]]:

@@ -814,7 +814,7 @@ def objective(result: FitResult) -> float:
 
 
 def at_own_noise(result: FitResult) -> FitResult:
-    """``result`` judged by its own model: each characterisation record's
+    """``result`` judged by its own model: each record's
     weights carrying the input's noise through the fitted model at its
     values (the same draws) instead of through the record's template unit,
     and the residual sum of squares in those weights. For judging what a
