@@ -292,3 +292,40 @@ def test_the_fitted_models_own_weights_describe_its_residual_at_the_truth() -> N
                f"+- {np.std(template):.3f} a record, over the model's own {np.mean(own):.3f} +- {np.std(own):.3f}")
     assert abs(float(np.mean(own)) - 1.0) <= 0.1, context
     assert float(np.mean(template)) > float(np.mean(own)) + 0.1, context
+
+
+def test_an_sdof_records_own_weights_carry_its_bases_noise_through_a_friction() -> None:
+    # The SDOF body settling after a step with 900 N of seal friction
+    # (damper off): the base's measured noise moves the friction's many
+    # reversals, and the body with them. Until stop 48 SDOF records carried
+    # none of their input's noise, and at the truth this residual read
+    # 2.85 +- 0.44 x its weights a record (the template's, 40 draws). The
+    # fitted model's own weights (fit.at_own_noise) now carry it: 0.925 +-
+    # 0.154 a record over 40 draws, 7.5 % lenient (measured; the mean of
+    # forty is asserted within 0.8-1.15). After the step's first 0.5 s
+    # only: at the step's corners the drive's velocity is off
+    # (docs/foreign-rig.md, stop 48). With the damper on the same reads
+    # 1.62 +- 0.39 (noted there, not asserted).
+    import secrets
+
+    from hpctl.identify.fit import at_own_noise
+
+    seed = int(os.environ.get("HPCTL_TEST_SEED", secrets.randbelow(2**31 - 40)))
+    effects = ("heat_transfer", "real_gas", "friction")
+    truth = {"tau_s": hpctl.Unit.seed().tau_s, "friction_coulomb_n": 900.0, "friction_viscous_n_s_per_m": 300.0}
+    unit = hpctl.Unit.seed().with_effects(friction=Friction(900.0, 300.0, 5e-4))
+    step = virtual_rig.Test("sdof_step", virtual_rig.Step(0.043, 0.5, 0.05), 5.0, 1000, sdof=True, damper_on=False, excitation="step")
+    template, own = [], []
+    for k in range(40):
+        datasets = prepare(virtual_rig.make_records(unit, tests=[step], seed=seed + k))
+        at_truth = fit(datasets, effects, initial=truth, held={"friction_smoothing_velocity_m_s": 5e-4}, max_nfev=1, errors=False,
+                       place_switches=False)
+        judged = at_own_noise(at_truth)
+        after = datasets[0].times_s > 1.0
+        r = at_truth.residuals(0, "body_disp_m")[after]
+        template.append(float(np.sqrt(np.mean((r / datasets[0].weight_sigma["body_disp_m"][after]) ** 2))))
+        own.append(float(np.sqrt(np.mean((r / judged.datasets[0].weight_sigma["body_disp_m"][after]) ** 2))))
+    context = (f"HPCTL_TEST_SEED={seed}: the SDOF body at the truth over the template's weights {np.mean(template):.3f} "
+               f"+- {np.std(template):.3f} a record, over the model's own {np.mean(own):.3f} +- {np.std(own):.3f}")
+    assert 0.8 <= float(np.mean(own)) <= 1.15, context
+    assert float(np.mean(template)) > float(np.mean(own)) + 1.0, context
