@@ -95,6 +95,14 @@ def test_a_clock_jitter_is_counted_in_the_noise_and_said(at_noise: FitResult, se
     out = j.to_json()
     assert out["jitter"][0]["jitter_s"] == counted.jitter_s and out["jitter"][0]["rms_ratio_without"] == row.rms_ratio, context
     json.dumps(out)
+    # And a warning: the verdict rests on a reading of the residual itself.
+    from hpctl.cli.calibrate import _diagnosis_caveats
+
+    diag = dg.Diagnosis(("heat_transfer", "real_gas"), [], result, raw, "nothing_left", [], j)
+    [warned] = [c for c in _diagnosis_caveats(diag) if c.code == "jitter_counted"]
+    assert warned.details["channels"] == [f"{d.name}/{CHANNEL}"] and warned.details["rms_ratio_without"] == [row.rms_ratio], context
+    assert not [c for c in _diagnosis_caveats(diag) if c.code == "residual_structured"], context
+    json.dumps(warned.to_json())
 
 
 def test_a_smooth_error_at_speed_is_not_counted_as_noise(at_noise: FitResult, seed: int) -> None:

@@ -57,6 +57,9 @@ class Code(StrEnum):
     NOT_CONVERGED = "not_converged"
     #: The residual is more than noise: the model misses something.
     RESIDUAL_STRUCTURED = "residual_structured"
+    #: A channel above its noise was judged at it by counting a sample-time
+    #: jitter read from its own residual: the verdict rests on that reading.
+    JITTER_COUNTED = "jitter_counted"
     #: A fitted parameter ended on a bound of its fit range, or within two
     #: standard errors of it: the data ask for a value the model's range
     #: does not hold, and the standard error (a Gaussian's) does not

@@ -416,6 +416,14 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
              "structured": [f"{pl.record}/{pl.channel}" for pl in j.places],
              "regimes": [",".join(pl.worst_regimes.values()) for pl in j.places]},
         ))
+    if j is not None and j.jitter:
+        out.append(Caveat(
+            Code.JITTER_COUNTED,
+            "judged at the noise only by counting a sample-time jitter read from the residual itself (the rig's clock, not an "
+            "effect the model explains; check the rig's sampling): " + "; ".join(c.describe() for c in j.jitter),
+            {"channels": [f"{c.record}/{c.channel}" for c in j.jitter], "jitter_s": [c.jitter_s for c in j.jitter],
+             "rms_ratio_without": [c.rms_ratio_without for c in j.jitter], "rms_ratio": [c.rms_ratio for c in j.jitter]},
+        ))
     return out
 
 
