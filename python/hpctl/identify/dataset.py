@@ -203,11 +203,11 @@ def carried_records(datasets: Sequence[Dataset]) -> list[int]:
     return [i for i, d in enumerate(datasets) if d.input_noise_m > 0.0 and len(d.times_s) > 1]
 
 
-def carried_drives(datasets: Sequence[Dataset], chars: Sequence[int]) -> list[list[Dataset]]:
-    """Per record of ``chars``: the record and :data:`CARRIED_DRAWS` copies
+def carried_drives(datasets: Sequence[Dataset], carried: Sequence[int]) -> list[list[Dataset]]:
+    """Per record of ``carried``: the record and :data:`CARRIED_DRAWS` copies
     with fresh draws of its input's noise (the same draws on every call)."""
     rng = np.random.default_rng(CARRIED_SEED)
-    return [[datasets[i]] + [with_input_noise(datasets[i], rng) for _ in range(CARRIED_DRAWS)] for i in chars]
+    return [[datasets[i]] + [with_input_noise(datasets[i], rng) for _ in range(CARRIED_DRAWS)] for i in carried]
 
 
 def with_carried_noise(d: Dataset, clean: Mapping[str, ArrayLike], noisy: Sequence[Mapping[str, ArrayLike]]) -> Dataset:

@@ -284,10 +284,19 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
     without."""
     a = analysis or analyse(result)
     index = {d.name: i for i, d in enumerate(result.datasets)}
+    # What rate_noise reads on a channel, once per channel judged.
+    reads: dict[tuple[str, str], tuple[NDArray[np.float64], RateNoise] | None] = {}
+
+    def read(row: ResidualRow) -> tuple[NDArray[np.float64], RateNoise] | None:
+        key = (row.record, row.channel)
+        if key not in reads:
+            reads[key] = _rate_read(result, index[row.record], row.channel)
+        return reads[key]
+
     jitter: list[JitterCounted] = []
     rows = []
     for row in a.rows:
-        counted = _jitter_counted(result, index[row.record], row) if row.rms_ratio > NOISE_CEILING or row.structured else None
+        counted = _jitter_counted(result, index[row.record], row, read(row)) if row.rms_ratio > NOISE_CEILING or row.structured else None
         if counted is not None:
             jitter.append(counted)
             row = replace(row, rms_ratio=counted.rms_ratio, structured=False)
@@ -329,14 +338,25 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
         corr = sorted(((c.regressor, c.r) for c in a.correlations
                        if c.record == row.record and c.channel == row.channel and math.isfinite(c.r)),
                       key=lambda qc: -abs(qc[1]))
-        sim = result.sims[i]
-        rate = None if isinstance(sim, Exception) else rate_noise(r, d.weight_sigma[row.channel], derivative(d.times_s, sim[row.channel]))
+        rate = read(row)
         places.append(Place(row.record, row.channel, row.rms_ratio, row.autocorr, regimes, worst_regimes,
-                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3], rate))
+                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3], None if rate is None else rate[1]))
     return Judgement(pooled, worst, at_noise, places, jitter)
 
 
-def _jitter_counted(result: FitResult, i: int, row: ResidualRow) -> JitterCounted | None:
+def _rate_read(result: FitResult, i: int, channel: str) -> tuple[NDArray[np.float64], RateNoise] | None:
+    """The model's rate of change of ``channel`` in record ``i`` and what
+    :func:`hpctl.identify.signals.rate_noise` reads in its residual (None
+    where the run failed or nothing is read)."""
+    d, sim = result.datasets[i], result.sims[i]
+    if isinstance(sim, Exception):
+        return None
+    rate = derivative(d.times_s, sim[channel])
+    n = rate_noise(result.residuals(i, channel), d.weight_sigma[channel], rate)
+    return None if n is None else (rate, n)
+
+
+def _jitter_counted(result: FitResult, i: int, row: ResidualRow, read: tuple[NDArray[np.float64], RateNoise] | None) -> JitterCounted | None:
     """``row``'s channel judged with the sample-time jitter its residual
     shows (:func:`hpctl.identify.signals.rate_noise`: growing with the
     channel's rate of change, not its sign, white where the rate is
@@ -349,16 +369,15 @@ def _jitter_counted(result: FitResult, i: int, row: ResidualRow) -> JitterCounte
     rig's clock scattered by 20.4 us). None where no such jitter is read,
     where it is more than :data:`JITTER_MAX_DT_SHARE` of the sampling
     interval, or where the channel stays above the noise with it (it is then
-    a place, whose text says what the jitter would make of it)."""
-    d, sim = result.datasets[i], result.sims[i]
-    if isinstance(sim, Exception) or len(d.times_s) < 3:
+    a place, whose text says what the jitter would make of it). ``read``:
+    :func:`_rate_read` of the channel."""
+    d = result.datasets[i]
+    if read is None:
         return None
-    r = result.residuals(i, row.channel)
-    rate = derivative(d.times_s, sim[row.channel])
-    n = rate_noise(r, d.weight_sigma[row.channel], rate)
-    if n is None or n.jitter_s > JITTER_MAX_DT_SHARE * float(np.median(np.diff(d.times_s))):
+    rate, n = read
+    if n.jitter_s > JITTER_MAX_DT_SHARE * float(np.median(np.diff(d.times_s))):
         return None
-    z = r / np.sqrt(d.weight_sigma[row.channel] ** 2 + (n.jitter_s * rate) ** 2)
+    z = result.residuals(i, row.channel) / np.sqrt(d.weight_sigma[row.channel] ** 2 + (n.jitter_s * rate) ** 2)
     structured = n.rms_ratio > CHANNEL_RMS_RATIO or (n.rms_ratio > CORRELATED_RMS_RATIO and abs(autocorr(z)) > AUTOCORR_STRUCTURED)
     if structured or n.rms_ratio > NOISE_CEILING:
         return None

@@ -829,14 +829,14 @@ def at_own_noise(result: FitResult) -> FitResult:
     within about 0.3 ms, where the displacement's quantisation (4.6 um)
     leaves the reversal's time uncertain by about 2 ms; the record's force
     read 2.14 x its template weights, 1.13 x the fitted model's."""
-    chars = [i for i in carried_records(result.datasets) if not isinstance(result.sims[i], Exception)]
-    if not chars:
+    carried = [i for i in carried_records(result.datasets) if not isinstance(result.sims[i], Exception)]
+    if not carried:
         return result
-    drives = carried_drives(result.datasets, chars)
+    drives = carried_drives(result.datasets, carried)
     sims = simulate_all(result.model, [d for drive in drives for d in drive], [result.values])[0]
     datasets = list(result.datasets)
     k = len(drives[0])
-    for j, i in enumerate(chars):
+    for j, i in enumerate(carried):
         done = [s for s in sims[j * k:(j + 1) * k] if not isinstance(s, Exception)]
         if len(done) == k:
             datasets[i] = with_carried_noise(datasets[i], done[0], done[1:])
