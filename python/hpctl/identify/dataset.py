@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hpctl.data.records import LOGGED_SWITCH_LEAD, RigRecord
 from hpctl.errors import HpctlError, RecordError
+from hpctl.identify.corners import corners
 from hpctl.identify.signals import (
     NoiseColour,
     NoiseLevel,
@@ -19,6 +20,7 @@ from hpctl.identify.signals import (
     noise_level,
     noise_sigma,
     smooth,
+    smooth_bends,
 )
 from hpctl.model.effects import RecordTraits
 from hpctl.model.unit import Unit
@@ -254,9 +256,10 @@ def input_disp_m(rec: RigRecord) -> FloatArray:
 
 def _drive(rec: RigRecord, t: FloatArray, x_in: FloatArray) -> tuple[Rig, FloatArray, FloatArray]:
     """The rig driven by the measured input ``x_in`` (smoothed), and the
-    smoothed displacement and its rate."""
-    xs = smooth(t, x_in)
-    vs = derivative(t, xs)
+    smoothed displacement and its rate (never taken across a corner of the
+    input, :mod:`hpctl.identify.corners`)."""
+    xs, bends = smooth_bends(t, x_in)
+    vs = derivative(t, xs, corners(t, x_in, noise_sigma(x_in), bends))
     motion = Sampled(t, xs, vs)
     if rec.kind == "sdof":
         if rec.sprung_mass_kg is None:

@@ -269,11 +269,17 @@ def smooth(t: FloatArray, x: FloatArray) -> FloatArray:
     has features sharper than the window (a step, or a sine sampled a few
     times per cycle), the filter would move it by more than its noise: there
     the raw samples are kept, so smoothing never distorts the excitation."""
+    return smooth_bends(t, x)[0]
+
+
+def smooth_bends(t: FloatArray, x: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """:func:`smooth`'s signal, and where it kept the raw samples."""
     x = np.asarray(x, float)
     if len(x) < 2 * SMOOTH_WINDOW:
-        return x
+        return x, np.ones(len(x), bool)
     smooth = np.asarray(savgol_filter(x, SMOOTH_WINDOW, SMOOTH_ORDER))
-    return np.where(filter_bends(x, smooth, noise_sigma(x), SMOOTH_WINDOW), x, smooth)
+    bends = filter_bends(x, smooth, noise_sigma(x), SMOOTH_WINDOW)
+    return np.where(bends, x, smooth), bends
 
 
 def filter_bends(x: FloatArray, filtered: FloatArray, sigma: float, window: int) -> NDArray[np.bool_]:
@@ -292,32 +298,64 @@ def within_reach(mask: NDArray[np.bool_], window: int) -> NDArray[np.bool_]:
 FIVE_POINT = np.array([1.0, -8.0, 0.0, 8.0, -1.0]) / 12.0
 
 
-def derivative(t: FloatArray, x: FloatArray) -> FloatArray:
+def derivative(t: FloatArray, x: FloatArray, corners: FloatArray | None = None) -> FloatArray:
     """dx/dt at the samples, fourth-order accurate: the derivative of the
     quartic through each sample and its two neighbours on either side
-    (irregular spacing allowed); second order at the two ends."""
+    (irregular spacing allowed); second order at the two ends. A sample
+    whose five samples straddle one of the instants ``corners``
+    (:func:`hpctl.identify.corners.corners`: its acceleration jumps there)
+    takes the quartic through the five nearest on its own side instead,
+    where there are five between the corners (else the centred one)."""
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
     n = len(x)
     out = np.gradient(x, t, edge_order=2) if n >= 3 else np.gradient(x, t) if n == 2 else np.zeros(n)
     if n < 5:
         return np.asarray(out)
     i = np.arange(2, n - 2)
-    nodes = np.stack([t[i + k] for k in (-2, -1, 0, 1, 2)])  # 5 x m
+    out[2:n - 2] = _quartic_slope(t, x, i, 2)
+    if corners is None or len(corners) == 0:
+        return np.asarray(out)
+    taus = np.asarray(corners, float)
+    # First sample after each corner (a sample on a corner is on both sides).
+    after = np.searchsorted(t, taus, side="right")
+    straddled = np.zeros(n, bool)
+    for a in after:
+        straddled[max(a - 2, 0):min(a + 2, n)] = True
+    for j in np.flatnonzero(straddled):
+        # The stencil nearest the centred one that no corner splits.
+        for e in (2, 1, 3, 0, 4):
+            lo = j - e
+            if lo < 0 or lo + 4 >= n or np.any((taus > t[lo]) & (taus < t[lo + 4])):
+                continue
+            out[j] = _quartic_slope(t, x, np.array([j]), e)[0]
+            break
+    return np.asarray(out)
+
+
+def _quartic_slope(t: FloatArray, x: FloatArray, i: NDArray[np.intp], e: int) -> FloatArray:
+    """The slope at samples ``i`` of the quartics through the five samples
+    from ``i - e`` on (``e`` = 2: centred), the derivative of their
+    Lagrange basis at a node: at the node itself the sum of the reciprocal
+    distances to the others, elsewhere the other nodes' product over the
+    basis' denominator."""
+    lo = i - e
+    nodes = np.stack([t[lo + k] for k in range(5)])  # 5 x m
     tc = t[i]
     weights = np.zeros_like(nodes)
     for j in range(5):
-        if j == 2:
-            weights[j] = sum(1.0 / (tc - nodes[m]) for m in range(5) if m != 2)
+        if j == e:
+            weights[j] = sum(1.0 / (tc - nodes[m]) for m in range(5) if m != e)
             continue
         num = np.ones_like(tc)
         den = np.ones_like(tc)
         for m in range(5):
             if m != j:
                 den *= nodes[j] - nodes[m]
-            if m not in (j, 2):
+            if m not in (j, e):
                 num *= tc - nodes[m]
         weights[j] = num / den
-    out[2:n - 2] = np.sum(weights * np.stack([x[i + k] for k in (-2, -1, 0, 1, 2)]), axis=0)
-    return np.asarray(out)
+    return np.asarray(np.sum(weights * np.stack([x[lo + k] for k in range(5)]), axis=0))
 
 
 def velocity_noise_gain(dt_s: float) -> float:

@@ -1,0 +1,110 @@
+"""Corners of a measured input: instants where its acceleration jumps (a
+raised-cosine step's start and end), located between the samples, so that
+the input's velocity at a sample is never taken across one.
+
+Why: the drive's velocity at the samples is the derivative of the quartic
+through each sample and its two neighbours on either side
+(:func:`hpctl.identify.signals.derivative`). Across a corner that quartic
+straddles two different curves: on a 43 mm raised-cosine step over 50 ms
+sampled at 200 Hz it missed the velocity by up to 72 mm/s, which the
+damper turned into 21 um RMS of body motion against 5 um of noise
+(docs/foreign-rig.md). Choosing the stencil by its smoothness alone (no
+corner located) does not tell the sides apart at ten samples a rise and
+made the error larger where the corner fell between samples (stop 48).
+
+How: around each sampling interval where the smoothing kept the raw
+samples (a feature sharper than its window), the samples within
+:data:`CORNER_HALF_WINDOW` either side are fitted twice by least squares,
+by one polynomial of degree six, and by a cubic joined at a trial instant
+``tau`` inside the interval to itself plus ``(t - tau)_+^2 (c0 + c1 (t -
+tau) + c2 (t - tau)^2)`` after ``tau`` (or the same before it, whichever
+fits better: the flat side is the cubic's, a step's start's after and its
+end's before): continuous in displacement and velocity, free in its
+acceleration and above (both fits seven parameters). A corner is taken
+where the join's sum of squares is below the polynomial's by at least
+:data:`CORNER_MIN_GAIN` noise variances, at the trial instant with the
+least; corners closer than the half window to a better one are not."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Samples either side of a trial interval in a corner's fit: five reach
+#: half a rise of ten samples into the step, where the quartic join still
+#: follows a raised cosine within the noise (a cubic join left 44 um on
+#: the 43 mm step, five samples in).
+CORNER_HALF_WINDOW = 5
+#: Trial instants per sampling interval.
+CORNER_TRIALS = 16
+#: A join is a corner when it lowers the window's sum of squares below the
+#: smooth polynomial's by this many noise variances (both fits have seven
+#: parameters; 25 is five standard deviations of one).
+CORNER_MIN_GAIN = 25.0
+# Parameters of either fit.
+_PARAMS = 7
+
+
+def _residual_ss(basis: FloatArray, x: FloatArray) -> FloatArray:
+    """Least-squares residual sums of squares of ``x`` (..., n) on stacked
+    bases (..., n, p), by QR (the normal equations would lose the residual,
+    microns on tens of millimetres, to rounding)."""
+    q, _ = np.linalg.qr(basis)
+    fitted = q @ np.einsum("...np,...n->...p", q, x)[..., None]
+    return np.asarray(np.sum((x - fitted[..., 0]) ** 2, axis=-1))
+
+
+def corners(t: FloatArray, x: FloatArray, sigma: float, bends: NDArray[np.bool_]) -> FloatArray:
+    """The instants, s (sorted), where the sampled input ``x`` of white
+    noise ``sigma`` has a corner, sought in the intervals whose two samples
+    are both in ``bends`` (where the smoothing kept the raw samples).
+
+    >>> import numpy as np
+    >>> t = np.arange(0.0, 0.3, 0.005)
+    >>> s = np.clip((t - 0.1013) / 0.05, 0.0, 1.0)
+    >>> x = 0.043 * 0.5 * (1.0 - np.cos(np.pi * s))
+    >>> np.round(corners(t, x, 1e-6, np.ones(len(t), bool)) * 1e3, 1)  # on a grid of 0.31 ms
+    array([101.4, 151.4])
+    """
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    n, w = len(t), CORNER_HALF_WINDOW
+    if n < 2 * w or not np.all(np.isfinite(x)) or not np.all(np.isfinite(t)):
+        return np.zeros(0)
+    ks = np.flatnonzero(bends[:-1] & bends[1:])
+    ks = ks[(ks >= w - 1) & (ks + w + 1 <= n)]
+    if ks.size == 0:
+        return np.zeros(0)
+    win = ks[:, None] + np.arange(-w + 1, w + 1)[None, :]  # m x 2w
+    h = t[ks + 1] - t[ks]
+    if np.any(h <= 0):
+        return np.zeros(0)
+    u = (t[win] - 0.5 * (t[ks] + t[ks + 1])[:, None]) / h[:, None]
+    xw = x[win] - x[win].mean(axis=1, keepdims=True)
+    smooth_ss = _residual_ss(u[..., None] ** np.arange(_PARAMS), xw)
+    floor = CORNER_MIN_GAIN * max(sigma, 1e-12) ** 2
+    # The join's sum of squares is at least zero: an interval whose smooth
+    # fit is already within the gain holds no corner (a sine sampled a few
+    # times a cycle, where the whole record is a bend).
+    cand = np.flatnonzero(smooth_ss > floor)
+    if cand.size == 0:
+        return np.zeros(0)
+    frac = (np.arange(CORNER_TRIALS) + 0.5) / CORNER_TRIALS - 0.5  # trial tau, in intervals from the centre
+    uc = u[cand][:, None, :] - frac[None, :, None]  # c x trials x 2w
+    xc = np.broadcast_to(xw[cand][:, None, :], uc.shape)
+    # The cubic on either side: the other side's curve is the quartic.
+    join_ss = np.minimum(*(_residual_ss(np.stack([uc**0, uc, uc**2, uc**3, s**2, s**3, s**4], axis=-1), xc)
+                           for s in (np.maximum(uc, 0.0), np.minimum(uc, 0.0))))
+    best = np.argmin(join_ss, axis=1)
+    gain = smooth_ss[cand] - join_ss[np.arange(cand.size), best]
+    taus = t[ks[cand]] + (frac[best] + 0.5) * h[cand]
+    found: list[tuple[int, float]] = []
+    for j in np.argsort(-gain):
+        if gain[j] < floor:
+            break
+        k = int(ks[cand[j]])
+        if all(abs(k - kk) >= w for kk, _ in found):
+            found.append((k, float(taus[j])))
+    return np.sort(np.array([tau for _, tau in found], float))
