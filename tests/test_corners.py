@@ -122,3 +122,12 @@ def test_without_a_usable_input_no_corner_is_invented() -> None:
     backwards = t.copy()
     backwards[100] = backwards[99]
     assert len(corners(backwards, x, 1e-6, bends)) == 0
+
+
+def test_the_modules_example_holds() -> None:
+    import doctest
+
+    import hpctl.identify.corners
+
+    result = doctest.testmod(hpctl.identify.corners)
+    assert result.attempted > 0 and result.failed == 0
