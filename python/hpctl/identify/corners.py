@@ -75,6 +75,14 @@ def _smooth_ss(u: FloatArray, xw: FloatArray) -> FloatArray:
     return out
 
 
+def _join_basis(u: FloatArray, after: bool) -> FloatArray:
+    """The join's basis at instants ``u`` from ``tau`` (in sampling
+    intervals): a cubic, plus the quartic's higher terms after ``tau`` (or
+    before it)."""
+    s = np.maximum(u, 0.0) if after else np.minimum(u, 0.0)
+    return np.stack([u**0, u, u**2, u**3, s**2, s**3, s**4], axis=-1)
+
+
 def corners(t: FloatArray, x: FloatArray, sigma: float, bends: NDArray[np.bool_]) -> FloatArray:
     """The instants, s (sorted), where the sampled input ``x`` of white
     noise ``sigma`` has a corner, sought in the intervals whose two samples
@@ -114,8 +122,7 @@ def corners(t: FloatArray, x: FloatArray, sigma: float, bends: NDArray[np.bool_]
     uc = u[cand][:, None, :] - frac[None, :, None]  # c x trials x 2w
     xc = np.broadcast_to(xw[cand][:, None, :], uc.shape)
     # The cubic on either side: the other side's curve is the quartic.
-    join_ss = np.minimum(*(_residual_ss(np.stack([uc**0, uc, uc**2, uc**3, s**2, s**3, s**4], axis=-1), xc)
-                           for s in (np.maximum(uc, 0.0), np.minimum(uc, 0.0))))
+    join_ss = np.minimum(*(_residual_ss(_join_basis(uc, after), xc) for after in (True, False)))
     best = np.argmin(join_ss, axis=1)
     gain = smooth_ss[cand] - join_ss[np.arange(cand.size), best]
     taus = t[ks[cand]] + (frac[best] + 0.5) * h[cand]
