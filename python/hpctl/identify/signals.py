@@ -225,29 +225,58 @@ def noise_colour(channel: str, levels: Sequence[tuple[float, int, NoiseLevel]]) 
     dt = np.array([lv[0] for lv in levels], float)
     n = np.array([lv[1] for lv in levels], float)
     y = np.array([lv[2].sigma for lv in levels], float) ** 2
-    orders = [lv[2].order for lv in levels]
-    if not (np.all(np.isfinite(dt)) and np.all(dt > 0) and np.all(np.isfinite(y)) and np.all(y > 0)) or dt.max() < 2.0 * dt.min():
+    orders = np.array([lv[2].order for lv in levels])
+    if not (np.all(np.isfinite(dt)) and np.all(dt > 0) and np.all(np.isfinite(y)) and np.all(y > 0)):
         return None
-    sw = np.sqrt(n / np.array([LEVEL_REL_VAR[k] for k in orders])) / y  # 1 / the level's standard deviation
+    keep = np.ones(len(levels), bool)
+    while keep.sum() >= 3 and dt[keep].max() >= 2.0 * dt[keep].min():
+        fitted = _colour_fit(dt[keep], n[keep], y[keep], orders[keep])
+        if fitted is None:
+            return None
+        sse, sse0, white, coloured, tau, above = fitted
+        if coloured <= 0.0 or sse0 - sse < COLOUR_EVIDENCE:
+            return None
+        # The colour must explain every level within its scatter: a level the
+        # signal still raises (hpctl's virtual heat run, its force read 35 N
+        # from the sixth difference where the noise is 28 and the 0.1 Hz sine,
+        # sampled alike, read 27.7) looks like the slow part of a noise, but
+        # not one the other records agree with (weighted sum of squares 62 on
+        # 3 degrees of freedom; a real colour on the foreign rig: 0.2-2.5).
+        if sse <= _colour_consistent(int(keep.sum())):
+            return NoiseColour(channel, white, coloured, tau, sse0 - sse)
+        # Such a level is set aside and the colour sought in the others: the
+        # signal only ever raises a level. (The foreign control campaign's
+        # strut gas pressure, seed 11: the 1 Hz sine and the fast damper-on
+        # record read 2.77 and 2.73 kPa at 5 and 2 ms, the SDOF steps
+        # 2.23-2.30 at 5 ms; the truth 2.26 white and 1.85 correlated over
+        # 33 ms. No colour was found, and the steps' weights missed it: 1.34
+        # x there.)
+        worst = int(np.argmax(above))
+        if above[worst] <= 0.0:
+            return None
+        keep[np.flatnonzero(keep)[worst]] = False
+    return None
+
+
+def _colour_fit(dt: FloatArray, n: FloatArray, y: FloatArray, orders: NDArray[np.int_]
+                ) -> tuple[float, float, float, float, float, FloatArray] | None:
+    """The colour that best explains the variances ``y`` read from
+    differences of ``orders`` at intervals ``dt`` (``n`` samples each):
+    its weighted sum of squares, that of a white noise alone, the white and
+    coloured variances, the correlation time, and each level's weighted
+    excess over the colour's (positive: above it)."""
+    sw = np.sqrt(n / np.array([LEVEL_REL_VAR[int(k)] for k in orders])) / y  # 1 / the level's standard deviation
     a0 = float(np.sum(sw**2 * y) / np.sum(sw**2))
     sse0 = float(np.sum((sw * (y - a0)) ** 2))
-    best: tuple[float, float, float, float] | None = None
+    best: tuple[float, float, float, float, FloatArray] | None = None
     for tau in np.geomspace(dt.min() / 10.0, dt.max() * _COLOUR_TAU_MAX_SHARE, _COLOUR_TAU_STEPS):
-        g = np.array([float(difference_share(math.exp(-d / tau), k)) for d, k in zip(dt, orders)])
+        g = np.array([float(difference_share(math.exp(-d / tau), int(k))) for d, k in zip(dt, orders)])
         coef, res = nnls(np.column_stack((sw, sw * g)), sw * y)
         if best is None or res**2 < best[0]:
-            best = (float(res**2), float(coef[0]), float(coef[1]), float(tau))
-    if best is None or best[2] <= 0.0 or sse0 - best[0] < COLOUR_EVIDENCE:
+            best = (float(res**2), float(coef[0]), float(coef[1]), float(tau), sw * (y - coef[0] - coef[1] * g))
+    if best is None:
         return None
-    # The colour must explain every level within its scatter: a level the
-    # signal still raises (hpctl's virtual heat run, its force read 35 N
-    # from the sixth difference where the noise is 28 and the 0.1 Hz sine,
-    # sampled alike, read 27.7) looks like the slow part of a noise, but
-    # not one the other records agree with (weighted sum of squares 62 on
-    # 3 degrees of freedom; a real colour on the foreign rig: 0.2-2.5).
-    if best[0] > _colour_consistent(len(levels)):
-        return None
-    return NoiseColour(channel, best[1], best[2], best[3], sse0 - best[0])
+    return best[0], sse0, best[1], best[2], best[3], best[4]
 
 
 # Quintic over 15 samples: a cubic over 11 (the earlier choice) passed
