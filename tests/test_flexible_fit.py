@@ -371,7 +371,7 @@ def _carried_input_noise_ms(c: ControlCase, i: int, channel: str, rng: np.random
     x = input_disp_m(ds.record)
     noisy = []
     for _ in range(CARRIED_DRAWS):
-        rig, _, _ = _drive(ds.record, ds.times_s, measure(x, ds.times_s, noise, rng))
+        rig, _, _, _ = _drive(ds.record, ds.times_s, measure(x, ds.times_s, noise, rng))
         noisy.append(replace(ds, rig=rig))
     sims = simulate_all(r.model, noisy, [r.values])[0]
     base = np.asarray(r.sims[i][channel])

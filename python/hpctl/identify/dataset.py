@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hpctl.data.records import LOGGED_SWITCH_LEAD, RigRecord
 from hpctl.errors import HpctlError, RecordError
-from hpctl.identify.corners import corners
+from hpctl.identify.corners import JoinResidual, clock_jitter, corners, join_residual
 from hpctl.identify.signals import (
     NoiseColour,
     NoiseLevel,
@@ -69,6 +69,14 @@ class Dataset:
     #: or the base's on the SDOF rig), m: the fit's covariance carries it
     #: through the model (:func:`with_input_noise`).
     input_noise_m: float = 0.0
+    #: The sample-time jitter of the rig's clock read from the corners of
+    #: the measured inputs of this record's kind (:func:`hpctl.identify.corners.clock_jitter`), s:
+    #: the weights carry it through the model with the input's noise
+    #: (:func:`with_input_noise_and_clock`).
+    input_jitter_s: float = 0.0
+    #: Of a draw of :func:`with_input_noise_and_clock`: the instants' shifts
+    #: it was sampled at, s (empty: none).
+    clock_shift_s: FloatArray = field(default_factory=lambda: np.zeros(0))
     #: Where each valve switch fell, one per switch the flags show (in
     #: order), as the share of the interval before the first sample that
     #: shows it; empty: midway for every switch
@@ -115,13 +123,13 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     for rec in records:
         t = np.asarray(rec["time_s"], float)
         x_in = input_disp_m(rec)
-        rig, xs, vs = _drive(rec, t, x_in)
+        rig, xs, vs, joins = _drive(rec, t, x_in)
         targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
         level = {c: noise_level(y) for c, y in targets.items()}
         dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
         for c, lv in level.items():
             levels.setdefault(c, []).append((dt, len(t), lv))
-        drives.append((rec, t, x_in, rig, xs, vs, targets, level, dt))
+        drives.append((rec, t, x_in, rig, xs, vs, targets, level, dt, joins))
     colours = {c: k for c, lv in levels.items() if (k := noise_colour(c, lv)) is not None}
     # Where no order of differences holds a record's noise only (a sine
     # sampled 20-40 times a cycle with the damper's knees: the foreign heat
@@ -129,7 +137,9 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     # channel's noise from its other records, whose differences were checked.
     checked_var = {c: _channel_var(lv, colours.get(c)) for c, lv in levels.items()}
     out = []
-    for rec, t, x_in, rig, xs, vs, targets, level, dt in drives:
+    # One clock per rig: the records of a kind are read together.
+    jitter = {kind: clock_jitter([dr[9] for dr in drives if dr[0].kind == kind]) for kind in {dr[0].kind for dr in drives}}
+    for rec, t, x_in, rig, xs, vs, targets, level, dt, _ in drives:
         sigma: dict[str, float] = {}
         weight_sigma: dict[str, FloatArray] = {}
         x_raw_noise = noise_sigma(x_in)
@@ -146,7 +156,7 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
         strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
         out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, weight_sigma,
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise,
-                           noise_colour={c: k for c, k in colours.items() if c in targets}))
+                           noise_colour={c: k for c, k in colours.items() if c in targets}, input_jitter_s=jitter[rec.kind]))
     return _carry_input_noise(out)
 
 
@@ -194,7 +204,7 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     for j, i in enumerate(carried):
         done = [r.channels for r in results[j * k:(j + 1) * k] if not isinstance(r, Exception)]
         if len(done) == k:
-            out[i] = with_carried_noise(datasets[i], done[0], done[1:])
+            out[i] = with_carried_noise(datasets[i], done[0], done[1:], [x.clock_shift_s for x in drives[j][1:]])
     return out
 
 
@@ -209,12 +219,16 @@ def carried_drives(datasets: Sequence[Dataset], carried: Sequence[int]) -> list[
     """Per record of ``carried``: the record and :data:`CARRIED_DRAWS` copies
     with fresh draws of its input's noise (the same draws on every call)."""
     rng = np.random.default_rng(CARRIED_SEED)
-    return [[datasets[i]] + [with_input_noise(datasets[i], rng) for _ in range(CARRIED_DRAWS)] for i in carried]
+    return [[datasets[i]] + [with_input_noise_and_clock(datasets[i], rng) for _ in range(CARRIED_DRAWS)] for i in carried]
 
 
-def with_carried_noise(d: Dataset, clean: Mapping[str, ArrayLike], noisy: Sequence[Mapping[str, ArrayLike]]) -> Dataset:
+def with_carried_noise(d: Dataset, clean: Mapping[str, ArrayLike], noisy: Sequence[Mapping[str, ArrayLike]],
+                       shifts: Sequence[FloatArray] | None = None) -> Dataset:
     """``d`` weighted by its channels' noise plus the moving mean square of
-    the outputs' change from the ``clean`` drive to the ``noisy`` ones."""
+    the outputs' change from the ``clean`` drive to the ``noisy`` ones, each
+    sampled at its draw's clock ``shifts`` (:attr:`Dataset.clock_shift_s`;
+    none by default)."""
+    shifts = list(shifts) if shifts is not None else [np.zeros(0)] * len(noisy)
     # (numpy's "same" is the longer input's length: the window no longer
     # than the record.)
     n = len(d.times_s)
@@ -222,9 +236,21 @@ def with_carried_noise(d: Dataset, clean: Mapping[str, ArrayLike], noisy: Sequen
     counts = np.convolve(np.ones(n), window, "same")
     weights = {}
     for c in d.targets:
-        sq = np.mean([(np.asarray(r[c]) - np.asarray(clean[c])) ** 2 for r in noisy], axis=0)
+        sq = np.mean([(_sampled_at(d.times_s, np.asarray(r[c]), shift) - np.asarray(clean[c])) ** 2
+                      for r, shift in zip(noisy, shifts)], axis=0)
         weights[c] = np.sqrt(d.sigma[c] ** 2 + np.convolve(sq, window, "same") / counts)
     return replace(d, weight_sigma=weights)
+
+
+def _sampled_at(t: FloatArray, y: FloatArray, shift: FloatArray) -> FloatArray:
+    """An output ``y`` sampled ``shift`` off the instants ``t`` (to first
+    order): the clock that shifted a draw's input samples its outputs too,
+    so a channel that follows the input at once (the strut's pressure)
+    keeps none of the input's shift, and one that filters it (the SDOF
+    body) keeps the input's through the damper and gains its own."""
+    if len(shift) != len(y):
+        return y
+    return y + derivative(t, y) * shift
 
 
 def _channel_var(levels: Sequence[tuple[float, int, NoiseLevel]], colour: NoiseColour | None) -> float | None:
@@ -254,18 +280,22 @@ def input_disp_m(rec: RigRecord) -> FloatArray:
     return np.asarray(rec["base_disp_m"] if rec.kind == "sdof" else rec["disp_m"], float)
 
 
-def _drive(rec: RigRecord, t: FloatArray, x_in: FloatArray) -> tuple[Rig, FloatArray, FloatArray]:
-    """The rig driven by the measured input ``x_in`` (smoothed), and the
+def _drive(rec: RigRecord, t: FloatArray, x_in: FloatArray) -> tuple[Rig, FloatArray, FloatArray, JoinResidual]:
+    """The rig driven by the measured input ``x_in`` (smoothed), the
     smoothed displacement and its rate (never taken across a corner of the
-    input, :mod:`hpctl.identify.corners`)."""
+    input, :mod:`hpctl.identify.corners`), and what the corners' joins leave
+    of the input beyond its noise."""
     xs, bends = smooth_bends(t, x_in)
-    vs = derivative(t, xs, corners(t, x_in, noise_sigma(x_in), bends))
+    sigma = noise_sigma(x_in)
+    instants = corners(t, x_in, sigma, bends)
+    vs = derivative(t, xs, instants)
+    joins = join_residual(t, x_in, sigma, instants, vs)
     motion = Sampled(t, xs, vs)
     if rec.kind == "sdof":
         if rec.sprung_mass_kg is None:
             raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
-        return sdof_rig(motion, rec.sprung_mass_kg), xs, vs
-    return characterisation_rig(motion), xs, vs
+        return sdof_rig(motion, rec.sprung_mass_kg), xs, vs, joins
+    return characterisation_rig(motion), xs, vs, joins
 
 
 def with_input_noise(d: Dataset, rng: np.random.Generator) -> Dataset:
@@ -277,8 +307,26 @@ def with_input_noise(d: Dataset, rng: np.random.Generator) -> Dataset:
     model's own sensitivity, which no per-sample weight can describe."""
     t = d.times_s
     x = input_disp_m(d.record) + rng.normal(0.0, d.input_noise_m, len(t))
-    rig, _, _ = _drive(d.record, t, x)
+    rig, _, _, _ = _drive(d.record, t, x)
     return replace(d, rig=rig)
+
+
+def with_input_noise_and_clock(d: Dataset, rng: np.random.Generator) -> Dataset:
+    """:func:`with_input_noise`, and where the record's clock jitters
+    (:attr:`Dataset.input_jitter_s`), the input sampled at instants drawn
+    off the logged ones as well (``x + rate * delta``), the shifts kept in
+    :attr:`Dataset.clock_shift_s` for the outputs, which the same clock
+    samples (:func:`with_carried_noise`). Without a jitter it draws exactly
+    what :func:`with_input_noise` draws."""
+    t = d.times_s
+    x_in = input_disp_m(d.record)
+    x = x_in + rng.normal(0.0, d.input_noise_m, len(t))
+    shift = np.zeros(0)
+    if d.input_jitter_s > 0.0:
+        shift = rng.normal(0.0, d.input_jitter_s, len(t))
+        x = x + _drive(d.record, t, x_in)[2] * shift
+    rig, _, _, _ = _drive(d.record, t, x)
+    return replace(d, rig=rig, clock_shift_s=shift)
 
 
 def loop_area_j(d: Dataset, force_n: FloatArray) -> float | None:

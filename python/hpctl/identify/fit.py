@@ -839,7 +839,7 @@ def at_own_noise(result: FitResult) -> FitResult:
     for j, i in enumerate(carried):
         done = [s for s in sims[j * k:(j + 1) * k] if not isinstance(s, Exception)]
         if len(done) == k:
-            datasets[i] = with_carried_noise(datasets[i], done[0], done[1:])
+            datasets[i] = with_carried_noise(datasets[i], done[0], done[1:], [x.clock_shift_s for x in drives[j][1:]])
     r = residual_vector(datasets, result.sims)
     return replace(result, datasets=datasets, rss=float(r @ r))
 
