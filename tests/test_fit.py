@@ -403,3 +403,10 @@ def test_an_sdof_step_sampled_by_a_jittering_clock_carries_the_jitter_through_th
                f"the jitter read over the drawn {np.round(read, 2)}")
     assert 0.75 <= float(np.mean(own)) <= 1.25, context
     assert sum(r > 0 for r in read) >= 6, context
+    # Said in the report and its JSON where read (the last record's).
+    from hpctl.identify.dataset import clock_jitters
+    from hpctl.report.calibration import noise_section
+
+    if datasets[0].input_jitter_s > 0:
+        assert clock_jitters(datasets) == {"sdof": datasets[0].input_jitter_s}, context
+        assert "## The rig's clock" in noise_section(datasets), context

@@ -274,6 +274,12 @@ def noise_colours(datasets: Sequence[Dataset]) -> list[NoiseColour]:
     return list(seen.values())
 
 
+def clock_jitters(datasets: Sequence[Dataset]) -> dict[str, float]:
+    """The clock jitter read from the inputs' corners and carried in the
+    weights, s, per rig kind where one was read."""
+    return {d.record.kind: d.input_jitter_s for d in datasets if d.input_jitter_s > 0.0}
+
+
 def input_disp_m(rec: RigRecord) -> FloatArray:
     """The measured displacement that drives the model: the strut's on the
     characterisation rig, the base's on the SDOF rig."""

@@ -25,7 +25,16 @@ from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
 from hpctl.identify.blas import one_blas_thread
-from hpctl.identify.dataset import DAMPER_WORKING_SPEED_M_S, Dataset, loop_area_j, noise_colours, prepare, traits, uses_damper
+from hpctl.identify.dataset import (
+    DAMPER_WORKING_SPEED_M_S,
+    Dataset,
+    clock_jitters,
+    loop_area_j,
+    noise_colours,
+    prepare,
+    traits,
+    uses_damper,
+)
 from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
 from hpctl.identify.signals import RateNoise, derivative, rate_noise
@@ -1169,6 +1178,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "final_derived": [d.to_json() for d in derived(diag.final)],
         "final_switch_places": places(diag.final.datasets),
         "noise_colour": [k.to_json() for k in noise_colours(diag.final.datasets)],
+        "input_clock_jitter_s": clock_jitters(diag.final.datasets),
         "error_before": err(diag.initial),
         "error_after": err(diag.final),
         "loop_area_by_frequency": [vars(a) for a in loop_areas(diag.final)],

@@ -17,7 +17,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
-from hpctl.identify.dataset import Dataset, noise_colours  # noqa: E402
+from hpctl.identify.dataset import Dataset, clock_jitters, noise_colours  # noqa: E402
 from hpctl.identify.derived import derived  # noqa: E402
 from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
@@ -161,14 +161,23 @@ def switch_table(result: FitResult) -> list[str]:
 
 
 def noise_section(datasets: Sequence[Dataset]) -> list[str]:
-    """The correlated noise found per channel (nothing when none was)."""
+    """The correlated noise found per channel and the clock jitter carried
+    in the weights (nothing when neither was)."""
     found = noise_colours(datasets)
-    if not found:
-        return []
-    return ["## Coloured noise", "",
-            "Channels whose records, sampled at different rates, show a noise correlated from sample to sample: the fourth "
-            "difference of a fast record reads only part of it, so each record's noise level above includes what it missed.", "",
-            *[f"- {k.describe()}" for k in found], ""]
+    jitters = clock_jitters(datasets)
+    lines: list[str] = []
+    if found:
+        lines += ["## Coloured noise", "",
+                  "Channels whose records, sampled at different rates, show a noise correlated from sample to sample: the fourth "
+                  "difference of a fast record reads only part of it, so each record's noise level above includes what it missed.", "",
+                  *[f"- {k.describe()}" for k in found], ""]
+    if jitters:
+        lines += ["## The rig's clock", "",
+                  "The measured input's samples at its steps' corners scatter beyond its noise in proportion to its rate, as samples "
+                  "taken off the logged instants do: the weights carry that jitter through the model, on the input and on the "
+                  "outputs the same clock samples (read from the steps' corners, the records of one rig together).", "",
+                  *[f"- {kind} records: {s * 1e6:.3g} us" for kind, s in jitters.items()], ""]
+    return lines
 
 
 def warnings_section(caveats: Sequence[Caveat]) -> list[str]:
@@ -357,6 +366,7 @@ def fit_summary(result: FitResult, profiles: Sequence[ProfileInterval] = ()) -> 
         "converged": result.success,
         "switch_places": places(result.datasets),
         "noise_colour": [k.to_json() for k in noise_colours(result.datasets)],
+        "input_clock_jitter_s": clock_jitters(result.datasets),
         "channels": [vars(s) for s in result.stats],
         "profile_intervals": [iv.to_json() for iv in profiles],
     }
