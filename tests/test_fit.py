@@ -369,9 +369,11 @@ def test_an_sdof_step_sampled_by_a_jittering_clock_carries_the_jitter_through_th
     # body through the damper: without the clock in the weights 1.52 +-
     # 0.23 x a record at 120 us (8 draws), 3.5 x in the half second after
     # the step. The weights carry the jitter read from the base's corners
-    # (hpctl.identify.corners.clock_jitter) through the model: the mean of
-    # eight 0.92-1.12 over six seeds (each record's reading 0.4-2.3 x the
-    # drawn jitter; 2.66 with none carried, HPCTL_TEST_SEED=1983703624).
+    # (hpctl.identify.corners.clock_jitter, the eight records of one clock
+    # read together) through the model: the mean of eight 0.96-1.04 over
+    # four seeds, the reading 0.87-1.15 x the drawn jitter (each record
+    # read alone: 0.4-2.3 x, the mean 0.92-1.12, and one draw in about
+    # forty failed this test; 2.66 with none carried).
     import secrets
 
     from scipy.interpolate import CubicSpline
@@ -385,28 +387,30 @@ def test_an_sdof_step_sampled_by_a_jittering_clock_carries_the_jitter_through_th
     step = virtual_rig.Test("sdof_step", virtual_rig.Step(0.043, 0.5, 0.05), 5.0, 1000, sdof=True, damper_on=True, excitation="step")
     base = Step(0.043, 0.5, 0.05)
     unit = hpctl.Unit.seed()
-    own, read = [], []
+    # One rig, one clock: eight records of it, read together.
+    jitter_s = float(np.exp(rng.uniform(np.log(1e-4), np.log(2e-4))))
+    records = []
     for k in range(8):
-        jitter_s = float(np.exp(rng.uniform(np.log(1e-4), np.log(2e-4))))
         [rec] = virtual_rig.make_records(unit, tests=[step], seed=seed + k)
         t = rec["time_s"]
         at = jittered(t, jitter_s, rng, float(t[-1]))
         rec.data["base_disp_m"] = rec["base_disp_m"] + np.array([base.x(s) for s in at]) - np.array([base.x(s) for s in t])
         rec.data["body_disp_m"] = rec["body_disp_m"] + CubicSpline(t, rec["body_disp_m"])(at) - rec["body_disp_m"]
-        datasets = prepare([rec])
-        read.append(datasets[0].input_jitter_s / jitter_s)
-        at_truth = fit(datasets, ("heat_transfer", "real_gas"), initial={"tau_s": unit.tau_s}, max_nfev=1, errors=False,
-                       place_switches=False)
-        r = at_truth.residuals(0, "body_disp_m")
-        own.append(float(np.sqrt(np.mean((r / at_own_noise(at_truth).datasets[0].weight_sigma["body_disp_m"]) ** 2))))
+        records.append(rec)
+    datasets = prepare(records)
+    read = datasets[0].input_jitter_s / jitter_s
+    at_truth = fit(datasets, ("heat_transfer", "real_gas"), initial={"tau_s": unit.tau_s}, max_nfev=1, errors=False,
+                   place_switches=False)
+    judged = at_own_noise(at_truth)
+    own = [float(np.sqrt(np.mean((at_truth.residuals(i, "body_disp_m") / judged.datasets[i].weight_sigma["body_disp_m"]) ** 2)))
+           for i in range(len(datasets))]
     context = (f"HPCTL_TEST_SEED={seed}: the body over its own weights {np.round(own, 3)}, "
-               f"the jitter read over the drawn {np.round(read, 2)}")
+               f"the jitter read {read:.2f} x the drawn {jitter_s * 1e6:.1f} us")
     assert 0.75 <= float(np.mean(own)) <= 1.25, context
-    assert sum(r > 0 for r in read) >= 6, context
-    # Said in the report and its JSON where read (the last record's).
+    assert 0.5 <= read <= 2.0, context
+    # Said in the report and its JSON.
     from hpctl.identify.dataset import clock_jitters
     from hpctl.report.calibration import noise_section
 
-    if datasets[0].input_jitter_s > 0:
-        assert clock_jitters(datasets) == {"sdof": datasets[0].input_jitter_s}, context
-        assert "## The rig's clock" in noise_section(datasets), context
+    assert clock_jitters(datasets) == {"sdof": datasets[0].input_jitter_s}, context
+    assert "## The rig's clock" in noise_section(datasets), context
