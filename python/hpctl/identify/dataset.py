@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hpctl.data.records import LOGGED_SWITCH_LEAD, RigRecord
 from hpctl.errors import HpctlError, RecordError
-from hpctl.identify.corners import JoinResidual, clock_jitter, corners, join_residual
+from hpctl.identify.corners import clock_jitter, corners, join_residual
 from hpctl.identify.signals import (
     NoiseColour,
     NoiseLevel,
@@ -25,7 +25,7 @@ from hpctl.identify.signals import (
 from hpctl.model.effects import RecordTraits
 from hpctl.model.unit import Unit
 from hpctl.sim import metrics
-from hpctl.sim.run import Case, Rig, Sampled, characterisation_rig, run_many, sdof_rig
+from hpctl.sim.run import Case, Rig, Sampled, SdofRig, characterisation_rig, run_many, sdof_rig
 
 FloatArray = NDArray[np.float64]
 
@@ -123,7 +123,10 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     for rec in records:
         t = np.asarray(rec["time_s"], float)
         x_in = input_disp_m(rec)
-        rig, xs, vs, joins = _drive(rec, t, x_in)
+        rig, xs, vs, instants = _drive(rec, t, x_in)
+        # What the corners' joins leave of the input beyond its noise: read
+        # here only, once per record (the carried draws need its rate alone).
+        joins = join_residual(t, x_in, noise_sigma(x_in), instants, vs)
         targets = {c: np.asarray(rec[c], float) for c in OUTPUTS[rec.kind] if c in rec}
         level = {c: noise_level(y) for c, y in targets.items()}
         dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
@@ -286,22 +289,19 @@ def input_disp_m(rec: RigRecord) -> FloatArray:
     return np.asarray(rec["base_disp_m"] if rec.kind == "sdof" else rec["disp_m"], float)
 
 
-def _drive(rec: RigRecord, t: FloatArray, x_in: FloatArray) -> tuple[Rig, FloatArray, FloatArray, JoinResidual]:
+def _drive(rec: RigRecord, t: FloatArray, x_in: FloatArray) -> tuple[Rig, FloatArray, FloatArray, FloatArray]:
     """The rig driven by the measured input ``x_in`` (smoothed), the
     smoothed displacement and its rate (never taken across a corner of the
-    input, :mod:`hpctl.identify.corners`), and what the corners' joins leave
-    of the input beyond its noise."""
+    input, :mod:`hpctl.identify.corners`), and the corners' instants."""
     xs, bends = smooth_bends(t, x_in)
-    sigma = noise_sigma(x_in)
-    instants = corners(t, x_in, sigma, bends)
+    instants = corners(t, x_in, noise_sigma(x_in), bends)
     vs = derivative(t, xs, instants)
-    joins = join_residual(t, x_in, sigma, instants, vs)
     motion = Sampled(t, xs, vs)
     if rec.kind == "sdof":
         if rec.sprung_mass_kg is None:
             raise RecordError(f"{rec.name}: SDOF record without [sdof] sprung_mass_kg")
-        return sdof_rig(motion, rec.sprung_mass_kg), xs, vs, joins
-    return characterisation_rig(motion), xs, vs, joins
+        return sdof_rig(motion, rec.sprung_mass_kg), xs, vs, instants
+    return characterisation_rig(motion), xs, vs, instants
 
 
 def with_input_noise(d: Dataset, rng: np.random.Generator) -> Dataset:
@@ -317,6 +317,15 @@ def with_input_noise(d: Dataset, rng: np.random.Generator) -> Dataset:
     return replace(d, rig=rig)
 
 
+def _input_rate(d: Dataset) -> FloatArray:
+    """The rate of the measured input that drives ``d``'s rig (its
+    :class:`Sampled` motion's), m/s."""
+    motion = d.rig.base if isinstance(d.rig, SdofRig) else d.rig.strut
+    if isinstance(motion, Sampled) and motion.vel_m_s is not None:
+        return np.asarray(motion.vel_m_s, float)
+    return _drive(d.record, d.times_s, input_disp_m(d.record))[2]
+
+
 def with_input_noise_and_clock(d: Dataset, rng: np.random.Generator) -> Dataset:
     """:func:`with_input_noise`, and where the record's clock jitters
     (:attr:`Dataset.input_jitter_s`), the input sampled at instants drawn
@@ -330,7 +339,7 @@ def with_input_noise_and_clock(d: Dataset, rng: np.random.Generator) -> Dataset:
     shift = np.zeros(0)
     if d.input_jitter_s > 0.0:
         shift = rng.normal(0.0, d.input_jitter_s, len(t))
-        x = x + _drive(d.record, t, x_in)[2] * shift
+        x = x + _input_rate(d) * shift
     rig, _, _, _ = _drive(d.record, t, x)
     return replace(d, rig=rig, clock_shift_s=shift)
 
