@@ -60,6 +60,11 @@ class Code(StrEnum):
     #: A channel above its noise was judged at it by counting a sample-time
     #: jitter read from its own residual: the verdict rests on that reading.
     JITTER_COUNTED = "jitter_counted"
+    #: A channel's noise level was read from differences that may still
+    #: hold the signal (no order held noise only, and no other record of
+    #: the channel had a level that did): it may be too high, so its RMS /
+    #: noise too small and "at the noise" too lenient.
+    NOISE_UNCHECKED = "noise_unchecked"
     #: A fitted parameter ended on a bound of its fit range, or within two
     #: standard errors of it: the data ask for a value the model's range
     #: does not hold, and the standard error (a Gaussian's) does not

@@ -79,6 +79,7 @@ def _fit_caveats(result: FitResult, budget: int, profiled: Sequence[str] = ()) -
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}{more}",
                           {"message": result.message, "max_evaluations": budget}))
     out += _bound_caveats(result) + _confounded_caveats(result) + _profile_band_caveats(result, profiled) + _place_caveats(result)
+    out += _noise_caveats(result)
     analysis = diagnose.analyse(result)
     if analysis.structured:
         worst = [r for r in analysis.rows if r.structured]
@@ -90,6 +91,28 @@ def _fit_caveats(result: FitResult, budget: int, profiled: Sequence[str] = ()) -
             {"rms_ratio": result.rms_ratio, "structured": [f"{r.record}/{r.channel}" for r in worst]},
         ))
     return out
+
+
+def _noise_caveats(result: FitResult) -> list[Caveat]:
+    """Channels judged against a noise level that may hold signal
+    (:attr:`hpctl.identify.dataset.Dataset.noise_unchecked`), each with the
+    residual's own RMS beside its level: a residual below the level says
+    the level is too high by at least their ratio (a residual holds the
+    noise at least), unless the model fits the noise itself."""
+    rows = [(d.name, c, d.sigma[c], float(np.sqrt(np.nanmean(result.residuals(i, c) ** 2))))
+            for i, d in enumerate(result.datasets) for c in d.noise_unchecked]
+    if not rows:
+        return []
+    where = "; ".join(f"{r}/{c}: {level:.4g} (the residual's RMS {rms:.4g})" for r, c, level, rms in rows)
+    return [Caveat(
+        Code.NOISE_UNCHECKED,
+        f"noise levels read from differences that may still hold the signal (no order of differences held noise only, and no other "
+        f"record of the channel had a level that did): {where}. A level too high makes RMS / noise too small: for these channels the "
+        "judgement against the noise is lenient by up to the level over the true noise (records of the channel sampled faster, or "
+        "a stretch at rest, give a level that can be checked)",
+        {"channels": [f"{r}/{c}" for r, c, _, _ in rows], "noise": [level for _, _, level, _ in rows],
+         "residual_rms": [rms for _, _, _, rms in rows]},
+    )]
 
 
 def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
@@ -405,6 +428,7 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
     if not diag.final.success:
         out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
     out += _bound_caveats(diag.final) + _confounded_caveats(diag.final) + _profile_band_caveats(diag.final) + _place_caveats(diag.final)
+    out += _noise_caveats(diag.final)
     j = diag.judgement
     if j is not None and j.structure_remains:
         found = f"after adding {', '.join(diag.found)} " if diag.found else "and no effect in the library explains it: "

@@ -87,6 +87,11 @@ class Dataset:
     #: fit show one (its level in :attr:`sigma` includes what the record's
     #: differences miss of it).
     noise_colour: dict[str, NoiseColour] = field(default_factory=dict)
+    #: The channels whose noise level in :attr:`sigma` came from differences
+    #: no test said hold noise only (the signal may show in every order),
+    #: no other record of the channel having a level that did: it may be
+    #: too high, and the residual judged against it too small.
+    noise_unchecked: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:
@@ -145,21 +150,29 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
     for rec, t, x_in, rig, xs, vs, targets, level, dt, _ in drives:
         sigma: dict[str, float] = {}
         weight_sigma: dict[str, FloatArray] = {}
+        unchecked: list[str] = []
         x_raw_noise = noise_sigma(x_in)
         for c, y in targets.items():
             floor = NOISE_FLOOR_REL * max(float(np.ptp(y)), 1e-12)
             missed = colours[c].missed_var(dt, level[c].order) if c in colours else 0.0
             var = level[c].sigma ** 2 + missed
             other = checked_var[c]
-            if not level[c].checked and other is not None:
-                var = min(var, other)
+            if not level[c].checked:
+                if other is not None:
+                    var = min(var, other)
+                else:
+                    # Nothing to check it against (a level below the
+                    # other records' checked one is not raised by the
+                    # signal much: it is kept, and not flagged).
+                    unchecked.append(c)
             sigma[c] = max(float(np.sqrt(var)), floor)
             weight_sigma[c] = np.full(len(t), sigma[c])
         hard, on = rec.spring_hard(), rec.damper_on()
         strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
         out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, weight_sigma,
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise,
-                           noise_colour={c: k for c, k in colours.items() if c in targets}, input_jitter_s=jitter[rec.kind]))
+                           noise_colour={c: k for c, k in colours.items() if c in targets}, input_jitter_s=jitter[rec.kind],
+                           noise_unchecked=tuple(unchecked)))
     return _carry_input_noise(out)
 
 
