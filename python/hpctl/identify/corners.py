@@ -203,10 +203,11 @@ def join_residual(t: FloatArray, x: FloatArray, sigma: float, instants: FloatArr
         # none.
         shift = np.linspace(-1.0, 1.0, JOIN_REFINE_TRIALS) / CORNER_TRIALS
         uu = u[None, :] - shift[:, None]
-        u = uu[int(np.argmin(_residual_ss(_join_basis(uu, after), np.broadcast_to(xw, uu.shape))))]
+        trial_ss = _residual_ss(_join_basis(uu, after), np.broadcast_to(xw, uu.shape))
+        best = int(np.argmin(trial_ss))
+        u, ss = uu[best], float(trial_ss[best])
         basis = _join_basis(u, after)
         kink = np.maximum(u, 0.0) if after else np.minimum(u, 0.0)
-        ss = float(_residual_ss(basis, xw))
         ss_jump = float(_residual_ss(np.column_stack([basis, kink]), xw))
         dof_jump = len(win) - _PARAMS - 1
         if ss_jump > 0.0 and (ss - ss_jump) / (ss_jump / dof_jump) > JITTER_VELOCITY_JUMP_F:
@@ -215,7 +216,6 @@ def join_residual(t: FloatArray, x: FloatArray, sigma: float, instants: FloatArr
         # freedom of the three: without it the jitter read 0.78 x the truth
         # at the median): the projection is the one with the join's slope in
         # tau, to first order.
-        basis = _join_basis(u, after)
         coef = np.linalg.lstsq(basis, xw, rcond=None)[0]
         q = np.linalg.qr(np.column_stack([basis, _join_basis_slope(u, after) @ coef]))[0]
         m = np.eye(len(win)) - q @ q.T

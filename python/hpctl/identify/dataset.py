@@ -159,11 +159,10 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
             other = checked_var[c]
             if not level[c].checked:
                 if other is not None:
+                    # A level below the other records' checked one is not
+                    # raised by the signal much: kept, and not flagged.
                     var = min(var, other)
                 else:
-                    # Nothing to check it against (a level below the
-                    # other records' checked one is not raised by the
-                    # signal much: it is kept, and not flagged).
                     unchecked.append(c)
             sigma[c] = max(float(np.sqrt(var)), floor)
             weight_sigma[c] = np.full(len(t), sigma[c])
