@@ -442,8 +442,11 @@ pub fn damper_pressure_drop_pa<'py>(
         if let Some((i, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(parameter(format!("q_m3_s[{i}] = {v}: expected finite flows, m^3/s")));
         }
-        let dp: Vec<f64> = q.iter().map(|&qi| d.pressure_drop_pa(qi, bypass_open)).collect();
-        Ok(dp)
+        // Without the GIL: the static damper fits of a diagnosis's
+        // candidates run in threads, and this loop (a Newton inversion per
+        // sample, about 20 ns each) is the part of their work that can
+        // overlap another thread's Python.
+        Ok(py.detach(|| q.iter().map(|&qi| d.pressure_drop_pa(qi, bypass_open)).collect::<Vec<f64>>()))
     })
     .map(|dp| dp.into_pyarray(py))
 }
