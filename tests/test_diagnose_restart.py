@@ -179,3 +179,28 @@ def test_a_fit_refuses_an_evaluation_budget_outside_its_range(max_nfev: object) 
     with pytest.raises(ParameterError, match="max_nfev") as e:
         fit(datasets, SEED_MODEL, input_noise=False, max_nfev=max_nfev)  # type: ignore[arg-type]
     assert isinstance(e.value, ValueError) and e.value.parameter == "max_nfev"  # type: ignore[attr-defined]
+
+
+def test_a_stiff_oil_inside_the_far_tests_reach_is_still_found(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The far test (NEAR_NULL, FAR_WORSE) ends a screening walk toward the
+    # null that is ten times worse than the model it extends: an oil as
+    # stiff as 1.8-2.6 GPa, inside its reach, is a walk toward the null
+    # from the 1 GPa start that gets better, not worse, and is found as
+    # without the test (the same fit, value for value).
+    rng = np.random.default_rng(seed)
+    p = LIBRARY["oil_compliance"].params[0]
+    modulus = float(10 ** rng.uniform(math.log10(1.8e9), math.log10(2.6e9)))
+    lo, hi = p.x_bounds()
+    assert hi - p.to_x(modulus) <= dg.NEAR_NULL * (hi - lo)  # inside the far test's reach
+    tau = virtual_rig.effect_values(["heat_transfer"], rng)["tau_s"]
+    truth = virtual_rig.truth_unit(["oil_compliance"], {p.name: modulus}, template=Unit.seed().replace(tau_s=tau))
+    records = virtual_rig.make_records(truth, tests=virtual_rig.tests_for(["oil_compliance"]), seed=int(rng.integers(2**31)))
+    datasets = prepare(records)
+    current = fit(datasets, SEED_MODEL, input_noise=False)
+    found = dg._try(current.datasets, current, SEED_MODEL, ("oil_compliance",))
+    context = f"seed={seed}: truth {modulus:.4g} Pa, fitted {found.result.values[p.name]:.4g}, {found.result.message}"
+    assert abs(found.result.values[p.name] / modulus - 1.0) < 0.01 and found.result.rms_ratio < 1.1, context
+    assert found.delta_bic > dg.BIC_STRONG, context
+    monkeypatch.setattr(dg, "FAR_WORSE", math.inf)
+    without = dg._try(current.datasets, current, SEED_MODEL, ("oil_compliance",))
+    assert without.result.values == found.result.values, context
