@@ -168,3 +168,49 @@ def test_a_running_fit_counts_half_when_it_has_run_as_long_as_the_finished_ones_
     assert diagnose_module.running_credit([], [1.0]) == 0.0
     assert diagnose_module.running_credit([2.0], []) == 0.0
     assert diagnose_module.running_credit([2.0, 4.0], [0.0, 3.0, 9.0]) == pytest.approx(0.0 + 0.5 + 0.75)
+
+
+def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    # _try_all starts _confirmed's finite-difference screening of the best
+    # finished candidate once every screening fit has started, beside the
+    # ones still running; _confirmed then takes it instead of fitting it
+    # again. Stand-in fits: friction's screening finishes at once, the
+    # leak's waits until friction's finite-difference screening has begun
+    # (a timeout there is the failure), and the sensor offset's finishes
+    # at once with a gain _accept would refuse (no speculation on it).
+    import threading
+    from types import SimpleNamespace
+
+    began = threading.Event()
+    leak_started = threading.Event()  # so that every fit has started when the others finish
+    calls: list[tuple[tuple[str, ...], str | None]] = []
+
+    def candidate(add: tuple[str, ...], delta_bic: float, explained: float, how: str) -> Any:
+        result = SimpleNamespace(model=SimpleNamespace(flexible=True))
+        return diagnose_module.Candidate(add, 1, result, delta_bic, explained, screened_by=how)  # type: ignore[arg-type]
+
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None) -> Any:
+        calls.append((add, jacobian))
+        if jacobian == "finite_difference":
+            began.set()
+            return candidate(add, 9_000.0, 0.8, "finite_difference")
+        if add == ("leakage",):
+            leak_started.set()
+            assert began.wait(60.0), "friction's finite-difference screening did not start while the leak's fit ran"
+            return candidate(add, 20.0, 0.001, "broyden")
+        assert leak_started.wait(60.0)
+        if add == ("sensor_offset",):
+            return candidate(add, 30.0, 0.001, "broyden")
+        return candidate(add, 8_000.0, 0.7, "broyden")
+
+    monkeypatch.setattr(diagnose_module, "_try", fake_try)
+    clock = diagnose_module._Clock(lambda _m: None, 1)
+    ahead: dict[tuple[str, ...], Any] = {}
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        ranked = diagnose_module._try_all([], None, (), [("friction",), ("sensor_offset",), ("leakage",)], clock, pool,  # type: ignore[arg-type]
+                                          ahead=ahead)
+        assert [c.effect for c in ranked] == ["friction", "leakage", "sensor_offset"]
+        assert list(ahead) == [("friction",)]
+        confirmed = diagnose_module._confirmed([], None, (), ranked[0], clock, ahead)  # type: ignore[arg-type]
+    assert confirmed.delta_bic == 9_000.0 and confirmed.broyden_delta_bic == 8_000.0 and not ahead
+    assert calls.count((("friction",), "finite_difference")) == 1 and len(calls) == 4
