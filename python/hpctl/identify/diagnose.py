@@ -39,7 +39,7 @@ from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
 from hpctl.identify.signals import RateNoise, derivative, rate_noise
 from hpctl.identify.switching import places
-from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, Param, flexible_params
+from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, flexible_params
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
 # difference above 10 is "very strong" evidence on Kass & Raftery's scale.
@@ -788,13 +788,11 @@ def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[s
     per_effect = [[(p, n) for p in LIBRARY[e].params if (n := p.null) is not None and n in (p.lower, p.upper)] for e in add]
     if not per_effect or not all(per_effect):
         return None
-    nulls = [pn for pns in per_effect for pn in pns]
+    # Each such parameter with its null and its fit range, in the fit's coordinate.
+    nulls = [(p, p.to_x(n), p.x_bounds()[1] - p.x_bounds()[0]) for pns in per_effect for p, n in pns]
 
     def within(share: float, values: Mapping[str, float]) -> bool:
-        def near(p: Param, null: float) -> bool:
-            lo, hi = p.x_bounds()
-            return abs(p.to_x(values[p.name]) - p.to_x(null)) <= share * (hi - lo)
-        return all(near(p, null) for p, null in nulls)
+        return all(abs(p.to_x(values[p.name]) - x_null) <= share * span for p, x_null, span in nulls)
 
     def stop(values: Mapping[str, float], trial_rss: float) -> bool:
         return (trial_rss >= rss and within(AT_NULL, values)) or (trial_rss >= FAR_WORSE * rss and within(NEAR_NULL, values))
