@@ -13,6 +13,7 @@ import math
 import os
 import secrets
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -154,6 +155,7 @@ def test_oil_compliances_screening_fit_on_data_without_it_stops_at_its_null(seed
     assert off <= dg.AT_NULL or (off <= dg.NEAR_NULL and c.result.rss >= dg.FAR_WORSE * current.rss), \
         f"seed={seed}: {c.result.values}, {c.result.rss / current.rss:.3g} x the model's residual"
     assert c.result.rss > current.rss and c.delta_bic < 0, f"seed={seed}"
+    assert c.result.stopped and c.stopped_at_null, f"seed={seed}"
     # Without the stop the same fit runs on along the bound and ends no
     # better than the model it extends either.
     runs.clear()
@@ -200,7 +202,27 @@ def test_a_stiff_oil_inside_the_far_tests_reach_is_still_found(seed: int, monkey
     found = dg._try(current.datasets, current, SEED_MODEL, ("oil_compliance",))
     context = f"seed={seed}: truth {modulus:.4g} Pa, fitted {found.result.values[p.name]:.4g}, {found.result.message}"
     assert abs(found.result.values[p.name] / modulus - 1.0) < 0.01 and found.result.rms_ratio < 1.1, context
-    assert found.delta_bic > dg.BIC_STRONG, context
+    assert found.delta_bic > dg.BIC_STRONG and not found.stopped_at_null, context
     monkeypatch.setattr(dg, "FAR_WORSE", math.inf)
     without = dg._try(current.datasets, current, SEED_MODEL, ("oil_compliance",))
     assert without.result.values == found.result.values, context
+
+
+def test_a_candidate_stopped_at_its_null_says_so_in_the_json_and_the_report(seed: int, tmp_path: Path) -> None:
+    # Its BIC change is where its screening fit was ended, not an optimum:
+    # a reader of the candidates' table or of --json must not take oil
+    # compliance's stopped walk (hundreds of times the model's residual)
+    # for the best it could do.
+    from hpctl.data.output import OutputDir
+    from hpctl.report.calibration import diagnosis_report
+
+    datasets, _ = complete_model_data(seed)
+    d = dg.diagnose([x.record for x in datasets], SEED_MODEL, candidates=("oil_compliance",), max_rounds=1)
+    (oil,) = d.rounds[0].candidates
+    assert oil.stopped_at_null and oil.delta_bic < 0 and d.found == [], f"seed={seed}: {oil.result.message}, {d.found}"
+    (row,) = dg.summary(d)["candidates_last_round"]
+    assert row["effect"] == "oil_compliance" and row["stopped_at_null"] is True
+    with OutputDir(tmp_path, "diagnose") as out:
+        report = diagnosis_report(d, out)
+    text = (tmp_path / report.name).read_text(encoding="utf-8")
+    assert f"| `oil_compliance` | 1 | {oil.delta_bic:.1f} (*stopped*) |" in text, text

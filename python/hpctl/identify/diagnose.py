@@ -443,6 +443,14 @@ class Candidate:
         return self.delta_bic / max(1, sum(len(LIBRARY[e].params) for e in self.effects))
 
     @property
+    def stopped_at_null(self) -> bool:
+        """Its screening fit was ended heading for its effect's null, no
+        better than the model it extends (:func:`at_null_and_no_better`):
+        :attr:`delta_bic` is where it stopped, not its optimum's (which is
+        no better than the model's either, the test's premise)."""
+        return self.result.stopped
+
+    @property
     def null_z(self) -> dict[str, float]:
         """Per effect added, how far its parameters are from where the
         effect does nothing (:attr:`hpctl.model.effects.Param.null`), in
@@ -673,7 +681,8 @@ def _try_all(
         clock.fit_wall_s += now - start
         start = now
         clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
-        clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}",
+        clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
+                   + (" (stopped heading for its null, no better)" if c.stopped_at_null else ""),
                    len(adds) - done - clock.credit + clock.ACCEPT_FITS)
         if ahead is not None and done < len(adds) and len(began) == len(adds):
             best = max((x for x in out if x is not None), key=lambda x: x.score)
@@ -1252,7 +1261,7 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "candidates_last_round": [
             {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score,
              "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic, "screened_by": c.screened_by,
-             "broyden_delta_bic": c.broyden_delta_bic}
+             "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null}
             for c in (diag.rounds[-1].candidates if diag.rounds else [])
         ],
     }

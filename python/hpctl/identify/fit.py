@@ -274,6 +274,11 @@ class FitResult:
     #: fitted without errors). A step far from zero says the places are
     #: not at the joint optimum with the parameters (:func:`_place_step`).
     place_step: FloatArray | None = field(default=None, repr=False)
+    #: The fit was ended by its caller's ``stop`` test (:func:`fit`), not
+    #: at an optimum or its budget: its values and residual are where the
+    #: test held (a screening fit toward its effect's null, no better than
+    #: the model it extends: :func:`hpctl.identify.diagnose.at_null_and_no_better`).
+    stopped: bool = False
 
     @property
     def place_step_max(self) -> float | None:
@@ -682,7 +687,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             if float(other.cost) < float(sol.cost):
                 sol, started = other, started + "; ended lower from scratch (every parameter at its own start, the damper at the static fit's)"
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
-        if sol.status == -2:
+        stopped = sol.status == -2
+        if stopped:
             # scipy's own message for a callback's StopIteration says nothing of why.
             message = "stopped by the caller's test (stop)"
         message += started
@@ -724,7 +730,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             # the estimate by: the errors need the sensitivities themselves.
             jmat = fd_jac(x)
     else:
-        x, success, message, jmat = x0, True, "nothing to fit", np.zeros((0, 0))
+        x, success, message, jmat, stopped = x0, True, "nothing to fit", np.zeros((0, 0)), False
     values = model.with_fixed(values_from_x(params, x))
     key = x.tobytes()
     sims = next((v for k, v in runs.values() if k == key), None) or simulate_all(model, datasets, [values])[0]
@@ -732,7 +738,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     r = residual_vector(datasets, sims, fold)
     n_data = len(r)
     if not errors:
-        return FitResult(model, values, {}, float(r @ r), n_data, _stats(datasets, sims), sims, list(datasets), success, message)
+        return FitResult(model, values, {}, float(r @ r), n_data, _stats(datasets, sims), sims, list(datasets), success, message, stopped=stopped)
     draws = _input_noise_residuals(model, datasets, values, r, fold) if params and input_noise else None
     if draws is not None and draws.shape[1]:
         # The input noise's mean effect (second order in it: the model's
@@ -773,7 +779,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         place_step = _place_step(x, lo, hi, jmat[:n_data], jmat[n_data:], r, prior_rows(x) if prior else np.zeros(0), places,
                                  np.concatenate([d.switch_leads for d in datasets]))
     return FitResult(model, values, standard_errors(params, cov), rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message, cov,
-                     place_step)
+                     place_step, stopped)
 
 
 #: A flexible fit with friction whose Stribeck velocity ends below this

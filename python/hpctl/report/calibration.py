@@ -314,13 +314,16 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
             continue
         lines += ["", f"### Candidates tried at step {k}", "",
                   "Screening fits; on long records the flexible model's rank the candidates with Broyden's Jacobian updates, and a "
-                  "candidate weighed for acceptance is screened again with finite differences (its Broyden gain in brackets).", "",
+                  "candidate weighed for acceptance is screened again with finite differences (its Broyden gain in brackets). "
+                  "A gain marked *stopped* is where its screening fit was ended heading for the effect's null, no better than the "
+                  "model it extends: not an optimum.", "",
                   "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | "
                   "residual RMS / noise | screening Jacobian |",
                   "|---|---|---|---|---|---|---|"]
         for c in rnd.candidates:
             jac = c.screened_by.replace("_", " ") + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f})")
-            lines.append(f"| `{c.effect}` | {c.added_params} | {c.delta_bic:.1f} | {c.score:.1f} | {100 * c.explained:.1f} % | "
+            gain = f"{c.delta_bic:.1f}" + (" (*stopped*)" if c.stopped_at_null else "")
+            lines.append(f"| `{c.effect}` | {c.added_params} | {gain} | {c.score:.1f} | {100 * c.explained:.1f} % | "
                          f"{c.result.rms_ratio:.3g} | {jac} |")
     lines += ["", "## Final parameters", "", *params_table(final), "",
               "## Error before and after", "",
