@@ -11,6 +11,7 @@ import re
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -22,7 +23,7 @@ from hpctl.identify.diagnose import diagnose, summary
 from hpctl.model.effects import LIBRARY
 
 ROUND_START_LINE = re.compile(r"^round 1/1: candidates 1-\d+ of \d+ started \(.*\); about ((?:\d+ min )?\d+) s left in this round$")
-CANDIDATE_LINE = re.compile(r"^round 1/1: candidate (\d+)/(\d+) \((\w+)\) fitted, BIC change \S+; about ((?:\d+ min )?\d+) s left in this round$")
+CANDIDATE_LINE = re.compile(r"^round 1/1: candidate (\d+)/(\d+) \((\w+)\) fitted, BIC change \S+(?: \(stopped heading for its null, no better\))?; about ((?:\d+ min )?\d+) s left in this round$")
 
 
 def seconds(said: str) -> int:
@@ -130,7 +131,7 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     # half the fits are left): the fits still to come are the long ones.
     def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...]) -> Any:
         time.sleep(durations_s[effects_.index(add[0])])
-        return diagnose_module.Candidate(effects=add, added_params=1, result=None, delta_bic=0.0)  # type: ignore[arg-type]
+        return diagnose_module.Candidate(effects=add, added_params=1, result=SimpleNamespace(stopped=False), delta_bic=0.0)  # type: ignore[arg-type]
 
     effects_ = list(LIBRARY)[1:1 + len(durations_s)]  # eight names the candidates' lines can carry
 
@@ -179,14 +180,13 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
     # (a timeout there is the failure), and the sensor offset's finishes
     # at once with a gain _accept would refuse (no speculation on it).
     import threading
-    from types import SimpleNamespace
 
     began = threading.Event()
     leak_started = threading.Event()  # so that every fit has started when the others finish
     calls: list[tuple[tuple[str, ...], str | None]] = []
 
     def candidate(add: tuple[str, ...], delta_bic: float, explained: float, how: str) -> Any:
-        result = SimpleNamespace(model=SimpleNamespace(flexible=True))
+        result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=False)
         return diagnose_module.Candidate(add, 1, result, delta_bic, explained, screened_by=how)  # type: ignore[arg-type]
 
     def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None) -> Any:
