@@ -52,6 +52,12 @@ def test_diagnose_finds_the_leak_and_reports_it(leaky_rig: Path, tmp_path: Path)
     assert step["params"]["leak_time_constant_s"] == pytest.approx(40000, rel=0.1)
     assert step["rms_ratio_after"] < 1.1 < step["rms_ratio_before"]
     assert s["error_after"]["rms_ratio"] < s["error_before"]["rms_ratio"]
+    # Every round's candidates: the leak among the first's with the gain it
+    # was accepted on; the round that found the rest at the noise tried
+    # nothing, and it is the last.
+    (leak,) = [c for c in s["candidates_by_round"][0] if c["effect"] == "leakage"]
+    assert leak["delta_bic"] == step["delta_bic"] and leak["stopped_at_null"] is False
+    assert len(s["candidates_by_round"]) == 2 and s["candidates_by_round"][1] == s["candidates_last_round"] == []
     report = (tmp_path / "report.md").read_text()
     assert "`leakage`" in report and "Error before and after" in report
     # Who wrote it: the version and the exact command, in the JSON and the report.

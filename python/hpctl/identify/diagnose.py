@@ -1258,10 +1258,16 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
         "error_before": err(diag.initial),
         "error_after": err(diag.final),
         "loop_area_by_frequency": [vars(a) for a in loop_areas(diag.final)],
-        "candidates_last_round": [
-            {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score,
-             "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic, "screened_by": c.screened_by,
-             "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null}
-            for c in (diag.rounds[-1].candidates if diag.rounds else [])
-        ],
+        "candidates_last_round": [_candidate_json(c) for c in (diag.rounds[-1].candidates if diag.rounds else [])],
+        # Every round's, in order: a diagnosis that reaches the noise ends
+        # with a round that tries nothing, so the last round's list is then
+        # empty and the candidates that were weighed are here.
+        "candidates_by_round": [[_candidate_json(c) for c in rnd.candidates] for rnd in diag.rounds],
     }
+
+
+def _candidate_json(c: Candidate) -> dict[str, Any]:
+    """One screened candidate, machine-readable (:func:`summary`)."""
+    return {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score,
+            "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic, "screened_by": c.screened_by,
+            "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null}
