@@ -95,14 +95,6 @@ LOSS_SCALE = 3.0
 STARTS = ((1.0, 1.0), (30.0, 0.5), (30.0, 2.0))
 #: Evaluations per start (each costs a few milliseconds).
 MAX_NFEV = 200
-#: A start ends where one step gains less than this share of its cost.
-#: The starts crawl: with SciPy's 1e-8 every start of the bundled campaign
-#: (``scripts/bench_diagnose.py``) ran its 200 evaluations, and the best
-#: cost of the three (~2,330, half a chi-square over ~8,000 samples) fell
-#: by 0.26 after the first 73 with friction, by 1.1 after the first 52
-#: without (0.01 % and 0.04 % of it, where the dynamic fit started from it
-#: goes on anyway): 9.0 -> 3.6 s and 4.7 -> 1.3 s a static fit.
-FTOL = 1e-5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -379,7 +371,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 sol = least_squares(residual, x0, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=LOSS_SCALE, x_scale="jac",
-                                    jac_sparsity=sparsity, max_nfev=MAX_NFEV, ftol=FTOL)
+                                    jac_sparsity=sparsity, max_nfev=MAX_NFEV)
         except (ValueError, _core.HpctlError):
             continue
         if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
