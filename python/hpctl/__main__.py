@@ -2,4 +2,7 @@
 
 from hpctl.cli import main
 
-main()
+# Guarded: a worker process the diagnosis starts (spawn) imports the main
+# module, as __mp_main__; it must not run the command again.
+if __name__ == "__main__":
+    main()

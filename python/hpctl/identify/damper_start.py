@@ -45,6 +45,7 @@ import dataclasses
 import threading
 import warnings
 from collections.abc import Sequence
+from concurrent.futures import Executor, Future
 
 import numpy as np
 from numpy.typing import NDArray
@@ -54,8 +55,9 @@ from scipy.signal import savgol_coeffs, savgol_filter
 from hpctl import _core
 from hpctl.identify.dataset import Dataset
 from hpctl.identify.signals import filter_bends, within_reach
+from hpctl.identify.workers import WorkerPool
 from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
-from hpctl.model.unit import STANDARD_GRAVITY_M_S2
+from hpctl.model.unit import STANDARD_GRAVITY_M_S2, Damper
 
 FloatArray = NDArray[np.float64]
 
@@ -206,8 +208,19 @@ def _second_derivative(x: FloatArray, dt: float, window: int, order: int) -> tup
 
 #: Static fits kept for the fits that ask again (:func:`static_damper_values`).
 CACHE_SIZE = 16
-_cache: collections.OrderedDict[tuple[object, ...], tuple[tuple[Dataset, ...], dict[str, float]]] = collections.OrderedDict()
+_cache: collections.OrderedDict[tuple[object, ...], tuple[tuple[Dataset, ...], Future[dict[str, float]]]] = collections.OrderedDict()
 _cache_lock = threading.Lock()
+
+
+def _key(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str]) -> tuple[object, ...]:
+    # Each record by what the static fit reads of it, by identity: a fit
+    # that places the valve switches or weighs the samples anew replaces
+    # its Dataset by a copy sharing these (dataclasses.replace), which asks
+    # for the same static fit (a diagnosis's candidates fit the records as
+    # the declared model's fit placed their switches).
+    reads = tuple((id(d.record), id(d.base), id(d.targets), id(d.sigma), id(d.damper_on), id(d.strut_vel_m_s), id(d.times_s)) for d in datasets)
+    return (reads, tuple(p.name for p in params if p.name.startswith("damper_") or p.name in (*_STARTED, *_FRICTION_SHAPE)),
+            tuple(e for e in STATIC_TERMS if e in effects))
 
 
 def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
@@ -218,20 +231,102 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     model's fit for the one with the Coulomb force), and it depends only on
     the records, the shape parameters and the shared terms. The records are
     known by identity (a ``Dataset`` is not changed once prepared; the
-    entry holds them, so that no other record takes their ids)."""
-    key = (tuple(id(d) for d in datasets), tuple(p.name for p in params if p.name.startswith("damper_") or p.name in (*_STARTED, *_FRICTION_SHAPE)),
-           tuple(e for e in STATIC_TERMS if e in effects))
+    entry holds them, so that no other record takes their ids). A fit
+    asked for while another thread computes it, or started in worker
+    processes by :func:`prefetch_static`, is waited for, not computed
+    twice; one whose workers failed is computed here."""
+    key = _key(datasets, params, effects)
     with _cache_lock:
         hit = _cache.get(key)
         if hit is not None:
             _cache.move_to_end(key)
-            return dict(hit[1])
-    found = fit_static_damper(datasets, params, effects)
+            pending, mine = hit[1], False
+        else:
+            pending, mine = Future(), True
+            _keep(key, datasets, pending)
+    if mine:
+        try:
+            pending.set_result(fit_static_damper(datasets, params, effects))
+        except BaseException as e:
+            pending.set_exception(e)
+            _forget(key, pending)
+            raise
+    try:
+        return dict(pending.result())
+    except Exception:
+        if mine:
+            raise
+        # A prefetch whose worker processes failed (their pool broken or
+        # shut down): the same fit here.
+        _forget(key, pending)
+        return static_damper_values(datasets, params, effects)
+
+
+def _keep(key: tuple[object, ...], datasets: Sequence[Dataset], pending: Future[dict[str, float]]) -> None:
+    # Under _cache_lock.
+    _cache[key] = (tuple(datasets), pending)
+    while len(_cache) > CACHE_SIZE:
+        _cache.popitem(last=False)
+
+
+def _forget(key: tuple[object, ...], pending: Future[dict[str, float]]) -> None:
     with _cache_lock:
-        _cache[key] = (tuple(datasets), found)
-        while len(_cache) > CACHE_SIZE:
-            _cache.popitem(last=False)
-    return dict(found)
+        if key in _cache and _cache[key][1] is pending:
+            del _cache[key]
+
+
+def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str], pool: Executor) -> None:
+    """Starts :func:`static_damper_values`'s fit in ``pool`` (a process
+    pool: :func:`static_pool`), one start a task, unless it is kept or
+    under way; the first fit that asks for it waits for it there.
+
+    Why processes: the static fit is SciPy's trust region on a few thousand
+    samples, Python holding the GIL for most of its time. Beside a
+    diagnosis's candidates in threads it took 38 s instead of 9 (the bundled
+    campaign's friction, scripts/bench_diagnose.py), and with its results
+    given (cached before) that diagnosis took 65.7 s instead of 81.0
+    (BENCHMARKS.md, stop 53). In a worker process it takes a core's time
+    without the GIL, and its three starts run side by side. The worker
+    computes what this process would (the same code and inputs, BLAS on one
+    thread in both: :mod:`hpctl.identify.workers`)."""
+    key = _key(datasets, params, effects)
+    with _cache_lock:
+        if key in _cache:
+            return
+        pending: Future[dict[str, float]] = Future()
+        _keep(key, datasets, pending)
+    try:
+        problem = static_problem(datasets, params, effects)
+        if problem is None:
+            pending.set_result({})
+            return
+        parts = [pool.submit(solve_start, problem, k) for k in range(len(problem.starts))]
+    except BaseException as e:  # a broken or shut-down pool: the caller's fit computes it
+        pending.set_exception(e)
+        return
+    left = [len(parts)]
+    lock = threading.Lock()
+
+    def done(_part: Future[tuple[FloatArray, float] | None]) -> None:
+        with lock:
+            left[0] -= 1
+            if left[0]:
+                return
+        try:
+            pending.set_result(static_values(problem, params, [p.result() for p in parts]))
+        except BaseException as e:
+            pending.set_exception(e)
+
+    for p in parts:
+        p.add_done_callback(done)
+
+
+def static_pool(workers: int) -> WorkerPool:
+    """A pool of ``workers`` processes for :func:`prefetch_static`
+    (:mod:`hpctl.identify.workers`: they never import the caller's
+    script). A worker that cannot start fails its tasks, and the fits that
+    asked for them are computed in the caller's process, as without it."""
+    return WorkerPool(workers)
 
 
 #: The model's parameters the static fit also starts (its shared terms),
@@ -239,6 +334,183 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
 #: ratio and velocity, the smoothing velocity).
 _STARTED = ("friction_coulomb_n", "sensor_force_offset_n")
 _FRICTION_SHAPE = ("friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s")
+
+
+@dataclasses.dataclass(frozen=True)
+class StaticProblem:
+    """One static fit as its starts need it (:func:`fit_static_damper`),
+    picklable: a worker process solves a start (:func:`solve_start`).
+    ``x`` is the fit's vector: the branches' shape parameters (in the fit's
+    coordinates), the shared constants (N), the friction's shape."""
+
+    nominal: Damper
+    branches: tuple[str, ...]
+    samples: tuple[_Samples, ...]
+    shape: tuple[Param, ...]
+    constants: tuple[str, ...]
+    friction_shape: tuple[Param, ...]
+    lo: FloatArray
+    hi: FloatArray
+    prior: tuple[tuple[int, float, float], ...]
+    smoothing_m_s: float
+    sparsity: NDArray[np.bool_]
+    starts: tuple[FloatArray, ...] = ()
+
+
+class _Static:
+    """A :class:`StaticProblem`'s residual, in noise units."""
+
+    def __init__(self, problem: StaticProblem) -> None:
+        self.p = problem
+        self.n_shape = len(problem.shape)
+        self.n_fixed = self.n_shape + len(problem.constants)
+        self.speeds = [s.q_m3_s / s.area_m2 for s in problem.samples]
+        # The branches' flows by valve 5's state, each state's in one call of
+        # the core: a call reads the whole damper and picks each sample's branch
+        # by its flow's sign, so one call per state gives every branch's drop
+        # (the same per sample) for half the calls' overhead.
+        samples = problem.samples
+        self.by_state = [(bypass, ks, np.concatenate([samples[k].q_m3_s for k in ks]), np.cumsum([len(samples[k].q_m3_s) for k in ks])[:-1])
+                         for bypass, ks in ((0.0, [k for k, b in enumerate(problem.branches) if b.startswith("on_")]),
+                                            (1.0, [k for k, b in enumerate(problem.branches) if not b.startswith("on_")])) if ks]
+
+    def columns(self, x: FloatArray) -> list[FloatArray]:
+        # hp-core's friction law (`Friction::force_n`) per newton of Coulomb
+        # force, written out here: through `_core.friction_force_n` the
+        # static fit's values move in their last bits, and those of a fit
+        # started from them by 6e-5 in the residual after one step (the
+        # shape parameters these records leave unidentified follow the
+        # rounding: tests/test_fit_output_only.py).
+        p = self.p
+        level, smooth = [np.ones(len(v)) for v in self.speeds], p.smoothing_m_s
+        if p.friction_shape:
+            ratio, velocity_m_s, smooth = (q.from_x(float(xi)) for q, xi in zip(p.friction_shape, x[self.n_fixed:]))
+            level = [1.0 + (ratio - 1.0) * np.exp(-((v / velocity_m_s) ** 2)) for v in self.speeds]
+        return [np.array([s.transducer if c == "offset" else lv * np.tanh(v / smooth) for c in p.constants])
+                .reshape(len(p.constants), len(v)).T for v, lv, s in zip(self.speeds, level, p.samples)]
+
+    def residual(self, x: FloatArray) -> FloatArray:
+        p = self.p
+        values = {q.name: q.from_x(float(xi)) for q, xi in zip(p.shape, x[:self.n_shape])}
+        damper = shaped_damper(p.nominal, values).to_dict()
+        drops: list[FloatArray] = [np.empty(0)] * len(p.samples)
+        for bypass, ks, q, cuts in self.by_state:
+            for k, dp in zip(ks, np.split(_core.damper_pressure_drop_pa(damper, q, bypass), cuts)):
+                drops[k] = dp
+        rows = []
+        for s, cols, dp in zip(p.samples, self.columns(x), drops):
+            force = s.area_m2 * dp + cols @ x[self.n_shape:self.n_fixed]
+            rows.append((force - s.force_n) / s.sigma_n)
+        return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in p.prior])])
+
+
+def static_problem(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> StaticProblem | None:
+    """:func:`fit_static_damper`'s problem and its starts; None where the
+    records exercise no branch of ``params`` at speed."""
+    if not datasets:
+        return None
+    found = [(b, mine, s) for b in DAMPER_BRANCHES
+             if (mine := [p for p in params if p.name.startswith(f"damper_{b}_")]) and (s := _branch_samples(datasets, b)) is not None]
+    if not found:
+        return None
+    shape = [p for _, mine, _ in found for p in mine]
+    # The shared terms, a column each per branch: 1 for the offset, the
+    # model's friction per newton of Coulomb force.
+    constants = [c for e, c in STATIC_TERMS.items() if e in effects]
+    n_shape, n_fixed = len(shape), len(shape) + len(constants)
+    # The friction's shape where the model has one to start: the Stribeck
+    # peak's ratio and velocity and the smoothing shape the Coulomb column
+    # (hp-core's `Friction`). Without them the Coulomb force alone split
+    # the peak's excess at the slow samples from the kinetic level at
+    # speed, and the curves made up the rest (foreign friction case, seed
+    # 345813898: a peak of 1.35 x 1,063 N decaying over 8 mm/s; the bypass
+    # branches 5.1 x the noise off the truth, 0.13-0.17 x with the shape;
+    # with the peak but the smoothing fixed, 1.6 x, and the peak took up
+    # the smoothings' difference: ratios of 1.5-3 at 2 mm/s).
+    friction_shape = [p for name in _FRICTION_SHAPE for p in params if p.name == name] if "coulomb" in constants else []
+    if len(friction_shape) != len(_FRICTION_SHAPE):
+        friction_shape = []
+    fitted = [*shape, *friction_shape]
+    lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants]
+                  + [p.x_bounds()[0] for p in friction_shape])
+    hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants) + [p.x_bounds()[1] for p in friction_shape])
+    index = [*range(n_shape), *range(n_fixed, n_fixed + len(friction_shape))]
+    prior = tuple((i, p.to_x(p.typical), p.prior_sigma) for i, p in zip(index, fitted) if p.prior_sigma is not None)
+    smoothing_m_s = next((p.initial for p in params if p.name == "friction_smoothing_velocity_m_s"), FRICTION_SMOOTHING_VELOCITY_M_S)
+
+    # Which residual rows each parameter moves: a branch's shape its own
+    # samples (and its prior row), the constants every sample. Finite
+    # differences then perturb the branches' columns together.
+    sizes = [len(s.q_m3_s) for _, _, s in found]
+    edges = np.concatenate([[0], np.cumsum(sizes)])
+    sparsity = np.zeros((int(edges[-1]) + len(prior), len(lo)), bool)
+    first = 0
+    for k, (_, mine, _) in enumerate(found):
+        sparsity[edges[k]:edges[k + 1], first:first + len(mine)] = True
+        first += len(mine)
+    sparsity[:edges[-1], n_shape:] = True
+    for row, (i, _, _) in enumerate(prior):
+        sparsity[edges[-1] + row, i] = True
+    problem = StaticProblem(datasets[0].base.damper, tuple(b for b, _, _ in found), tuple(s for _, _, s in found), tuple(shape), tuple(constants),
+                            tuple(friction_shape), lo, hi, prior, smoothing_m_s, sparsity)
+
+    # The constants start from the slowest samples, where the damper's
+    # force is small beside the friction's: started at zero, the curves
+    # took the friction up as a blow-off at no flow and kept it (foreign
+    # friction case, seed 7: 0 N Coulomb against the truth's 883 N).
+    # The friction's shape starts where the model starts it.
+    friction_x0 = [p.to_x(p.initial) for p in friction_shape]
+    c0 = np.zeros(len(constants))
+    if constants:
+        slow = [(abs(s.q_m3_s / s.area_m2) <= SLOW_SPEED_M_S) for _, _, s in found]
+        a = np.concatenate([cols[m] for cols, m in zip(_Static(problem).columns(np.array([0.0] * n_fixed + friction_x0)), slow)])
+        if len(a) >= MIN_SLOW_SAMPLES:
+            y = np.concatenate([s.force_n[m] for (_, _, s), m in zip(found, slow)])
+            c0 = np.linalg.lstsq(a, y, rcond=None)[0]
+            c0 = np.maximum(c0, lo[n_shape:n_fixed])
+    starts = []
+    for orifice, blowoff in STARTS:
+        start = {p.name: orifice if p.name.endswith("_orifice_scale") else blowoff if p.name.endswith("_blowoff_scale") else p.initial
+                 for p in shape}
+        starts.append(np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0) + friction_x0))
+    return dataclasses.replace(problem, starts=tuple(starts))
+
+
+def solve_start(problem: StaticProblem, k: int) -> tuple[FloatArray, float] | None:
+    """The static fit from ``problem``'s start ``k``: where it ends and its
+    cost, or None where the curve cannot be evaluated there (or it ends
+    off the finite numbers)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sol = least_squares(_Static(problem).residual, problem.starts[k], bounds=(problem.lo, problem.hi), method="trf", loss="soft_l1",
+                                f_scale=LOSS_SCALE, x_scale="jac", jac_sparsity=problem.sparsity, max_nfev=MAX_NFEV)
+    except (ValueError, _core.HpctlError):
+        return None
+    return (sol.x, float(sol.cost)) if np.all(np.isfinite(sol.x)) else None
+
+
+def static_values(problem: StaticProblem, params: Sequence[Param], ends: Sequence[tuple[FloatArray, float] | None]) -> dict[str, float]:
+    """The model's starts from the best of ``ends`` (:func:`solve_start`'s,
+    one per start; the first of equal costs), empty where none ended."""
+    best: tuple[FloatArray, float] | None = None
+    for end in ends:
+        if end is not None and (best is None or end[1] < best[1]):
+            best = end
+    if best is None:
+        return {}
+    x = best[0]
+    n_shape = len(problem.shape)
+    out = {p.name: p.from_x(float(xi)) for p, xi in zip(problem.shape, x[:n_shape])}
+    # The shared terms as the model's parameters' starts: the Coulomb force;
+    # the offset as the force transducer's (the pressure transducer's part,
+    # A p_off, is the fit's to separate: the pressure channels show it).
+    for name, c in zip(_STARTED, ("coulomb", "offset")):
+        p = next((p for p in params if p.name == name), None)
+        if p is not None and c in problem.constants:
+            out[name] = min(max(float(x[n_shape + problem.constants.index(c)]), p.lower), p.upper)
+    out.update({p.name: p.from_x(float(xi)) for p, xi in zip(problem.friction_shape, x[n_shape + len(problem.constants):])})
+    return out
 
 
 def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> dict[str, float]:
@@ -266,125 +538,7 @@ def fit_static_damper(datasets: Sequence[Dataset], params: Sequence[Param], effe
     ``sensor_force_offset_n`` (the whole offset taken as the force
     transducer's). The first dataset's template curve is the nominal one the
     multipliers scale (every dataset of a fit shares it)."""
-    if not datasets:
+    problem = static_problem(datasets, params, effects)
+    if problem is None:
         return {}
-    nominal = datasets[0].base.damper
-    found = [(b, mine, s) for b in DAMPER_BRANCHES
-             if (mine := [p for p in params if p.name.startswith(f"damper_{b}_")]) and (s := _branch_samples(datasets, b)) is not None]
-    if not found:
-        return {}
-    shape = [p for _, mine, _ in found for p in mine]
-    # The shared terms, a column each per branch: 1 for the offset, the
-    # model's friction per newton of Coulomb force.
-    constants = [c for e, c in STATIC_TERMS.items() if e in effects]
-    n_shape, n_fixed = len(shape), len(shape) + len(constants)
-    # The friction's shape where the model has one to start: the Stribeck
-    # peak's ratio and velocity and the smoothing shape the Coulomb column
-    # (hp-core's `Friction`). Without them the Coulomb force alone split
-    # the peak's excess at the slow samples from the kinetic level at
-    # speed, and the curves made up the rest (foreign friction case, seed
-    # 345813898: a peak of 1.35 x 1,063 N decaying over 8 mm/s; the bypass
-    # branches 5.1 x the noise off the truth, 0.13-0.17 x with the shape;
-    # with the peak but the smoothing fixed, 1.6 x, and the peak took up
-    # the smoothings' difference: ratios of 1.5-3 at 2 mm/s).
-    friction_shape = [p for name in _FRICTION_SHAPE for p in params if p.name == name] if "coulomb" in constants else []
-    if len(friction_shape) != len(_FRICTION_SHAPE):
-        friction_shape = []
-    fitted = [*shape, *friction_shape]
-    lo = np.array([p.x_bounds()[0] for p in shape] + [-np.inf if c == "offset" else 0.0 for c in constants]
-                  + [p.x_bounds()[0] for p in friction_shape])
-    hi = np.array([p.x_bounds()[1] for p in shape] + [np.inf] * len(constants) + [p.x_bounds()[1] for p in friction_shape])
-    index = [*range(n_shape), *range(n_fixed, n_fixed + len(friction_shape))]
-    prior = [(i, p.to_x(p.typical), p.prior_sigma) for i, p in zip(index, fitted) if p.prior_sigma is not None]
-    smoothing_m_s = next((p.initial for p in params if p.name == "friction_smoothing_velocity_m_s"), FRICTION_SMOOTHING_VELOCITY_M_S)
-    speeds = [s.q_m3_s / s.area_m2 for _, _, s in found]
-
-    def columns(x: FloatArray) -> list[FloatArray]:
-        # hp-core's friction law (`Friction::force_n`) per newton of Coulomb
-        # force, written out here: through `_core.friction_force_n` the
-        # static fit's values move in their last bits, and those of a fit
-        # started from them by 6e-5 in the residual after one step (the
-        # shape parameters these records leave unidentified follow the
-        # rounding: tests/test_fit_output_only.py).
-        level, smooth = [np.ones(len(v)) for v in speeds], smoothing_m_s
-        if friction_shape:
-            ratio, velocity_m_s, smooth = (p.from_x(float(xi)) for p, xi in zip(friction_shape, x[n_fixed:]))
-            level = [1.0 + (ratio - 1.0) * np.exp(-((v / velocity_m_s) ** 2)) for v in speeds]
-        return [np.array([s.transducer if c == "offset" else lv * np.tanh(v / smooth) for c in constants])
-                .reshape(len(constants), len(v)).T for v, lv, (_, _, s) in zip(speeds, level, found)]
-
-    # The branches' flows by valve 5's state, each state's in one call of
-    # the core: a call reads the whole damper and picks each sample's branch
-    # by its flow's sign, so one call per state gives every branch's drop
-    # (the same per sample) for half the calls' overhead.
-    by_state = [(bypass, ks, np.concatenate([found[k][2].q_m3_s for k in ks]), np.cumsum([len(found[k][2].q_m3_s) for k in ks])[:-1])
-                for bypass, ks in ((0.0, [k for k, f in enumerate(found) if f[0].startswith("on_")]),
-                                   (1.0, [k for k, f in enumerate(found) if not f[0].startswith("on_")])) if ks]
-
-    def residual(x: FloatArray) -> FloatArray:
-        values = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, x[:n_shape])}
-        damper = shaped_damper(nominal, values).to_dict()
-        drops: list[FloatArray] = [np.empty(0)] * len(found)
-        for bypass, ks, q, cuts in by_state:
-            for k, dp in zip(ks, np.split(_core.damper_pressure_drop_pa(damper, q, bypass), cuts)):
-                drops[k] = dp
-        rows = []
-        for (_, _, s), cols, dp in zip(found, columns(x), drops):
-            force = s.area_m2 * dp + cols @ x[n_shape:n_fixed]
-            rows.append((force - s.force_n) / s.sigma_n)
-        return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in prior])])
-
-    # Which residual rows each parameter moves: a branch's shape its own
-    # samples (and its prior row), the constants every sample. Finite
-    # differences then perturb the branches' columns together.
-    sizes = [len(s.q_m3_s) for _, _, s in found]
-    edges = np.concatenate([[0], np.cumsum(sizes)])
-    sparsity = np.zeros((int(edges[-1]) + len(prior), len(lo)), bool)
-    first = 0
-    for k, (_, mine, _) in enumerate(found):
-        sparsity[edges[k]:edges[k + 1], first:first + len(mine)] = True
-        first += len(mine)
-    sparsity[:edges[-1], n_shape:] = True
-    for row, (i, _, _) in enumerate(prior):
-        sparsity[edges[-1] + row, i] = True
-
-    # The constants start from the slowest samples, where the damper's
-    # force is small beside the friction's: started at zero, the curves
-    # took the friction up as a blow-off at no flow and kept it (foreign
-    # friction case, seed 7: 0 N Coulomb against the truth's 883 N).
-    # The friction's shape starts where the model starts it.
-    friction_x0 = [p.to_x(p.initial) for p in friction_shape]
-    c0 = np.zeros(len(constants))
-    if constants:
-        slow = [(abs(s.q_m3_s / s.area_m2) <= SLOW_SPEED_M_S) for _, _, s in found]
-        a = np.concatenate([cols[m] for cols, m in zip(columns(np.array([0.0] * n_fixed + friction_x0)), slow)])
-        if len(a) >= MIN_SLOW_SAMPLES:
-            y = np.concatenate([s.force_n[m] for (_, _, s), m in zip(found, slow)])
-            c0 = np.linalg.lstsq(a, y, rcond=None)[0]
-            c0 = np.maximum(c0, lo[n_shape:n_fixed])
-    best = None
-    for orifice, blowoff in STARTS:
-        start = {p.name: orifice if p.name.endswith("_orifice_scale") else blowoff if p.name.endswith("_blowoff_scale") else p.initial
-                 for p in shape}
-        x0 = np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0) + friction_x0)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                sol = least_squares(residual, x0, bounds=(lo, hi), method="trf", loss="soft_l1", f_scale=LOSS_SCALE, x_scale="jac",
-                                    jac_sparsity=sparsity, max_nfev=MAX_NFEV)
-        except (ValueError, _core.HpctlError):
-            continue
-        if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
-            best = sol
-    if best is None:
-        return {}
-    out = {p.name: p.from_x(float(xi)) for p, xi in zip(shape, best.x[:n_shape])}
-    # The shared terms as the model's parameters' starts: the Coulomb force;
-    # the offset as the force transducer's (the pressure transducer's part,
-    # A p_off, is the fit's to separate: the pressure channels show it).
-    for name, c in zip(_STARTED, ("coulomb", "offset")):
-        p = next((p for p in params if p.name == name), None)
-        if p is not None and c in constants:
-            out[name] = min(max(float(best.x[n_shape + constants.index(c)]), p.lower), p.upper)
-    out.update({p.name: p.from_x(float(xi)) for p, xi in zip(friction_shape, best.x[n_fixed:])})
-    return out
+    return static_values(problem, params, [solve_start(problem, k) for k in range(len(problem.starts))])

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
 from hpctl.identify.blas import one_blas_thread
+from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STARTS, prefetch_static, static_pool
 from hpctl.identify.dataset import (
     DAMPER_WORKING_SPEED_M_S,
     Dataset,
@@ -36,7 +37,7 @@ from hpctl.identify.dataset import (
     uses_damper,
 )
 from hpctl.identify.derived import derived
-from hpctl.identify.fit import FitResult, at_own_noise, fit, residual_vector, rss_at
+from hpctl.identify.fit import FitResult, at_own_noise, fit, model_for, residual_vector, rss_at
 from hpctl.identify.signals import RateNoise, derivative, rate_noise
 from hpctl.identify.switching import places
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, flexible_params
@@ -1068,26 +1069,36 @@ def diagnose(
     clock = _Clock(progress or (lambda _m: None), max_rounds)
     n_workers = workers or default_workers()
     pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
+    # The flexible model's static damper fits in processes of their own
+    # (hpctl.identify.damper_start.prefetch_static says why).
+    statics = static_pool(min(len(STARTS), os.cpu_count() or 1)) if flexible else None
     try:
         # Held for the whole diagnosis, not only while a fit runs: see hpctl.identify.blas.
         with one_blas_thread():
-            return _diagnose(records, start_effects, candidates, max_rounds, clock, pool, flexible)
+            return _diagnose(records, start_effects, candidates, max_rounds, clock, pool, flexible, statics)
     except BaseException:
         # Ctrl-C or an error: the fits not started yet are dropped (the
         # ones running finish; a thread cannot be stopped from outside).
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     finally:
+        if statics is not None:
+            # A static fit nobody asked for yet is not waited for.
+            statics.shutdown(wait=False, cancel_futures=True)
         pool.shutdown(wait=True)
 
 
 def _diagnose(
     records: Sequence[RigRecord], start_effects: Sequence[str], candidates: Sequence[str] | None, max_rounds: int, clock: _Clock,
-    pool: Executor, flexible: bool = False,
+    pool: Executor, flexible: bool = False, statics: Executor | None = None,
 ) -> Diagnosis:
     datasets = prepare(records)
     pool_effects = [e for e in (candidates or LIBRARY) if e in LIBRARY]
     effects = tuple(e for e in LIBRARY if e in start_effects)
+    if statics is not None:
+        # The first round's candidates' static fits while the declared
+        # model's is fitted (in this thread) and the model fitted from it.
+        _prefetch_statics(datasets, effects, pool_effects, statics)
     declared = ', '.join(effects) or 'classical polytropic ideal gas'
     clock.say(f"fitting the declared model ({declared}{', the damper characteristic identified' if flexible else ''})")
     t0 = time.perf_counter()
@@ -1117,6 +1128,8 @@ def _diagnose(
             break
         shows = traits(datasets)
         pool_now = [e for e in pool_effects if e not in effects and LIBRARY[e].applies(shows)]
+        if statics is not None:
+            _prefetch_statics(datasets, effects, pool_now, statics)
         # Finite-difference screenings started while the last screening
         # fits ran (_try_all), for _confirmed.
         ahead: dict[tuple[str, ...], Future[Candidate]] = {}
@@ -1172,6 +1185,21 @@ def _diagnose(
     else:
         verdict = "nothing_left"
     return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found, final_judgement)
+
+
+def _prefetch_statics(datasets: Sequence[Dataset], effects: tuple[str, ...], adds: Sequence[str], statics: Executor) -> None:
+    """Starts in ``statics`` the static damper fits the flexible screening
+    fits adding each of ``adds`` to ``effects`` will ask for
+    (:func:`hpctl.identify.fit.fit` asks where the effect is one the damper
+    takes up, :data:`~hpctl.identify.damper_start.ABSORBED_BY_DAMPER`):
+    the same fits, computed beside this process's threads. One already
+    kept or under way is not started again (an effect without shared terms
+    asks for the model's own, which its fit computed)."""
+    shows = traits(datasets)
+    for e in adds:
+        if e in ABSORBED_BY_DAMPER and e not in effects and LIBRARY[e].applies(shows):
+            model = model_for(datasets, effects + (e,), flexible=True)
+            prefetch_static(datasets, model.params, model.effects, statics)
 
 
 def shape_values(result: FitResult) -> dict[str, float]:

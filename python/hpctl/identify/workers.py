@@ -1,0 +1,195 @@
+"""Worker processes of hpctl's own, for Python work that holds the GIL.
+
+A diagnosis runs its candidates' fits in threads: the model's runs release
+the GIL (Rust), SciPy's SVD does. The flexible model's static damper fit
+does not: SciPy's trust region on a few thousand samples is mostly Python.
+Beside the candidates' threads it took 38 s instead of 9, and every thread
+waited for it (:func:`hpctl.identify.damper_start.prefetch_static`). In a
+process of its own it takes a core's time and nothing else.
+
+Why not :class:`concurrent.futures.ProcessPoolExecutor`: its workers
+(``spawn`` or ``forkserver``; ``fork`` copies a process whose other threads
+hold locks) import the caller's main module again. A script that calls the
+diagnosis without an ``if __name__ == "__main__"`` guard then ran its
+whole self again in every worker (measured: the bundled campaign's
+diagnosis three times at once, 221 s instead of 81), writing whatever
+that script writes. These workers are ``python -m hpctl.identify.workers``:
+they import hpctl and what the tasks name, never the caller's script.
+
+A task is a picklable function and its arguments (pickles between this
+process and its own children only). A worker that fails (it cannot start,
+cannot import hpctl, dies) fails its task with :class:`WorkerError`; the
+caller then computes it itself. Workers ignore Ctrl-C (the caller's
+process decides) and end when their input closes: when the pool shuts
+down, or the caller's process ends however it ends.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import queue
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Callable
+from concurrent.futures import Executor, Future
+from pathlib import Path
+from typing import IO, Any, ParamSpec, TypeVar
+
+P = ParamSpec("P")
+T = TypeVar("T")
+
+
+class WorkerError(RuntimeError):
+    """A worker process failed (not the task's own exception)."""
+
+
+class WorkerPool(Executor):
+    """``workers`` processes, each started when a task first needs it."""
+
+    def __init__(self, workers: int) -> None:
+        if workers < 1:
+            raise ValueError(f"workers must be at least 1, got {workers}")
+        self._tasks: queue.SimpleQueue[tuple[Future[Any], bytes] | None] = queue.SimpleQueue()
+        self._lock = threading.Lock()
+        self._closed = False
+        self._children: set[subprocess.Popen[bytes]] = set()
+        self._threads = [threading.Thread(target=self._serve, name=f"hpctl-worker-{i}", daemon=True) for i in range(workers)]
+        for t in self._threads:
+            t.start()
+
+    def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("cannot submit to a WorkerPool that was shut down")
+            future: Future[T] = Future()
+            self._tasks.put((future, pickle.dumps((fn, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)))
+            return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        with self._lock:
+            if not self._closed:
+                self._closed = True
+                if cancel_futures:
+                    while True:
+                        try:
+                            item = self._tasks.get_nowait()
+                        except queue.Empty:
+                            break
+                        if item is not None:
+                            item[0].cancel()
+                    # The tasks running are not waited for either: their
+                    # threads see the end of the output and finish.
+                    for child in self._children:
+                        child.kill()
+                for _ in self._threads:
+                    self._tasks.put(None)
+        if wait:
+            for t in self._threads:
+                t.join()
+
+    def _serve(self) -> None:
+        child: subprocess.Popen[bytes] | None = None
+        try:
+            while (item := self._tasks.get()) is not None:
+                future, payload = item
+                if not future.set_running_or_notify_cancel():
+                    continue
+                try:
+                    if child is None or child.poll() is not None:
+                        self._forget(child)
+                        child = _start()
+                        with self._lock:
+                            self._children.add(child)
+                    if child.stdin is None or child.stdout is None:
+                        raise OSError("the worker has no pipes")
+                    child.stdin.write(len(payload).to_bytes(8, "little") + payload)
+                    child.stdin.flush()
+                    ok, value = pickle.loads(_read(child.stdout))
+                except (OSError, EOFError, pickle.UnpicklingError, ValueError) as e:
+                    future.set_exception(WorkerError(f"worker process failed: {e!r}"))
+                    self._forget(child)
+                    child = None
+                    continue
+                if ok:
+                    future.set_result(value)
+                else:
+                    future.set_exception(value)
+        finally:
+            self._forget(child)
+
+    def _forget(self, child: subprocess.Popen[bytes] | None) -> None:
+        if child is not None:
+            with self._lock:
+                self._children.discard(child)
+        _stop(child)
+
+
+def _start() -> subprocess.Popen[bytes]:
+    # hpctl from where this process has it, whatever the child's sys.path.
+    package_root = str(Path(__file__).resolve().parents[2])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH", "")) if p),
+           # BLAS on one thread from the start (the worker also limits it).
+           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    return subprocess.Popen([sys.executable, "-m", "hpctl.identify.workers"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+
+
+def _stop(child: subprocess.Popen[bytes] | None) -> None:
+    if child is None:
+        return
+    try:
+        if child.stdin is not None:
+            child.stdin.close()
+        child.wait(timeout=5)
+    except (OSError, subprocess.TimeoutExpired):
+        child.kill()
+        child.wait()
+
+
+def _read(stream: IO[bytes]) -> bytes:
+    head = stream.read(8)
+    if len(head) < 8:
+        raise EOFError("the worker closed its output")
+    n = int.from_bytes(head, "little")
+    body = stream.read(n)
+    if len(body) < n:
+        raise EOFError("the worker closed its output mid-answer")
+    return body
+
+
+def _main() -> None:
+    """The worker: tasks from stdin, answers to stdout, until stdin closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # The protocol keeps the real stdout; anything a task prints goes to stderr.
+    out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
+    from threadpoolctl import threadpool_limits
+
+    # As the diagnosis's own process (hpctl.identify.blas): the same rounding.
+    threadpool_limits(1)
+    src = sys.stdin.buffer
+    while True:
+        try:
+            task = _read(src)
+        except EOFError:
+            return
+        try:
+            fn, args, kwargs = pickle.loads(task)
+            answer = (True, fn(*args, **kwargs))
+        except Exception as e:  # the task's own failure goes back to its caller
+            answer = (False, e)
+        try:
+            data = pickle.dumps(answer, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as e:  # an unpicklable result or exception
+            data = pickle.dumps((False, WorkerError(f"the task's answer could not be sent back: {e!r}")))
+        try:
+            out.write(len(data).to_bytes(8, "little") + data)
+            out.flush()
+        except OSError:  # the pool is gone (shut down without waiting, or its process ended)
+            return
+
+
+if __name__ == "__main__":
+    _main()
