@@ -7,6 +7,9 @@ from __future__ import annotations
 import dataclasses
 import os
 import secrets
+import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +25,7 @@ from hpctl._effect_params import Friction
 from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
 from hpctl.identify import damper_start
+from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.dataset import Dataset, prepare
 from hpctl.identify.diagnose import NOISE_CEILING
 from hpctl.identify.fit import fit, model_for, rss_at
@@ -366,3 +370,75 @@ def test_an_sdof_records_dropped_sample_leaves_out_only_its_neighbourhood(tmp_pa
     far = (np.abs(j - dropped) > 2 * damper_start.SDOF_ACCEL_WINDOW) & np.isfinite(part[0]) & np.isfinite(full[0][same])
     assert far[j < dropped].sum() > 50 and far[j > dropped].sum() > 50
     np.testing.assert_allclose(part[0][far], full[0][same][far], rtol=1e-12)
+
+
+def _short_with_friction() -> tuple[list[Dataset], list[object], tuple[str, ...]]:
+    g = generate(None, 7, tests=[t for t in sweep_tests() if t.name in SHORT])
+    datasets = prepare([read_record(p) for p in g.records])
+    model = model_for(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True)
+    return datasets, model.params, model.effects  # type: ignore[return-value]
+
+
+def _counting(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, ...]]:
+    calls: list[tuple[str, ...]] = []
+    fitted = damper_start.fit_static_damper
+
+    def counted(ds: object, params: object, effects: tuple[str, ...] = ()) -> dict[str, float]:
+        calls.append(tuple(effects))
+        return fitted(ds, params, effects)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(damper_start, "fit_static_damper", counted)
+    monkeypatch.setattr(damper_start, "_cache", type(damper_start._cache)())
+    return calls
+
+
+def test_a_static_fit_prefetched_in_worker_processes_is_the_fit_here_and_not_computed_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The diagnosis starts its candidates' static fits in processes of their
+    # own; the screening fit that asks for one gets what this process would
+    # have computed (the same code and inputs, BLAS on one thread in both),
+    # and asks with the records as the declared model's fit placed their
+    # valve switches: copies sharing what the static fit reads.
+    datasets, params, effects = _short_with_friction()
+    with one_blas_thread():
+        here = damper_start.fit_static_damper(datasets, params, effects)  # type: ignore[arg-type]
+        calls = _counting(monkeypatch)
+        pool = damper_start.static_pool(2)
+        try:
+            damper_start.prefetch_static(datasets, params, effects, pool)  # type: ignore[arg-type]
+            placed = [dataclasses.replace(d, switch_leads=d.switch_leads + 0.0) for d in datasets]
+            got = damper_start.static_damper_values(placed, params, effects)  # type: ignore[arg-type]
+        finally:
+            pool.shutdown()
+    assert "friction_coulomb_n" in here and "damper_off_compression_orifice_scale" in here
+    assert got == here and calls == []
+
+
+def test_a_static_fit_whose_workers_fail_is_computed_here(monkeypatch: pytest.MonkeyPatch) -> None:
+    datasets, params, effects = _short_with_friction()
+    with one_blas_thread():
+        here = damper_start.fit_static_damper(datasets, params, effects)  # type: ignore[arg-type]
+        calls = _counting(monkeypatch)
+        monkeypatch.setattr(sys, "executable", "/nonexistent/python")  # no worker can start
+        pool = damper_start.static_pool(1)
+        try:
+            damper_start.prefetch_static(datasets, params, effects, pool)  # type: ignore[arg-type]
+            got = damper_start.static_damper_values(datasets, params, effects)  # type: ignore[arg-type]
+        finally:
+            pool.shutdown()
+    assert got == here and calls == [effects]
+
+
+def test_a_static_fit_asked_for_by_two_threads_at_once_is_computed_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Two screening fits of a diagnosis (friction's and its confirmation)
+    # can ask at the same moment: the second waits for the first's.
+    datasets, params, effects = _short_with_friction()
+    calls = _counting(monkeypatch)
+    start = threading.Barrier(2)
+
+    def ask() -> dict[str, float]:
+        start.wait()
+        return damper_start.static_damper_values(datasets, params, effects)  # type: ignore[arg-type]
+
+    with ThreadPoolExecutor(2) as pool:
+        first, second = (f.result() for f in [pool.submit(ask), pool.submit(ask)])
+    assert first == second and calls == [effects]
