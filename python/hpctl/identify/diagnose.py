@@ -1065,7 +1065,13 @@ def diagnose(
     where friction fitted with the characteristic reached 1.05x. About
     four to ten times the cost of a fit with one damper gain. Without
     ``flexible``, one gain on the assumed curve: a damper of another shape
-    stays in the residual, where it can be taken for an effect."""
+    stays in the residual, where it can be taken for an effect.
+
+    The flexible model's static damper fits (its starts) run in worker
+    processes of hpctl's own (:mod:`hpctl.identify.workers`), the first
+    round's begun while the declared model is fitted; where a worker cannot
+    start or fails, the fit that needs one computes it itself. Either way
+    the same values."""
     clock = _Clock(progress or (lambda _m: None), max_rounds)
     n_workers = workers or default_workers()
     pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
