@@ -321,15 +321,8 @@ def test_the_static_fit_is_computed_once_per_records_shape_and_shared_terms(monk
     # do not reach the next caller.
     g = generate(None, 7, tests=[t for t in sweep_tests() if t.name in SHORT])
     datasets = prepare([read_record(p) for p in g.records])
-    calls: list[tuple[str, ...]] = []
     fitted = damper_start.fit_static_damper
-
-    def counted(ds: object, params: object, effects: tuple[str, ...] = ()) -> dict[str, float]:
-        calls.append(tuple(effects))
-        return fitted(ds, params, effects)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(damper_start, "fit_static_damper", counted)
-    monkeypatch.setattr(damper_start, "_cache", type(damper_start._cache)())
+    calls = _counting(monkeypatch)
     plain = model_for(datasets, ("heat_transfer", "real_gas"), flexible=True)
     with_oil = model_for(datasets, ("heat_transfer", "real_gas", "oil_compliance"), flexible=True)
     with_friction = model_for(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True)
@@ -380,6 +373,8 @@ def _short_with_friction() -> tuple[list[Dataset], list[object], tuple[str, ...]
 
 
 def _counting(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, ...]]:
+    # The static fits computed in this process from now on (by their shared
+    # terms), with an empty cache.
     calls: list[tuple[str, ...]] = []
     fitted = damper_start.fit_static_damper
 

@@ -1199,8 +1199,12 @@ def _prefetch_statics(datasets: Sequence[Dataset], effects: tuple[str, ...], add
     (:func:`hpctl.identify.fit.fit` asks where the effect is one the damper
     takes up, :data:`~hpctl.identify.damper_start.ABSORBED_BY_DAMPER`):
     the same fits, computed beside this process's threads. One already
-    kept or under way is not started again (an effect without shared terms
-    asks for the model's own, which its fit computed)."""
+    kept or under way is not started again. An effect without shared terms
+    (oil compliance) asks for the model's own: in round 1 that is the
+    declared model's, so its fit (in this thread) waits for it in the
+    workers, behind friction's (measured: no slower than fitting it here
+    while the workers run, nor than starting it first; BENCHMARKS.md,
+    stop 53)."""
     shows = traits(datasets)
     for e in adds:
         if e in ABSORBED_BY_DAMPER and e not in effects and LIBRARY[e].applies(shows):
