@@ -25,9 +25,10 @@ from hpctl._effect_params import Friction
 from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
 from hpctl.identify import damper_start
+from hpctl.identify import fit as fit_module
 from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.dataset import Dataset, prepare
-from hpctl.identify.diagnose import NOISE_CEILING
+from hpctl.identify.diagnose import NOISE_CEILING, diagnose
 from hpctl.identify.fit import fit, model_for, rss_at
 from hpctl.model.effects import FRICTION_SMOOTHING_VELOCITY_M_S, shaped_damper
 from hpctl.model.unit import Unit
@@ -373,8 +374,8 @@ def _short_with_friction() -> tuple[list[Dataset], list[object], tuple[str, ...]
 
 
 def _counting(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, ...]]:
-    # The static fits computed in this process from now on (by their shared
-    # terms), with an empty cache.
+    # The static fits computed in this process from now on (the effects of
+    # each), with an empty cache.
     calls: list[tuple[str, ...]] = []
     fitted = damper_start.fit_static_damper
 
@@ -437,3 +438,32 @@ def test_a_static_fit_asked_for_by_two_threads_at_once_is_computed_once(monkeypa
     with ThreadPoolExecutor(2) as pool:
         first, second = (f.result() for f in [pool.submit(ask), pool.submit(ask)])
     assert first == second and calls == [effects]
+
+
+def test_a_flexible_diagnosis_fits_its_candidates_static_starts_in_the_workers(monkeypatch: pytest.MonkeyPatch) -> None:
+    # diagnose(flexible=True) starts friction's static fit in its worker
+    # processes while the declared model is fitted: this process fits only
+    # the declared model's (friction's screening finds its own kept), and
+    # friction's screening starts from what the workers fitted.
+    g = generate(None, 7, tests=[t for t in sweep_tests() if t.name in SHORT])
+    records = [read_record(p) for p in g.records]
+    fitted = damper_start.fit_static_damper
+    calls = _counting(monkeypatch)
+    asked: list[dict[str, float]] = []
+    kept = damper_start.static_damper_values
+
+    def seen(ds: object, params: object, effects: tuple[str, ...] = ()) -> dict[str, float]:
+        values = kept(ds, params, effects)  # type: ignore[arg-type]
+        if "friction" in effects:
+            asked.append(values)
+        return values
+
+    monkeypatch.setattr(fit_module, "static_damper_values", seen)
+    diag = diagnose(records, ("heat_transfer", "real_gas"), candidates=["friction"], max_rounds=1, flexible=True)
+    assert calls == [("heat_transfer", "real_gas")], calls  # the declared model's, here
+    assert asked and "friction_coulomb_n" in asked[0]
+    datasets = prepare(records)
+    model = model_for(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True)
+    with one_blas_thread():
+        assert asked[0] == fitted(datasets, model.params, model.effects)
+    assert [c.effect for c in diag.rounds[0].candidates] == ["friction"]
