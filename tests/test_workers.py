@@ -72,11 +72,16 @@ def test_a_worker_that_cannot_start_fails_its_task(monkeypatch: pytest.MonkeyPat
         pool.shutdown()
 
 
-def test_an_unguarded_script_is_not_run_again_by_the_workers(tmp_path: Path) -> None:
+def test_an_unguarded_script_is_not_run_again_by_the_workers_nor_its_directorys_modules(tmp_path: Path) -> None:
     # multiprocessing's spawn and forkserver workers import the caller's
-    # main module: this script would append a line per worker.
+    # main module: this script would append a line per worker. And a
+    # module of the working directory's name a worker imports is not the
+    # one there (a worker started with the directory on its path would
+    # import this threadpoolctl.py, which logs itself).
     log = tmp_path / "ran.txt"
-    script = tmp_path / "unguarded.py"
+    (tmp_path / "threadpoolctl.py").write_text(f"with open({str(log)!r}, 'a') as f:\n    f.write('shadow\\n')\n")
+    (tmp_path / "scripts").mkdir()
+    script = tmp_path / "scripts" / "unguarded.py"
     script.write_text(
         "import os\n"
         f"with open({str(log)!r}, 'a') as f:\n"
@@ -86,7 +91,7 @@ def test_an_unguarded_script_is_not_run_again_by_the_workers(tmp_path: Path) -> 
         "print(sum(f.result(timeout=60) for f in [pool.submit(abs, -i) for i in range(4)]))\n"
         "pool.shutdown()\n"
     )
-    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, check=False)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, check=False, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "6"
     assert len(log.read_text().splitlines()) == 1

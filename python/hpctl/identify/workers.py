@@ -13,7 +13,7 @@ hold locks) import the caller's main module again. A script that calls the
 diagnosis without an ``if __name__ == "__main__"`` guard then ran its
 whole self again in every worker (measured: the bundled campaign's
 diagnosis three times at once, 221 s instead of 81), writing whatever
-that script writes. These workers are ``python -m hpctl.identify.workers``:
+that script writes. These workers run :func:`_main` (``python -P -c``):
 they import hpctl and what the tasks name, never the caller's script.
 
 A task is a picklable function and its arguments (pickles between this
@@ -127,13 +127,18 @@ class WorkerPool(Executor):
         _stop(child)
 
 
+#: The worker's program: hpctl from where this process has it, appended to
+#: the child's path (after its own site-packages, so that it changes
+#: nothing another module is found by), and ``-P`` keeps the working
+#: directory off it (a ``numpy.py`` there is not imported).
+_BOOT = "import sys; sys.path.append({root!r}); from hpctl.identify.workers import _main; _main()"
+
+
 def _start() -> subprocess.Popen[bytes]:
-    # hpctl from where this process has it, whatever the child's sys.path.
-    package_root = str(Path(__file__).resolve().parents[2])
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH", "")) if p),
-           # BLAS on one thread from the start (the worker also limits it).
-           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    return subprocess.Popen([sys.executable, "-m", "hpctl.identify.workers"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+    root = str(Path(__file__).resolve().parents[2])
+    # BLAS on one thread from the start (the worker also limits it).
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    return subprocess.Popen([sys.executable, "-P", "-c", _BOOT.format(root=root)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
 
 
 def _stop(child: subprocess.Popen[bytes] | None) -> None:
@@ -189,7 +194,3 @@ def _main() -> None:
             out.flush()
         except OSError:  # the pool is gone (shut down without waiting, or its process ended)
             return
-
-
-if __name__ == "__main__":
-    _main()
