@@ -1104,7 +1104,7 @@ def _diagnose(
     if statics is not None:
         # The first round's candidates' static fits while the declared
         # model's is fitted (in this thread) and the model fitted from it.
-        _prefetch_statics(datasets, effects, pool_effects, statics)
+        _prefetch_statics(datasets, effects, _screened(datasets, effects, pool_effects), statics)
     declared = ', '.join(effects) or 'classical polytropic ideal gas'
     clock.say(f"fitting the declared model ({declared}{', the damper characteristic identified' if flexible else ''})")
     t0 = time.perf_counter()
@@ -1132,8 +1132,7 @@ def _diagnose(
         if not analysis.structured and r > 0:
             rounds.append(Round(current, analysis, [], None))
             break
-        shows = traits(datasets)
-        pool_now = [e for e in pool_effects if e not in effects and LIBRARY[e].applies(shows)]
+        pool_now = _screened(datasets, effects, pool_effects)
         if statics is not None:
             _prefetch_statics(datasets, effects, pool_now, statics)
         # Finite-difference screenings started while the last screening
@@ -1193,9 +1192,16 @@ def _diagnose(
     return Diagnosis(tuple(e for e in LIBRARY if e in start_effects), rounds, current, final_analysis, verdict, found, final_judgement)
 
 
+def _screened(datasets: Sequence[Dataset], effects: tuple[str, ...], pool_effects: Sequence[str]) -> list[str]:
+    """The effects of ``pool_effects`` a round screens on ``datasets`` from
+    a model with ``effects``: those it lacks that the records could show."""
+    shows = traits(datasets)
+    return [e for e in pool_effects if e not in effects and LIBRARY[e].applies(shows)]
+
+
 def _prefetch_statics(datasets: Sequence[Dataset], effects: tuple[str, ...], adds: Sequence[str], statics: Executor) -> None:
     """Starts in ``statics`` the static damper fits the flexible screening
-    fits adding each of ``adds`` to ``effects`` will ask for
+    fits adding each of ``adds`` (:func:`_screened`) to ``effects`` will ask for
     (:func:`hpctl.identify.fit.fit` asks where the effect is one the damper
     takes up, :data:`~hpctl.identify.damper_start.ABSORBED_BY_DAMPER`):
     the same fits, computed beside this process's threads. One already
@@ -1205,9 +1211,8 @@ def _prefetch_statics(datasets: Sequence[Dataset], effects: tuple[str, ...], add
     workers, behind friction's (measured: no slower than fitting it here
     while the workers run, nor than starting it first; BENCHMARKS.md,
     stop 53)."""
-    shows = traits(datasets)
     for e in adds:
-        if e in ABSORBED_BY_DAMPER and e not in effects and LIBRARY[e].applies(shows):
+        if e in ABSORBED_BY_DAMPER:
             model = model_for(datasets, effects + (e,), flexible=True)
             prefetch_static(datasets, model.params, model.effects, statics)
 
