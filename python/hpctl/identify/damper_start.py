@@ -230,8 +230,10 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     without them; friction's screening, its confirmation and the accepted
     model's fit for the one with the Coulomb force), and it depends only on
     the records, the shape parameters and the shared terms. The records are
-    known by identity (a ``Dataset`` is not changed once prepared; the
-    entry holds them, so that no other record takes their ids). A fit
+    known by the identity of what the fit reads of them (a ``Dataset`` is
+    not changed once prepared, only copied with other switch places or
+    weights; the entry holds them, so that no other record takes those
+    ids). A fit
     asked for while another thread computes it, or started in worker
     processes by :func:`prefetch_static`, is waited for, not computed
     twice; one whose workers failed is computed here."""
