@@ -20,7 +20,6 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD
@@ -40,6 +39,7 @@ from hpctl.identify.dataset import (
 )
 from hpctl.identify.serial import output_meat
 from hpctl.identify.switching import EDGE, ROUND_SPANS, estimate_leads, extrapolated_leads, moved_leads, switch_samples, timeline
+from hpctl.identify.trust_region import Solution, least_squares
 from hpctl.model.effects import (
     CHARGE,
     DAMPER_BRANCHES,
@@ -584,12 +584,11 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
                 return updated
         return secant.fresh(x, f, fd_jac(x))
 
-    def callback(x: FloatArray) -> None:
+    def stopped_at(x: FloatArray) -> bool:
         # Passed only with a ``stop``. The iterate's residuals are cached:
         # the optimiser evaluated it.
         r = evaluate(x)[0]
-        if stop is not None and stop(model.with_fixed(values_from_x(params, x)), float(r @ r)):
-            raise StopIteration
+        return stop is not None and stop(model.with_fixed(values_from_x(params, x)), float(r @ r))
 
     started = ""
     fresh_x: FloatArray | None = None  # a second start, the better end kept
@@ -642,18 +641,17 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
                 # own error decides.
                 fresh_x = _start_x(params, static)
     if params:
-        # x_scale="jac": each variable scaled by its Jacobian column. With
+        # x_scale="jac" (trust_region.least_squares's, as SciPy's): each variable scaled by its Jacobian column. With
         # unit scales a flexible fit whose knees sat on their bound (the
         # model it extends had put them there) crawled: every step was cut
         # short where it met that bound, 60 evaluations of about 20 in the
         # residual sum of squares each, ending worse than where it began
         # (foreign rig, friction seed 1: 1.78 x the noise against 1.51 x
         # without friction); scaled, 28 evaluations to 0.88 x.
-        def solve(start: FloatArray, budget: int) -> Any:
-            return least_squares(fun, start, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=budget, xtol=1e-8, ftol=ftol,
-                                 callback=callback if stop is not None else None)
+        def solve(start: FloatArray, budget: int) -> Solution:
+            return least_squares(fun, start, jac, lo, hi, max_nfev=budget, xtol=1e-8, ftol=ftol, stop=stopped_at if stop is not None else None)
 
-        def solve_confirmed(start: FloatArray) -> Any:
+        def solve_confirmed(start: FloatArray) -> Solution:
             sol = solve(start, max_nfev)
             used = int(sol.nfev)
             while jacobian == "broyden" and sol.status > 0 and used < max_nfev:
@@ -691,7 +689,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         x, success, message, jmat = sol.x, bool(sol.success), str(sol.message), sol.jac
         stopped = sol.status == -2
         if stopped:
-            # scipy's own message for a callback's StopIteration says nothing of why.
+            # The solver's own message for a stop says nothing of why.
             message = "stopped by the caller's test (stop)"
         message += started
         if errors and place_switches and any(switch_samples(d).size for d in datasets):
