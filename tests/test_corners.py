@@ -171,7 +171,13 @@ def test_a_clocks_jitter_is_read_from_the_corners_of_the_steps_it_sampled() -> N
         ratios.append(_clock_read(rng, jitter_s) / jitter_s)
     context = f"HPCTL_TEST_SEED={seed}: read over drawn {np.round(ratios, 2)}"
     assert 0.75 <= float(np.median(ratios)) <= 1.3, context
-    assert 0.3 <= min(ratios) and max(ratios) <= 3.0, context
+    # At most one draw in 20 outside a factor of 3 (0.3-3.0): a single draw
+    # does fall outside, about one in 200 (stop 54: 1 of 400 draws above
+    # 3.0, none below 0.3, 0.42-2.44 the 0.5-99.5 % range; CI's seed
+    # 68447440 read one clock at 0.20 x), so "none of 20" failed about one
+    # run in ten; two of 20 at that rate, about one run in 200.
+    outside = sum(not 0.3 <= r <= 3.0 for r in ratios)
+    assert outside <= 1, context
 
 
 def test_steps_sampled_on_time_rarely_read_a_jitter() -> None:
