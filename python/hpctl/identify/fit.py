@@ -641,10 +641,11 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
                 # own error decides.
                 fresh_x = _start_x(params, static)
     if params:
-        # x_scale="jac" (trust_region.least_squares's, as SciPy's): each variable scaled by its Jacobian column. With
-        # unit scales a flexible fit whose knees sat on their bound (the
-        # model it extends had put them there) crawled: every step was cut
-        # short where it met that bound, 60 evaluations of about 20 in the
+        # x_scale="jac" (trust_region.least_squares's, as SciPy's): each
+        # variable scaled by its Jacobian column. With unit scales a
+        # flexible fit whose knees sat on their bound (the model it extends
+        # had put them there) crawled: every step was cut short where it
+        # met that bound, 60 evaluations of about 20 in the
         # residual sum of squares each, ending worse than where it began
         # (foreign rig, friction seed 1: 1.78 x the noise against 1.51 x
         # without friction); scaled, 28 evaluations to 0.88 x.

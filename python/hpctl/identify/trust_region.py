@@ -12,7 +12,7 @@ SVD is then that of ``[R d; D]``, 2k x k. The same steps in exact
 arithmetic (the tests compare the paths with ``least_squares`` itself), at
 a k x k cost per iteration instead of an m x k SVD: on the bundled campaign
 (57,255 residuals, 35-40 parameters) 191 SVDs took 13.9 s of CPU, 73 ms
-each, where the QR takes 34 ms (BENCHMARKS.md, stop 54).
+each, where the QR takes 25 ms (BENCHMARKS.md, stop 54).
 
 The loop is SciPy's ``trf_bounds`` (BSD-3-Clause, scipy/optimize/_lsq/trf.py);
 its helpers are imported from SciPy (private modules, unchanged since SciPy
@@ -45,7 +45,7 @@ FloatArray = NDArray[np.float64]
 #: SciPy's own words for each status (``least_squares``'s), so that a
 #: result reads the same whichever loop produced it.
 MESSAGES = {
-    -2: "Stopped because `callback` function raised `StopIteration` or returned `True`",
+    -2: "Stopped because `stop` returned `True`",
     0: "The maximum number of function evaluations is exceeded.",
     1: "`gtol` termination condition is satisfied.",
     2: "`ftol` termination condition is satisfied.",
@@ -56,15 +56,14 @@ MESSAGES = {
 
 @dataclass
 class Solution:
-    """What :func:`least_squares` ends with (the fields of SciPy's result
-    that :mod:`hpctl.identify.fit` reads, same meanings)."""
+    """What :func:`least_squares` ends with: the fields of SciPy's result
+    that :mod:`hpctl.identify.fit` reads and the tests compare the path by,
+    same meanings."""
 
     x: FloatArray
     cost: float
-    fun: FloatArray
     jac: FloatArray
     grad: FloatArray
-    optimality: float
     active_mask: NDArray[np.int_]
     nfev: int
     njev: int
@@ -123,7 +122,6 @@ def least_squares(
     j = np.asarray(jac(x), dtype=float)
     m, n = j.shape
     nfev = njev = 1
-    f_true = f
     cost = 0.5 * float(f @ f)
     r, qf = compress(j, f)
     g = r.T @ qf
@@ -180,7 +178,6 @@ def least_squares(
             delta = delta_new
         if actual_reduction > 0:
             x, f, cost = x_new, f_new, cost_new
-            f_true = f
             j = np.asarray(jac(x), dtype=float)
             njev += 1
             r, qf = compress(j, f)
@@ -191,5 +188,5 @@ def least_squares(
             break
     if status is None:
         status = 0
-    return Solution(x=x, cost=cost, fun=f_true, jac=j, grad=g, optimality=g_norm, active_mask=find_active_constraints(x, lb, ub, rtol=xtol),
+    return Solution(x=x, cost=cost, jac=j, grad=g, active_mask=find_active_constraints(x, lb, ub, rtol=xtol),
                     nfev=nfev, njev=njev, status=status)
