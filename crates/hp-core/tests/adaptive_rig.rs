@@ -174,10 +174,15 @@ fn every_effect_agrees_with_rk4() {
     let r = reference(&unit, kind, switching, &t, 5e-6);
     let (a, _) = adaptive(&unit, kind, switching, &t, 1e-8);
     let d = diff(&a, &r);
-    assert!(d.p_pa < 20.0 && d.t_k < 1e-4 && d.force_n < 0.2, "{d:?}");
+    // The force is the strut pressure's, whose tolerance on a
+    // characterisation rig is the oil volume's (12 Pa here at rtol 1e-8,
+    // 0.07 N of force): measured 0.56 N at most (1.2e-5 of the 45 kN, at
+    // 0.72 s; above 0.2 N at four instants of the 1,001), and below 0.2 N
+    // where the strut pressure was held to the static pressure's scale.
+    assert!(d.p_pa < 20.0 && d.t_k < 1e-4 && d.force_n < 1.0, "{d:?}");
     let measured = |s: &[RigSample]| s.iter().map(|x| x.unit.force_n).collect::<Vec<_>>();
     let m = measured(&a).iter().zip(measured(&r)).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
-    assert!(m < 0.2, "{m}");
+    assert!(m < 1.0, "{m}");
 }
 
 #[test]
@@ -536,5 +541,30 @@ fn a_leak_that_empties_an_accumulator_ends_in_an_error_not_a_panic() {
             true
         });
         assert!(result.is_err(), "k = {k}: an empty accumulator ran on: {result:?}");
+    }
+}
+
+#[test]
+fn oil_compliance_on_a_characterisation_rig_is_not_held_by_the_strut_pressures_tolerance() {
+    // The heat run's drive (0.5 Hz sampled at 10 Hz, a minute of it) at a
+    // fit's rtol of 1e-7: the strut pressure's tolerance is the oil
+    // volume's (`Layout`), so Dormand-Prince's steps are set by the oil
+    // spring's stability rather than by resolving the strut pressure to a
+    // share of the static pressure. Measured: 4,362 steps at 1e9 Pa and
+    // 7,345 at 3e9 Pa, where at the static pressure's scale 6,162 and
+    // 11,601. Against the same run at rtol 1e-10: 6.2 Pa in the gas
+    // pressure and 0.04 / 0.14 N in the force (at the static pressure's
+    // scale 1.4 / 0.7 Pa and 0.01 N), where the rigs' noise is kilopascals
+    // and tens of newtons.
+    let (t, x, v) = sampled_sine(0.5, 60.0, 0.1);
+    let kind = RigKind::Characterisation { strut: Motion::SampledVelocity { time_s: &t, disp_m: &x, vel_m_s: &v } };
+    let hard_on = |_: usize, _: f64| Valves::from_modes(true, true);
+    for (b_pa, most) in [(1e9, 5_000), (3e9, 9_000)] {
+        let unit = compliant(b_pa);
+        let (a, stats) = adaptive(&unit, kind, hard_on, &t, 1e-7);
+        let (r, _) = adaptive(&unit, kind, hard_on, &t, 1e-10);
+        let d = diff(&a, &r);
+        assert!(stats.accepted < most, "{b_pa}: {stats:?}");
+        assert!(d.p_pa < 20.0 && d.force_n < 1.0, "{b_pa}: {d:?}");
     }
 }
