@@ -61,6 +61,27 @@ def test_an_update_maps_the_step_to_the_change_and_keeps_the_rest() -> None:
     np.testing.assert_array_equal(j1[6:], j0[6:])
 
 
+def test_a_jacobian_handed_out_never_changes_after() -> None:
+    # The secant hands its Jacobians out without copying them (the
+    # optimiser keeps one as its current Jacobian, and fit the last as the
+    # errors' Jacobian): an update makes a new array, so nothing handed
+    # out changes when the secant moves on.
+    x0 = np.zeros(2)
+    j0 = np.eye(2)
+    s = _Secant(n_prior=0)
+    s.MIN_RATIO = -np.inf
+    out0 = s.fresh(x0, np.array([1.0, 1.0]), j0)
+    kept0 = out0.copy()
+    out1 = s.update(np.array([-0.5, -0.5]), np.array([0.6, 0.4]))
+    assert out1 is not None and out1 is not out0
+    kept1 = out1.copy()
+    out2 = s.update(np.array([-0.7, -0.6]), np.array([0.3, 0.35]))
+    assert out2 is not None and out2 is not out1
+    np.testing.assert_array_equal(out0, kept0)
+    np.testing.assert_array_equal(out1, kept1)
+    assert not np.array_equal(out2, out1)  # it did move on
+
+
 def test_finite_differences_are_due_where_the_jacobian_predicted_badly() -> None:
     x0 = np.zeros(2)
     f0 = np.array([1.0, 1.0])
