@@ -111,11 +111,12 @@ impl Layout {
                     // volumes are: what such an error moves between the gas
                     // and the oil (the error itself decays at the damper's
                     // rate), and in the force a share of it the force noise
-                    // never sees (0.27 N at 3 GPa and 1 L, rtol 1e-7). The
-                    // static pressure where the oil is softer. Held to the
-                    // static pressure's scale, the strut pressure's
-                    // tolerance was tens to hundreds of times finer than
-                    // the gas volumes' and set the steps (oil compliance's
+                    // never sees (90 Pa, 0.18 N on the seed's piston, at
+                    // 3 GPa, 1 L and rtol 1e-7). The static pressure where
+                    // the oil is softer (below 49 MPa with 1 L, the seed's unit).
+                    // Held to the static pressure's scale, the strut
+                    // pressure's tolerance was 20-60 times finer at 1-3 GPa
+                    // than the gas volumes' and set the steps (oil compliance's
                     // runs of the 75-minute heat run: 1.05 million steps at
                     // 3 GPa, 0.65 million so). On an SDOF rig the strut
                     // pressure drives the body, whose displacement
