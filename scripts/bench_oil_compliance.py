@@ -14,7 +14,10 @@ the machine's load falls on both alike; the report gives the ratios, and
 the largest difference between the two builds' outputs (force, S
 pressure) against the records' noise.
 
-    python scripts/bench_oil_compliance.py [--baseline DIR] [--repeats 3] [--fit-repeats 1] [--json FILE]
+    python scripts/bench_oil_compliance.py [--baseline DIR] [--repeats 3] [--fit-repeats 1] [--heat-run] [--json FILE]
+
+``--heat-run`` measures the bundled 75-minute heat run's record too (its
+runs, steps and the builds' difference; the fit stays the campaign's).
 
 A benchmark, not a test: it prints numbers and never fails because the
 machine is slow.
@@ -158,38 +161,16 @@ def time_fit(build: Path | None, campaign: Path, out: Path) -> dict[str, Any]:
     return row
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--baseline", type=Path, default=None, help="a folder with another build of the hpctl package, measured alongside")
-    ap.add_argument("--repeats", type=int, default=3, help="runs of each record; the best time is kept")
-    ap.add_argument("--fit-repeats", type=int, default=1, help="timed fits per build (0: none)")
-    ap.add_argument("--json", type=Path, default=None)
-    ap.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)
-    ap.add_argument("--npz", type=Path, default=None, help=argparse.SUPPRESS)
-    ap.add_argument("--fit-counted", type=Path, default=None, help=argparse.SUPPRESS)
-    a = ap.parse_args()
-    if a.measure is not None:
-        print(json.dumps(measure(a.measure, a.repeats, a.npz)))
-        return 0
-    if a.fit_counted is not None:
-        print(json.dumps(fit_counted(a.fit_counted, a.npz)))
-        return 0
-
+def report(builds: dict[str, Path | None], folder: Path, repeats: int, tmp: Path) -> dict[str, dict[str, Any]]:
+    """Measures the records of ``folder`` for every build and prints their
+    steps, times and the builds' difference against the noise."""
     import numpy as np
 
-    from bench_diagnose import CAMPAIGN_EFFECT, CAMPAIGN_SEED, CAMPAIGN_TESTS, records
-
-    print("python " + " ".join([str(Path(sys.argv[0]))] + sys.argv[1:]))
-    print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, load {uptime()}")
-    campaign = records("campaign", CAMPAIGN_EFFECT, CAMPAIGN_SEED, CAMPAIGN_TESTS)
-    builds: dict[str, Path | None] = {"this": None}
-    if a.baseline is not None:
-        builds = {"baseline": a.baseline.resolve(), "this": None}
-    tmp = Path(tempfile.mkdtemp(prefix="bench-oil-"))
+    tmp.mkdir(parents=True, exist_ok=True)
     runs: dict[str, dict[str, Any]] = {}
     for name, build in builds.items():
         load = uptime()
-        runs[name] = run_measure(build, campaign, a.repeats, tmp / f"{name}.npz")
+        runs[name] = run_measure(build, folder, repeats, tmp / f"{name}.npz")
         print(f"measured {name} ({runs[name]['hpctl']}), load {load} -> {uptime()}", flush=True)
     labels = sorted({k.split("|")[0] for k in runs["this"]["rows"]})
     records_ = sorted({k.split("|")[1] for k in runs["this"]["rows"]})
@@ -219,6 +200,43 @@ def main() -> int:
             noise = float(a1[f"noise|{rec}|{ch}"])
             d = float(np.max(np.abs(a0[k] - a1[k])))
             print(f"  {k:60} {d:10.3g} ({d / noise:.2g} x noise)")
+    return runs
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--baseline", type=Path, default=None, help="a folder with another build of the hpctl package, measured alongside")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each record; the best time is kept")
+    ap.add_argument("--fit-repeats", type=int, default=1, help="timed fits per build (0: none)")
+    ap.add_argument("--heat-run", action="store_true", help="the bundled heat run's record measured too")
+    ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--npz", type=Path, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--fit-counted", type=Path, default=None, help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.measure is not None:
+        print(json.dumps(measure(a.measure, a.repeats, a.npz)))
+        return 0
+    if a.fit_counted is not None:
+        print(json.dumps(fit_counted(a.fit_counted, a.npz)))
+        return 0
+
+    from bench_diagnose import CAMPAIGN_EFFECT, CAMPAIGN_SEED, CAMPAIGN_TESTS, HEAT_EFFECT, HEAT_SEED, HEAT_TESTS, records
+
+    print("python " + " ".join([str(Path(sys.argv[0]))] + sys.argv[1:]))
+    print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, load {uptime()}")
+    campaign = records("campaign", CAMPAIGN_EFFECT, CAMPAIGN_SEED, CAMPAIGN_TESTS)
+    sets = {"campaign": campaign}
+    if a.heat_run:
+        sets["heat run"] = records("heat-run", HEAT_EFFECT, HEAT_SEED, HEAT_TESTS)
+    builds: dict[str, Path | None] = {"this": None}
+    if a.baseline is not None:
+        builds = {"baseline": a.baseline.resolve(), "this": None}
+    tmp = Path(tempfile.mkdtemp(prefix="bench-oil-"))
+    measured: dict[str, dict[str, dict[str, Any]]] = {}
+    for set_name, folder in sets.items():
+        print(f"\n== {set_name}")
+        measured[set_name] = report(builds, folder, a.repeats, tmp / set_name.replace(" ", "-"))
     fits: dict[str, list[dict[str, Any]]] = {n: [] for n in builds}
     for i in range(a.fit_repeats):
         for name, build in builds.items():
@@ -231,7 +249,7 @@ def main() -> int:
                   + (f"\n{row['stderr']}" if "stderr" in row else ""), flush=True)
     if a.json is not None:
         a.json.parent.mkdir(parents=True, exist_ok=True)
-        a.json.write_text(json.dumps({"runs": runs, "fits": fits, "campaign": str(campaign)}, indent=1, default=str) + "\n")
+        a.json.write_text(json.dumps({"runs": measured, "fits": fits, "campaign": str(campaign)}, indent=1, default=str) + "\n")
     return 0
 
 
