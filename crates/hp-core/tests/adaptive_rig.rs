@@ -177,7 +177,7 @@ fn every_effect_agrees_with_rk4() {
     // The force is the strut pressure's, whose tolerance on a
     // characterisation rig is the oil volume's (12 Pa here at rtol 1e-8,
     // 0.024 N of force): measured 0.56 N at most (1.2e-5 of the 45 kN, at
-    // 0.72 s; above 0.2 N at four instants of the 1,001), and below 0.2 N
+    // 0.72 s; above 0.2 N at five instants of the 1,001), and below 0.2 N
     // where the strut pressure was held to the static pressure's scale.
     assert!(d.p_pa < 20.0 && d.t_k < 1e-4 && d.force_n < 1.0, "{d:?}");
     let measured = |s: &[RigSample]| s.iter().map(|x| x.unit.force_n).collect::<Vec<_>>();
