@@ -109,16 +109,18 @@ def test_the_stop_test_asks_for_every_bound_null_and_no_gain() -> None:
     near = 3e9 * 10 ** (-0.5 * dg.AT_NULL * math.log10(3e9 / 2e7))  # half the tolerance inside
     far = 3e9 * 10 ** (-2.0 * dg.AT_NULL * math.log10(3e9 / 2e7))
     assert oil({"oil_bulk_modulus_pa": near}, rss) and oil({"oil_bulk_modulus_pa": 3e9}, 2 * rss)
-    assert not oil({"oil_bulk_modulus_pa": far}, 2 * rss)
+    # Its null is on a log scale: beyond AT_NULL but within NEAR_NULL of it
+    # and no better also ends the walk (below).
+    assert oil({"oil_bulk_modulus_pa": far}, 2 * rss)
     assert not oil({"oil_bulk_modulus_pa": near}, 0.999 * rss)  # it bought something: go on
-    # Far worse than the model it extends and within NEAR_NULL of the null:
-    # the walk to the bound is not waited out; short of either, it is.
+    # A log-scaled null (the bulk modulus's) within NEAR_NULL of the null
+    # and no better than the model it extends: the walk to the bound is
+    # not waited out; short of either, it is.
     decades = math.log10(3e9 / 2e7)
     inside = 3e9 * 10 ** (-0.9 * dg.NEAR_NULL * decades)
     outside = 3e9 * 10 ** (-1.1 * dg.NEAR_NULL * decades)
-    assert not oil({"oil_bulk_modulus_pa": inside}, 2 * rss)
-    assert oil({"oil_bulk_modulus_pa": inside}, dg.FAR_WORSE * rss)
-    assert not oil({"oil_bulk_modulus_pa": inside}, 0.999 * dg.FAR_WORSE * rss)
+    assert oil({"oil_bulk_modulus_pa": inside}, rss) and oil({"oil_bulk_modulus_pa": inside}, 2 * rss)
+    assert not oil({"oil_bulk_modulus_pa": inside}, 0.999 * rss)  # it bought something: go on
     assert not oil({"oil_bulk_modulus_pa": outside}, 100 * dg.FAR_WORSE * rss)
     # Friction is at its null only with both its terms there.
     friction = dg.at_null_and_no_better(("friction",), rss)
@@ -126,6 +128,19 @@ def test_the_stop_test_asks_for_every_bound_null_and_no_gain() -> None:
     assert friction({"friction_coulomb_n": 1.0, "friction_viscous_n_s_per_m": 5.0}, rss)
     assert not friction({"friction_coulomb_n": 1.0, "friction_viscous_n_s_per_m": 500.0}, rss)
     assert not friction({"friction_coulomb_n": 50.0, "friction_viscous_n_s_per_m": 0.0}, rss)
+    # Linear nulls (friction's): near the null only the far test ends the
+    # walk (FAR_WORSE times the model's residual or worse); merely no
+    # better, the fit goes on (up to 500 N of Coulomb force is "near").
+    near_friction = {"friction_coulomb_n": 0.5 * dg.NEAR_NULL * 5000.0, "friction_viscous_n_s_per_m": 0.5 * dg.NEAR_NULL * 20000.0}
+    assert not friction(near_friction, 2 * rss)
+    assert friction(near_friction, dg.FAR_WORSE * rss)
+    assert not friction(near_friction, 0.999 * dg.FAR_WORSE * rss)
+    # A pair of log-scaled nulls is no better near both; with a linear
+    # null in it, only at them.
+    logs = dg.at_null_and_no_better(("leakage", "valve_lag"), rss)
+    assert logs is not None
+    assert logs({"leak_time_constant_s": 0.7e8, "valve_time_constant_s": 2.5e-3}, rss)
+    assert not logs({"leak_time_constant_s": 0.7e8, "valve_time_constant_s": 0.03}, rss)
     # A pair stops only with both members at their nulls.
     pair = dg.at_null_and_no_better(("friction", "leakage"), rss)
     assert pair is not None
@@ -150,9 +165,9 @@ def test_oil_compliances_screening_fit_on_data_without_it_stops_at_its_null(seed
     assert c.result.message == "stopped by the caller's test (stop)", f"seed={seed}: {c.result.message}"
     p = LIBRARY["oil_compliance"].params[0]
     lo, hi = p.x_bounds()
-    # At the bound, or near it and far worse (the far test).
+    # Near the bound (its null, on a log scale) and no better.
     off = abs(p.to_x(c.result.values[p.name]) - hi) / (hi - lo)
-    assert off <= dg.AT_NULL or (off <= dg.NEAR_NULL and c.result.rss >= dg.FAR_WORSE * current.rss), \
+    assert off <= dg.NEAR_NULL, \
         f"seed={seed}: {c.result.values}, {c.result.rss / current.rss:.3g} x the model's residual"
     assert c.result.rss > current.rss and c.delta_bic < 0, f"seed={seed}"
     assert c.result.stopped and c.stopped_at_null, f"seed={seed}"
@@ -184,11 +199,11 @@ def test_a_fit_refuses_an_evaluation_budget_outside_its_range(max_nfev: object) 
 
 
 def test_a_stiff_oil_inside_the_far_tests_reach_is_still_found(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
-    # The far test (NEAR_NULL, FAR_WORSE) ends a screening walk toward the
-    # null that is ten times worse than the model it extends: an oil as
-    # stiff as 1.8-2.6 GPa, inside its reach, is a walk toward the null
-    # from the 1 GPa start that gets better, not worse, and is found as
-    # without the test (the same fit, value for value).
+    # The near test (NEAR_NULL) ends a screening walk toward a log-scaled
+    # null that is no better than the model it extends: an oil as stiff as
+    # 1.8-2.6 GPa, inside its reach, is a walk toward the null from the 1
+    # GPa start that gets better, not worse, and is found as without the
+    # test (the same fit, value for value).
     rng = np.random.default_rng(seed)
     p = LIBRARY["oil_compliance"].params[0]
     modulus = float(10 ** rng.uniform(math.log10(1.8e9), math.log10(2.6e9)))
@@ -203,7 +218,7 @@ def test_a_stiff_oil_inside_the_far_tests_reach_is_still_found(seed: int, monkey
     context = f"seed={seed}: truth {modulus:.4g} Pa, fitted {found.result.values[p.name]:.4g}, {found.result.message}"
     assert abs(found.result.values[p.name] / modulus - 1.0) < 0.01 and found.result.rms_ratio < 1.1, context
     assert found.delta_bic > dg.BIC_STRONG and not found.stopped_at_null, context
-    monkeypatch.setattr(dg, "FAR_WORSE", math.inf)
+    monkeypatch.setattr(dg, "NEAR_NULL", 0.0)
     without = dg._try(current.datasets, current, SEED_MODEL, ("oil_compliance",))
     assert without.result.values == found.result.values, context
 
