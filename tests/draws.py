@@ -5,8 +5,9 @@ seed on its report, and the run's summary lists the draws that took
 longest, each with the command that replays it.
 
 Why: the slowest test of a CI run (a foreign-rig leak diagnosis, 32-200 s
-a draw, eleven draws measured at 34-43 s) once took 1,974 s, and which draw
-it was could not be told afterwards (stop 56). ``conftest.py`` registers
+a draw; of eleven draws measured since, ten took 34-73 s and one 279 s)
+once took 1,974 s, and which draw it was could not be told afterwards
+(stop 56). ``conftest.py`` registers
 this module as a plugin; ``test_draws.py`` checks it.
 """
 
@@ -20,7 +21,8 @@ from collections.abc import Generator
 import pytest
 
 #: Draws that took at least this long are listed (seconds; the environment
-#: variable HPCTL_SLOW_DRAW_S sets another).
+#: variable HPCTL_SLOW_DRAW_S sets another; a value that is not a number
+#: leaves this one).
 SLOW_DRAW_S = 120.0
 
 _READS = re.compile(r"environ\.get\(\s*[\"']([A-Z0-9_]+)[\"']")
