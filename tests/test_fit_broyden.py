@@ -195,6 +195,12 @@ def test_the_flexible_models_screening_fits_use_broyden_on_long_records_only() -
     assert screening_jacobian(True, 12_252) == "finite_difference"
     assert screening_jacobian(True, 39_612) == "broyden"
     assert screening_jacobian(True, BROYDEN_FLEXIBLE_MIN_RESIDUALS) == "broyden"
+    # The accepted model's fit, which starts at a finite-difference
+    # screening optimum, on the flexible model's long records only.
+    from hpctl.identify.diagnose import accepted_jacobian
+
+    assert accepted_jacobian(False, 10**6) == accepted_jacobian(True, 12_252) == "finite_difference"
+    assert accepted_jacobian(True, 39_612) == accepted_jacobian(True, BROYDEN_FLEXIBLE_MIN_RESIDUALS) == "broyden"
 
 
 def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_difference_fit(
@@ -203,10 +209,11 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
     # Broyden's flexible screening only ranks: on the bundled 75-minute heat
     # run it ended at another optimum and the accepted model's fit started
     # there stayed at 1.86 x the noise (stop 38). A candidate weighed for
-    # acceptance is screened again with finite differences, so the
-    # diagnosis from there on is the one screening with them throughout,
-    # bit for bit. The leak records are short: the threshold moved to make
-    # them "long".
+    # acceptance is screened again with finite differences, so what is
+    # weighed is the one screening with them throughout, bit for bit, and
+    # the accepted model's fit (Broyden's from there, on long records) ends
+    # at its optimum. The leak records are short: the threshold moved to
+    # make them "long".
     import hpctl.identify.diagnose as dg
 
     leaky: Path = request.getfixturevalue("leaky_rig")
@@ -215,14 +222,33 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
     few = ("leakage", "sensor_offset")  # one other candidate is enough, and cheaper
     fd = dg.diagnose(records, ("heat_transfer", "real_gas"), candidates=few, max_rounds=1, flexible=True)
     monkeypatch.setattr(dg, "BROYDEN_FLEXIBLE_MIN_RESIDUALS", 0)
+    real_fit = dg.fit
+    accepted_calls: list[dict[str, Any]] = []
+
+    def recorded(datasets: Any, effects: Any, **kw: Any) -> Any:
+        if kw.get("max_nfev") == dg.ACCEPTED_MAX_NFEV:
+            accepted_calls.append(dict(kw, n_params=len(kw["initial"])))
+        return real_fit(datasets, effects, **kw)
+
+    monkeypatch.setattr(dg, "fit", recorded)
     br = dg.diagnose(records, ("heat_transfer", "real_gas"), candidates=few, max_rounds=1, flexible=True)
     assert fd.found == br.found == ["leakage"]
     assert all(c.screened_by == "finite_difference" and c.broyden_delta_bic is None for c in fd.rounds[0].candidates)
     leak = next(c for c in br.rounds[0].candidates if c.effect == "leakage")
     fd_leak = next(c for c in fd.rounds[0].candidates if c.effect == "leakage")
     assert leak.screened_by == "finite_difference" and leak.broyden_delta_bic is not None
-    assert leak.delta_bic == fd_leak.delta_bic and leak.result.values == fd_leak.result.values
-    assert br.final.values == fd.final.values and br.final.stderr == fd.final.stderr
+    # Its screening bit for bit (its result is the accepted fit's by now).
+    assert leak.delta_bic == fd_leak.delta_bic
+    # The accepted model's fit, started there, updates its Jacobian too
+    # (dg.accepted_jacobian) and ends at the same optimum to well within
+    # its errors (finite differences at the optimum either way); its
+    # tolerance is the tenth of an error (dg.accepted_ftol).
+    assert [c["jacobian"] for c in accepted_calls] == ["broyden"], accepted_calls
+    assert accepted_calls[0]["ftol"] == dg.accepted_ftol(fd.final.n, len(fd.final.model.params))
+    assert br.final.success and fd.final.success
+    for name, v in fd.final.values.items():
+        assert abs(br.final.values[name] - v) < 0.2 * fd.final.stderr[name], (name, br.final.values[name], v, fd.final.stderr[name])
+        assert br.final.stderr[name] == pytest.approx(fd.final.stderr[name], rel=0.05), name
     # The others kept Broyden's screening, and the JSON says which is which.
     others = [c for c in br.rounds[0].candidates if c.broyden_delta_bic is None]
     assert others and all(c.screened_by == "broyden" for c in others)
@@ -236,3 +262,30 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
         report = diagnosis_report(br, out)
     text = (tmp_path / report.name).read_text(encoding="utf-8")
     assert f"finite difference (Broyden: {leak.broyden_delta_bic:.1f})" in text and "| broyden |" in text
+
+
+@pytest.mark.parametrize("first_gain", [0.0, 1.0])
+def test_a_confirmation_ends_where_its_first_step_gains_less_than_ftol(first_gain: float, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A Broyden fit's convergence is confirmed by restarts on finite
+    # differences. Where a restart's first step (the one that Jacobian
+    # took) gains less than ftol of the cost, a finite-difference fit
+    # would have ended there: confirmed, however much the restart's later
+    # updates gained (the bundled heat run's accepted fit crawled on, 4.5e-4
+    # a restart on a cost of 24,812, to its evaluation limit). Where it
+    # gains more, the restarts go on (to the budget here: each "gains" 1).
+    from hpctl.identify.trust_region import Solution
+
+    unit = hpctl.Unit.seed().replace(tau_s=2.0).with_effects(friction=Friction(600.0, 300.0, 2e-3))
+    datasets = prepare(virtual_rig.make_records(unit, "sweep", seed=3))
+    solves: list[float] = []
+
+    def crawling(fun: Any, x0: np.ndarray, jac: Any, lo: Any, hi: Any, **kw: Any) -> Solution:
+        solves.append(kw["ftol"])
+        k = len(x0)
+        return Solution(x=x0.copy(), cost=1000.0 - len(solves), jac=np.zeros((1, k)), grad=np.zeros(k), active_mask=np.zeros(k, dtype=int),
+                        nfev=1, njev=1, status=2, first_reduction=first_gain)
+
+    monkeypatch.setattr(fit_module, "least_squares", crawling)
+    fit(datasets, MODEL, input_noise=False, errors=False, jacobian="broyden", max_nfev=12, ftol=1e-6)
+    # ftol * cost = 1e-3: a first step of 0 confirms at the first restart.
+    assert len(solves) == (2 if first_gain == 0.0 else 12)

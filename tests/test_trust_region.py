@@ -145,3 +145,57 @@ def test_stop_ends_with_status_minus_two_at_an_evaluated_point():
 def test_non_finite_start_is_refused():
     with pytest.raises(ValueError, match="not finite in the initial point"):
         least_squares(lambda x: np.array([np.nan, 1.0]), np.array([1.0]), lambda x: np.ones((2, 1)), np.array([0.0]), np.array([2.0]), max_nfev=10)
+
+
+def test_first_reduction_is_the_first_accepted_steps_gain():
+    # What a restart on a fresh Jacobian gained from that Jacobian alone
+    # (fit's confirmation of a Broyden fit reads it): the cost at the start
+    # less the cost at the first point the Jacobian is asked at after it
+    # (asked only at accepted points).
+    fun, jac = _decay_problem(2)
+    asked: list[np.ndarray] = []
+
+    def counted_jac(p):
+        asked.append(np.array(p))
+        return jac(p)
+
+    x0 = np.array([5.0, 3.0, 0.9])
+    sol = least_squares(fun, x0, counted_jac, np.array([0.0, 0.0, -1.0]), np.array([10.0, 10.0, 1.0]), max_nfev=100)
+    assert len(asked) >= 3 and sol.status > 0
+    start, first = fun(asked[0]), fun(asked[1])
+    assert sol.first_reduction == pytest.approx(0.5 * (start @ start - first @ first), rel=1e-12)
+    assert 0.0 < sol.first_reduction < 0.5 * float(start @ start) - sol.cost
+    # No step taken (a budget of one evaluation): nothing gained.
+    assert least_squares(fun, x0, jac, np.array([0.0, 0.0, -1.0]), np.array([10.0, 10.0, 1.0]), max_nfev=1).first_reduction == 0.0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_accepted_fits_tolerance_is_a_tenth_of_a_standard_error(seed: int):
+    # diagnose.accepted_ftol: a step that gains ftol of the cost near the
+    # optimum moves the estimate by ACCEPTED_STEP_SE white-noise standard
+    # errors. On a noisy decay fit (400 samples, 3 parameters): at the
+    # optimum, a displacement of that many standard errors (Mahalanobis, in
+    # any direction) raises the cost by ftol of it, to within the model's
+    # curvature over so small a step; and a fit from far away with that
+    # tolerance ends within that many errors of the optimum.
+    from hpctl.identify.diagnose import ACCEPTED_STEP_SE, accepted_ftol
+
+    fun, jac = _decay_problem(seed)
+    lb, ub = np.array([0.0, 0.0, -1.0]), np.array([10.0, 10.0, 1.0])
+    n, k = 400, 3
+    best = least_squares(fun, np.array([1.0, 0.2, 0.0]), jac, lb, ub, max_nfev=500, ftol=1e-15, xtol=1e-15, gtol=1e-15)
+    s2 = 2.0 * best.cost / (n - k)
+    cov = s2 * np.linalg.inv(best.jac.T @ best.jac)
+    ftol = accepted_ftol(n, k)
+    rng = np.random.default_rng(seed)
+    for _ in range(5):
+        u = rng.standard_normal(k)
+        d = ACCEPTED_STEP_SE * u / np.sqrt(u @ np.linalg.solve(cov, u))
+        r = fun(best.x + d)
+        assert 0.5 * float(r @ r) - best.cost == pytest.approx(ftol * best.cost, rel=0.02)
+    for x0 in ([5.0, 3.0, 0.9], [0.3, 0.05, -0.5]):
+        sol = least_squares(fun, np.array(x0), jac, lb, ub, max_nfev=500, ftol=ftol)
+        d = sol.x - best.x
+        assert sol.success and float(np.sqrt(d @ np.linalg.solve(cov, d))) < ACCEPTED_STEP_SE
+    # Never finer than the fits' own 1e-8 (a short record).
+    assert accepted_ftol(100, 3) > accepted_ftol(10**9, 3) == 1e-8

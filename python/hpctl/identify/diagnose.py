@@ -746,6 +746,40 @@ def screening_ftol(n: int) -> float:
     return max(1e-8, SCREENING_BIC_STEP / max(n, 1))
 
 
+#: The accepted model's fit ends when an iteration moves its estimate by
+#: less than this many of its standard errors (white-noise measure,
+#: :func:`accepted_ftol`).
+ACCEPTED_STEP_SE = 0.1
+
+
+def accepted_ftol(n: int, k: int) -> float:
+    """SciPy's ``ftol`` for the accepted model's fit on ``n`` residuals and
+    ``k`` parameters (never finer than :func:`fit`'s own 1e-8): an
+    iteration that gains less than this share of the cost moves the
+    estimate by less than :data:`ACCEPTED_STEP_SE` standard errors. Near
+    the optimum the cost is about (n - k) s^2 / 2 (s^2 the residuals'
+    variance) and a step d lowers it by d' J'J d / 2 = s^2 |d|^2 / 2, |d|
+    in standard errors (the white-noise ones, s^2 (J'J)^-1; the honest
+    ones, the residuals' serial correlation counted, are larger): ftol =
+    c^2 / (n - k) for |d| = c. On the bundled heat run (135,003
+    residuals) 7.4e-8 where 1e-8 had its fit crawl on at a tenth of that
+    (4.5e-4 an iteration on a cost of 24,812: a 0.035-error step)."""
+    return max(1e-8, ACCEPTED_STEP_SE**2 / max(n - k, 1))
+
+
+def accepted_jacobian(flexible: bool, n: int) -> str:
+    """How the accepted model's fit on ``n`` residuals gets its Jacobian:
+    Broyden's updates where the flexible model's screening also uses them
+    (:data:`BROYDEN_FLEXIBLE_MIN_RESIDUALS` residuals and more), finite
+    differences otherwise. The fit starts at the finite differences'
+    screening optimum (:func:`_confirmed`), near its own, where the updates
+    stay good; every convergence is confirmed from finite differences
+    (:func:`~hpctl.identify.fit.fit`) and the errors come from them. On
+    the bundled heat run the accepted fit took 72 s instead of 153 s, the
+    same optimum to 0.01 in a cost of 24,812 (BENCHMARKS.md, stop 57)."""
+    return "broyden" if flexible and n >= BROYDEN_FLEXIBLE_MIN_RESIDUALS else "finite_difference"
+
+
 #: How near its null bound an effect's parameter counts as at its null, in
 #: its fit range (:meth:`~hpctl.model.effects.Param.x_bounds`): oil
 #: compliance at 2.985 GPa of its 3 GPa bound, a Coulomb friction at 5 N, a
@@ -1174,7 +1208,8 @@ def _diagnose(
             # that goes on is the next round's baseline, and one stopped
             # short of its optimum lets the next candidate "explain" the
             # rest of the way (see Candidate.shows_itself).
-            refit = fit(datasets, effects + accepted.effects, initial=accepted.result.values, flexible=flexible, max_nfev=ACCEPTED_MAX_NFEV)
+            refit = fit(datasets, effects + accepted.effects, initial=accepted.result.values, flexible=flexible, max_nfev=ACCEPTED_MAX_NFEV,
+                        ftol=accepted_ftol(current.n, len(accepted.result.model.params)), jacobian=accepted_jacobian(flexible, current.n))
             accepted.refit_delta_bic = refit.bic - current.bic
             # The gain must hold in that fit: on the foreign rig's 75-minute
             # heat run a sensor lag screened at -9,945 and its full fit

@@ -68,6 +68,9 @@ class Solution:
     nfev: int
     njev: int
     status: int
+    #: The cost reduction of the first step taken (0 where none was): what
+    #: a fit started on a fresh Jacobian gained from that Jacobian alone.
+    first_reduction: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -134,6 +137,7 @@ def least_squares(
     qf_aug = np.zeros(r.shape[0] + n)
     alpha = 0.0  # the Levenberg-Marquardt parameter
     status: int | None = None
+    first_reduction: float | None = None
     while True:
         v, dv = CL_scaling_vector(x, g, lb, ub)
         g_norm = float(norm(g * v, ord=np.inf))
@@ -177,6 +181,8 @@ def least_squares(
             alpha *= delta / delta_new
             delta = delta_new
         if actual_reduction > 0:
+            if first_reduction is None:
+                first_reduction = actual_reduction
             x, f, cost = x_new, f_new, cost_new
             j = np.asarray(jac(x), dtype=float)
             njev += 1
@@ -189,4 +195,4 @@ def least_squares(
     if status is None:
         status = 0
     return Solution(x=x, cost=cost, jac=j, grad=g, active_mask=find_active_constraints(x, lb, ub, rtol=xtol),
-                    nfev=nfev, njev=njev, status=status)
+                    nfev=nfev, njev=njev, status=status, first_reduction=first_reduction or 0.0)
