@@ -101,7 +101,7 @@ def test_an_effect_whose_gain_does_not_hold_in_its_full_fit_is_not_found(leaky_r
 
     def spoiled(datasets: Any, effects: Any, **kw: Any) -> Any:
         r = real_fit(datasets, effects, **kw)
-        if kw.get("max_nfev") == diagnose_module.ACCEPTED_MAX_NFEV and "leakage" in effects:
+        if kw.get("max_nfev") == diagnose_module.ACCEPTED_MAX_NFEV and kw.get("input_noise", True) and "leakage" in effects:
             base = real_fit(datasets, tuple(e for e in effects if e != "leakage"), **kw)
             r = dataclasses.replace(r, rss=base.rss)
             calls.append(r.bic - base.bic)
@@ -189,11 +189,14 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
         result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=False)
         return diagnose_module.Candidate(add, 1, result, delta_bic, explained, screened_by=how)  # type: ignore[arg-type]
 
-    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None) -> Any:
+    again = diagnose_module.RESCREEN[0]
+
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0) -> Any:
         calls.append((add, jacobian))
-        if jacobian == "finite_difference":
+        if jacobian == again:
+            assert max_nfev == diagnose_module.RESCREEN[1]
             began.set()
-            return candidate(add, 9_000.0, 0.8, "finite_difference")
+            return candidate(add, 9_000.0, 0.8, again)
         if add == ("leakage",):
             leak_started.set()
             assert began.wait(60.0), "friction's finite-difference screening did not start while the leak's fit ran"
@@ -213,4 +216,4 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
         assert list(ahead) == [("friction",)]
         confirmed = diagnose_module._confirmed([], None, (), ranked[0], clock, ahead)  # type: ignore[arg-type]
     assert confirmed.delta_bic == 9_000.0 and confirmed.broyden_delta_bic == 8_000.0 and not ahead
-    assert calls.count((("friction",), "finite_difference")) == 1 and len(calls) == 4
+    assert calls.count((("friction",), again)) == 1 and len(calls) == 4

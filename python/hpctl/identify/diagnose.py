@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hpctl.data.records import RigRecord
+from hpctl.identify import MAX_NFEV
 from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STARTS, prefetch_static, static_pool
 from hpctl.identify.dataset import (
@@ -420,9 +421,10 @@ class Candidate:
     refit_delta_bic: float | None = None
     #: How its screening fit got its Jacobian (:func:`screening_jacobian`).
     screened_by: str = "finite_difference"
-    #: Where a flexible model's Broyden screening was done again with
-    #: finite differences before weighing the candidate (:func:`_confirmed`):
-    #: Broyden's BIC change (:attr:`delta_bic` is then the other's).
+    #: Where a flexible model's Broyden screening was done again, finite
+    #: differences far from the optimum (``"hybrid"``), before weighing
+    #: the candidate (:func:`_confirmed`): Broyden's BIC change
+    #: (:attr:`delta_bic` is then the other's).
     broyden_delta_bic: float | None = None
 
     @property
@@ -691,7 +693,7 @@ def _try_all(
             # differences): on the bundled campaign leakage finished first
             # at +25 in BIC, explaining 0.06 % of the excess.
             if best.delta_bic > BIC_STRONG and best.explained >= EXPLAINED_SHARE and _rescreened(best) and best.effects not in ahead:
-                ahead[best.effects] = pool.submit(_try, datasets, current, effects, best.effects, "finite_difference")
+                ahead[best.effects] = pool.submit(_try, datasets, current, effects, best.effects, *RESCREEN)
     clock.credit = 0.0
     ranked = [c for c in out if c is not None]
     ranked.sort(key=lambda c: c.score, reverse=True)
@@ -734,9 +736,10 @@ def screening_jacobian(flexible: bool, n: int) -> str:
     another optimum than the finite differences' (the bundled 75-minute
     heat run's heat build-up: -1.212e6 against -1.573e6 in BIC, and the
     accepted model's fit started there stayed at 1.86 x the noise, stop
-    38), so a candidate weighed for acceptance is screened again with
-    finite differences first (:func:`_confirmed`): what is accepted, and
-    every fit after it, is what the finite differences give."""
+    38), so a candidate weighed for acceptance is screened again first,
+    with finite differences wherever far from the optimum, where the path
+    chooses it (:func:`_confirmed`): what is accepted, and every fit after
+    it, starts in the finite differences' optimum."""
     return "broyden" if not flexible or n >= BROYDEN_FLEXIBLE_MIN_RESIDUALS else "finite_difference"
 
 
@@ -865,7 +868,8 @@ def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[s
 
 
 def _try(
-    datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], jacobian: str | None = None
+    datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], jacobian: str | None = None,
+    max_nfev: int = MAX_NFEV,
 ) -> Candidate:
     # A screening fit: without errors (the few candidates weighed for
     # acceptance get theirs, :func:`_with_errors`; the accepted one is
@@ -876,7 +880,7 @@ def _try(
 
     def attempt(start: Mapping[str, float]) -> FitResult:
         return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol,
-                   jacobian=jacobian, errors=False)
+                   jacobian=jacobian, errors=False, max_nfev=max_nfev)
 
     def better_from(start: Mapping[str, float], trial: FitResult) -> FitResult:
         # Fitted again only from a start better than where the fit ended
@@ -943,23 +947,37 @@ def _try(
     return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess, screened_by=jacobian)
 
 
+#: How :func:`_confirmed` screens a candidate again: its Jacobian and
+#: evaluation budget. Finite differences while a step cuts the cost by
+#: more than half, where the path chooses its optimum, Broyden's updates
+#: after (``jacobian="hybrid"``), with the accepted model's budget (its
+#: evaluations are mostly an update's one run). Until stop 57 finite
+#: differences throughout, 60 evaluations: on the bundled heat run 78 s to
+#: a cost of 24,814.8, stopped by the budget in the valley's crawl, where
+#: the hybrid's 192 evaluations ended at 24,813.4 and the diagnosis took
+#: 179 s instead of 225 s, the same verdict (BENCHMARKS.md, stop 57).
+RESCREEN = ("hybrid", ACCEPTED_MAX_NFEV)
+
+
 def _rescreened(c: Candidate) -> bool:
-    """Whether :func:`_confirmed` screens ``c`` again with finite differences."""
+    """Whether :func:`_confirmed` screens ``c`` again (:data:`RESCREEN`)."""
     return c.result.model.flexible and c.screened_by == "broyden"
 
 
 def _confirmed(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], c: Candidate, clock: _Clock,
                ahead: dict[tuple[str, ...], Future[Candidate]] | None = None) -> Candidate:
-    """``c`` screened again with finite differences if the flexible
-    model's screening used Broyden's updates (:func:`screening_jacobian`),
-    in place: its result, BIC change and share explained then the finite
-    differences', Broyden's BIC change kept beside them. Taken from
-    ``ahead`` where :func:`_try_all` started it already."""
+    """``c`` screened again from the model it extends, with finite
+    differences far from the optimum (:data:`RESCREEN`), if the flexible
+    model's screening used Broyden's updates throughout
+    (:func:`screening_jacobian`), in place: its result, BIC change and
+    share explained then the new screening's, Broyden's BIC change kept
+    beside them. Taken from ``ahead`` where :func:`_try_all` started it
+    already."""
     if not _rescreened(c):
         return c
-    clock.tell(f"screening {c.effect} again with finite differences", clock.ACCEPT_FITS)
+    clock.tell(f"screening {c.effect} again, finite differences far from the optimum", clock.ACCEPT_FITS)
     started = ahead.pop(c.effects, None) if ahead is not None else None
-    fd = started.result() if started is not None else _try(datasets, current, effects, c.effects, jacobian="finite_difference")
+    fd = started.result() if started is not None else _try(datasets, current, effects, c.effects, *RESCREEN)
     c.broyden_delta_bic = c.delta_bic
     c.added_params, c.result, c.delta_bic, c.explained, c.screened_by = fd.added_params, fd.result, fd.delta_bic, fd.explained, fd.screened_by
     return c

@@ -26,6 +26,9 @@ from hpctl.identify.switching import places  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
 from hpctl.report.plots import save, valve_states  # noqa: E402
 
+#: How a screening fit got its Jacobian (``Candidate.screened_by``), in the report's words.
+JACOBIAN_WORDS = {"finite_difference": "finite differences", "broyden": "Broyden", "hybrid": "finite differences far, Broyden near"}
+
 
 def record_plots(result: FitResult, out: OutputDir, prefix: str) -> list[Path]:
     """Per record (:func:`record_figure`), written as ``PREFIX_RECORD.png``."""
@@ -314,14 +317,15 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
             continue
         lines += ["", f"### Candidates tried at step {k}", "",
                   "Screening fits; on long records the flexible model's rank the candidates with Broyden's Jacobian updates, and a "
-                  "candidate weighed for acceptance is screened again with finite differences (its Broyden gain in brackets). "
+                  "candidate weighed for acceptance is screened again, with finite differences wherever a step halves the cost "
+                  "(far from the optimum, where the path chooses it), Broyden's updates near it (its gain by Broyden's alone in brackets). "
                   "A gain marked *stopped* is where its screening fit was ended heading for the effect's null, no better than the "
                   "model it extends: not an optimum.", "",
                   "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | "
                   "residual RMS / noise | screening Jacobian |",
                   "|---|---|---|---|---|---|---|"]
         for c in rnd.candidates:
-            jac = c.screened_by.replace("_", " ") + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f})")
+            jac = JACOBIAN_WORDS.get(c.screened_by, c.screened_by) + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f})")
             gain = f"{c.delta_bic:.1f}" + (" (*stopped*)" if c.stopped_at_null else "")
             lines.append(f"| `{c.effect}` | {c.added_params} | {gain} | {c.score:.1f} | {100 * c.explained:.1f} % | "
                          f"{c.result.rms_ratio:.3g} | {jac} |")
