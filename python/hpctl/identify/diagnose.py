@@ -765,8 +765,9 @@ def accepted_ftol(n: int, k: int) -> float:
     in standard errors (the white-noise ones, s^2 (J'J)^-1; the honest
     ones, the residuals' serial correlation counted, are larger): ftol =
     c^2 / (n - k) for |d| = c. On the bundled heat run (135,003
-    residuals) 7.4e-8 where 1e-8 had its fit crawl on at a tenth of that
-    (4.5e-4 an iteration on a cost of 24,812: a 0.035-error step)."""
+    residuals) 7.4e-8, where with 1e-8 its fit's confirmations crawled on
+    at a quarter of that (4.5e-4 a restart on a cost of 24,812: steps of
+    0.05 errors) to its evaluation limit."""
     return max(1e-8, ACCEPTED_STEP_SE**2 / max(n - k, 1))
 
 
@@ -778,8 +779,9 @@ def accepted_jacobian(flexible: bool, n: int) -> str:
     screening optimum (:func:`_confirmed`), near its own, where the updates
     stay good; every convergence is confirmed from finite differences
     (:func:`~hpctl.identify.fit.fit`) and the errors come from them. On
-    the bundled heat run the accepted fit took 72 s instead of 153 s, the
-    same optimum to 0.01 in a cost of 24,812 (BENCHMARKS.md, stop 57)."""
+    the bundled heat run the accepted fit took 52 s instead of 153 s, the
+    same optimum to 0.001 in a cost of 24,812 (with :func:`accepted_ftol`;
+    BENCHMARKS.md, stop 57)."""
     return "broyden" if flexible and n >= BROYDEN_FLEXIBLE_MIN_RESIDUALS else "finite_difference"
 
 
