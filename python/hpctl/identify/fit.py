@@ -580,6 +580,9 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             jm[len(f0) + row, i] = 1.0 / sigma
         return jm
 
+    # Whether the Jacobian is updated between finite differences (and each
+    # convergence confirmed by them): "broyden" and "hybrid".
+    updates = jacobian != "finite_difference"
     secant = _Secant(len(prior), far_share=_Secant.FAR_SHARE if jacobian == "hybrid" else None)
 
     def jac(x: FloatArray) -> FloatArray:
@@ -590,7 +593,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             # A solve started again where the last one ended (a Broyden
             # fit's confirmation): its finite differences are still good.
             return secant.j
-        if jacobian in ("broyden", "hybrid"):
+        if updates:
             updated = secant.update(x, f)
             if updated is not None:
                 return updated
@@ -667,7 +670,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         def solve_confirmed(start: FloatArray) -> Solution:
             sol = solve(start, max_nfev)
             used = int(sol.nfev)
-            while jacobian in ("broyden", "hybrid") and sol.status > 0 and used < max_nfev:
+            while updates and sol.status > 0 and used < max_nfev:
                 # Converged (by ftol, xtol or gtol) on a Broyden fit:
                 # believed only once finite differences there agree. An
                 # update can make the steps short before the optimum is
