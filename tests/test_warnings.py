@@ -291,6 +291,37 @@ def test_a_fitted_parameter_on_its_bound_is_warned(tmp_path: Path) -> None:
     assert (b.name, b.side, b.on) == ("tau_s", "lower", False)
 
 
+def test_a_parameter_near_both_bounds_is_said_once_as_spanning_its_range() -> None:
+    # A flexible fit's poorly pinned shape parameter (the bundled campaign:
+    # a rebound orifice scale of 1.2 +- 5.8 in [0.01, 100]) is within two
+    # errors of both bounds: one phrase saying so, not "near its lower
+    # bound" and "near its upper bound" as if it were at either. The
+    # details keep one entry per bound.
+    from hpctl.cli.calibrate import _bound_caveats
+    from hpctl.identify.fit import AtBound
+
+    class Result:
+        def __init__(self, near: list[AtBound]) -> None:
+            self.near = near
+
+        def at_bounds(self) -> list[AtBound]:
+            return self.near
+
+    name = "damper_on_rebound_orifice_scale"
+    (c,) = _bound_caveats(Result([AtBound(name, 1.204, 5.8, 0.01, "lower", False), AtBound(name, 1.204, 5.8, 100.0, "upper", False),
+                                  AtBound("tau_s", 0.05, 0.01, 0.05, "lower", True)]))
+    assert c.code == "param_at_bound"
+    assert f"{name} = 1.204 +- 5.8, two errors spanning its whole range [0.01, 100]" in c.message
+    assert c.message.count(name) == 1 and "tau_s = 0.05 +- 0.01 on its lower bound 0.05" in c.message
+    assert c.details["params"] == [name, name, "tau_s"] and c.details["bounds"] == [0.01, 100.0, 0.05]
+    (c,) = _bound_caveats(Result([AtBound(name, 100.0, 90.0, 0.01, "lower", False), AtBound(name, 100.0, 90.0, 100.0, "upper", True)]))
+    assert f"{name} = 100 +- 90 on its upper bound 100, two errors reaching its lower bound 0.01" in c.message
+    # Past six parameters (not entries) the rest are counted.
+    many = [AtBound(f"p{i}", 1.0, 9.0, b, side, False) for i in range(8) for b, side in ((0.01, "lower"), (100.0, "upper"))]
+    (c,) = _bound_caveats(Result(many))
+    assert "p5 = 1" in c.message and "p6 = 1" not in c.message and "; 2 more in the details" in c.message
+
+
 def test_record_gas_states_outside_the_range_are_warned(tmp_path: Path) -> None:
     t = np.linspace(0.0, 10.0, 11)
     data = {"time_s": t, "p_gas_pa": np.full(11, 120e6)}

@@ -27,7 +27,7 @@ from hpctl.sim import checks
 # commands that use them, not at start-up: `hpctl --help` stays fast.
 if TYPE_CHECKING:
     from hpctl.identify import diagnose
-    from hpctl.identify.fit import FitResult
+    from hpctl.identify.fit import AtBound, FitResult
     from hpctl.identify.profile import ProfileInterval
 
 
@@ -145,15 +145,35 @@ def _bound_caveats(result: FitResult) -> list[Caveat]:
     near = result.at_bounds()
     if not near:
         return []
-    said = "; ".join(f"{b.name} = {b.value:.4g} +- {b.stderr:.2g} {'on' if b.on else 'near'} its {b.side} bound {b.bound:g}" for b in near[:6])
-    said += f"; {len(near) - 6} more in the details" if len(near) > 6 else ""
+    by_name: dict[str, list[AtBound]] = {}
+    for b in near:
+        by_name.setdefault(b.name, []).append(b)
+    # One phrase a parameter: one whose two-error band reaches both bounds
+    # is said once, as what it is (the data do not pin it within its
+    # range), not as near one bound and near the other.
+    phrases = [_bound_phrase(bs) for bs in by_name.values()]
+    said = "; ".join(phrases[:6]) + (f"; {len(phrases) - 6} more in the details" if len(phrases) > 6 else "")
     return [Caveat(
         Code.PARAM_AT_BOUND,
         f"fitted parameters at the edge of their range ({said}): the data ask for values the model's range may not hold, "
-        "and these standard errors do not describe an estimate cut off by a bound",
+        "or do not pin them within it, and these standard errors do not describe an estimate cut off by a bound",
         {"params": [b.name for b in near], "values": [b.value for b in near], "stderr": [b.stderr for b in near],
          "bounds": [b.bound for b in near]},
     )]
+
+
+def _bound_phrase(bounds: Sequence[AtBound]) -> str:
+    """One parameter's :class:`AtBound` entries (one per bound it is on or
+    near) in words."""
+    b = bounds[0]
+    head = f"{b.name} = {b.value:.4g} +- {b.stderr:.2g}"
+    if len(bounds) == 1:
+        return f"{head} {'on' if b.on else 'near'} its {b.side} bound {b.bound:g}"
+    lower, upper = sorted(bounds, key=lambda x: x.side != "lower")
+    if on := [x for x in bounds if x.on]:
+        other = upper if on[0] is lower else lower
+        return f"{head} on its {on[0].side} bound {on[0].bound:g}, two errors reaching its {other.side} bound {other.bound:g}"
+    return f"{head}, two errors spanning its whole range [{lower.bound:g}, {upper.bound:g}]"
 
 
 def _place_caveats(result: FitResult) -> list[Caveat]:
