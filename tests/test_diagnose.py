@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import secrets
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -82,6 +83,29 @@ def test_nothing_left_when_the_declared_model_is_complete(seed: int) -> None:
     d = diagnose(records, SEED_MODEL)
     assert d.verdict == "nothing_left" and d.found == [], describe(d, seed, values)
     assert d.final.values["tau_s"] == pytest.approx(values["tau_s"], rel=0.05)
+    s = summary(d)
+    assert s["error_before"]["converged"] is d.initial.success and s["error_after"]["converged"] is d.final.success
+
+
+def test_a_declared_fit_stopped_on_its_budget_says_so_in_the_json_and_the_report(tmp_path: Path) -> None:
+    # The flexible declared model's fit of the bundled campaign stops on
+    # its 60 evaluations: its error (the "before") is where it stopped, not
+    # its optimum's, and the gain from it a little high; said, not hidden.
+    from hpctl.data.output import OutputDir
+    from hpctl.report.calibration import diagnosis_report
+
+    values, records = rig_data([], np.random.default_rng(3))
+    d = diagnose(records, SEED_MODEL, max_rounds=1)
+    stopped = replace(d.initial, success=False, message="The maximum number of function evaluations is exceeded.; more")
+    d = replace(d, rounds=[replace(d.rounds[0], before=stopped), *d.rounds[1:]])
+    s = summary(d)
+    assert s["error_before"]["converged"] is False and s["error_after"]["converged"] is d.final.success
+    with OutputDir(tmp_path, "diagnose") as out:
+        report = diagnosis_report(d, out)
+    text = (tmp_path / report.name).read_text(encoding="utf-8")
+    assert ("The declared model's fit stopped before converging (the maximum number of function evaluations is exceeded): its errors "
+            "are where it stopped, no lower than at its optimum.") in text
+    assert ("The final model's fit stopped" in text) is (not d.final.success)
 
 
 def test_classical_model_recovers_heat_transfer_and_real_gas(seed: int) -> None:

@@ -251,6 +251,15 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
     return out.final("fit.md")
 
 
+def _unconverged(initial: FitResult, final: FitResult) -> str:
+    """Says which of the two fits stopped before converging (on its
+    evaluation budget: the flexible declared model's 60 on the bundled
+    campaign), whose errors are then where it stopped, not its optimum's."""
+    fits = [("declared", initial)] + ([("final", final)] if final is not initial else [])
+    return "".join(f" The {which} model's fit stopped before converging ({r.message.split(';')[0].rstrip('.').lower()}): its errors "
+                   "are where it stopped, no lower than at its optimum." for which, r in fits if not r.success)
+
+
 def _after(rnd: Round) -> str:
     j = rnd.judgement
     if j is None:
@@ -331,7 +340,8 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
                          f"{c.result.rms_ratio:.3g} | {jac} |")
     lines += ["", "## Final parameters", "", *params_table(final), "",
               "## Error before and after", "",
-              f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units).", "",
+              f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units)."
+              + _unconverged(initial, final), "",
               *error_table(initial, final), "", *noise_section(final.datasets)]
     # Thermal versus friction hysteresis.
     areas_initial, areas_final = loop_areas(initial), loop_areas(final)
