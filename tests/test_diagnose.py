@@ -87,15 +87,17 @@ def test_nothing_left_when_the_declared_model_is_complete(seed: int) -> None:
     assert s["error_before"]["converged"] is d.initial.success and s["error_after"]["converged"] is d.final.success
 
 
-def test_a_declared_fit_stopped_on_its_budget_says_so_in_the_json_and_the_report(tmp_path: Path) -> None:
-    # The flexible declared model's fit of the bundled campaign stops on
-    # its 60 evaluations: its error (the "before") is where it stopped, not
-    # its optimum's, and the gain from it a little high; said, not hidden.
+def test_a_declared_fit_stopped_on_its_budget_says_so_in_the_json_the_report_and_a_warning(tmp_path: Path) -> None:
+    # A declared model's fit that stops on its budget: its error (the
+    # "before") is where it stopped, not its optimum's, and the gain from
+    # it a little high; said, not hidden (the bundled campaign's flexible
+    # declared fit stops on its 60 evaluations, 9 short of converging).
+    from hpctl.cli.calibrate import _diagnosis_caveats
     from hpctl.data.output import OutputDir
     from hpctl.report.calibration import diagnosis_report
 
     values, records = rig_data([], np.random.default_rng(3))
-    d = diagnose(records, SEED_MODEL, max_rounds=1)
+    d = original = diagnose(records, SEED_MODEL, max_rounds=1)
     stopped = replace(d.initial, success=False, message="The maximum number of function evaluations is exceeded.; more")
     d = replace(d, rounds=[replace(d.rounds[0], before=stopped), *d.rounds[1:]])
     s = summary(d)
@@ -106,6 +108,11 @@ def test_a_declared_fit_stopped_on_its_budget_says_so_in_the_json_and_the_report
     assert ("The declared model's fit stopped before converging (the maximum number of function evaluations is exceeded): its errors "
             "are where it stopped, no lower than at its optimum.") in text
     assert ("The final model's fit stopped" in text) is (not d.final.success)
+    warned = [c for c in _diagnosis_caveats(d) if c.code == "not_converged"]
+    assert [c.details["fit"] for c in warned] == ["declared"] + (["final"] if not d.final.success else [])
+    assert warned[0].message.startswith("the declared model's fit stopped without converging (The maximum number of function evaluations")
+    # The draw's own declared fit converged: no such warning.
+    assert original.initial.success and not [c for c in _diagnosis_caveats(original) if c.details.get("fit") == "declared"]
 
 
 def test_classical_model_recovers_heat_transfer_and_real_gas(seed: int) -> None:

@@ -446,7 +446,18 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
 
     out = []
     if not diag.final.success:
-        out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}", {"message": diag.final.message}))
+        out.append(Caveat(Code.NOT_CONVERGED, f"the final fit stopped without converging: {diag.final.message}",
+                          {"message": diag.final.message, "fit": "final"}))
+    if diag.initial is not diag.final and not diag.initial.success:
+        # The declared model is the first round's baseline and the "before"
+        # of the error table: stopped short, it makes every gain from it
+        # look larger by what its fit had left.
+        out.append(Caveat(
+            Code.NOT_CONVERGED,
+            f"the declared model's fit stopped without converging ({diag.initial.message}): its errors (\"before\") are where it "
+            "stopped, no lower than at its optimum, and the gains from it may be that much smaller",
+            {"message": diag.initial.message, "fit": "declared"},
+        ))
     out += _bound_caveats(diag.final) + _confounded_caveats(diag.final) + _profile_band_caveats(diag.final) + _place_caveats(diag.final)
     out += _noise_caveats(diag.final)
     j = diag.judgement

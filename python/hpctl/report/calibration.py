@@ -253,8 +253,8 @@ def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = ()
 
 def _unconverged(initial: FitResult, final: FitResult) -> str:
     """Says which of the two fits stopped before converging (on its
-    evaluation budget: the flexible declared model's 60 on the bundled
-    campaign), whose errors are then where it stopped, not its optimum's."""
+    evaluation budget), whose errors are then where it stopped, not its
+    optimum's."""
     fits = [("declared", initial)] + ([("final", final)] if final is not initial else [])
     return "".join(f" The {which} model's fit stopped before converging ({r.message.split(';')[0].rstrip('.').lower()}): its errors "
                    "are where it stopped, no lower than at its optimum." for which, r in fits if not r.success)
