@@ -123,3 +123,55 @@ def test_switching_records_show_their_valve_states(tmp_path: Path) -> None:
         assert [p.name for p in paths] == ["fit_valve_switching.png", "fit_sine_0.1hz.png"]
     assert not plt.get_fignums()  # every figure was closed after writing
     assert (tmp_path / "fit_valve_switching.png").read_bytes().startswith(MAGIC["png"])
+
+
+def test_record_figures_drawn_in_worker_processes_are_the_same_bytes_and_a_failed_worker_is_drawn_here(tmp_path: Path) -> None:
+    # draw_record_plots: the figures of two results, shared between two
+    # worker processes and this one, byte for byte the ones drawn here
+    # alone; a pool that fails every task, or one shut down, leaves them
+    # all drawn here.
+    from concurrent.futures import Executor, Future
+    from typing import Any
+
+    from hpctl.data.output import OutputDir
+    from hpctl.identify.workers import WorkerError, WorkerPool
+
+    tests = [virtual_rig.effect_tests()["switching"], *virtual_rig.sweep_tests()[:3]]
+    records = virtual_rig.make_records(virtual_rig.truth_unit((), {}), tests=tests, seed=2)
+    result = fit(prepare(records), ("heat_transfer", "real_gas"), max_nfev=3)
+    pairs = [(result, "declared"), (result, "final")]
+
+    class Failing(Executor):
+        def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+            f: Future[Any] = Future()
+            f.set_running_or_notify_cancel()  # taken up, then failed: not one this process can take back
+            f.set_exception(WorkerError("worker process failed: test"))
+            return f
+
+    class Counted(Executor):
+        # The futures handed out: those not cancelled were drawn by a worker.
+        def __init__(self, pool: WorkerPool) -> None:
+            self.pool, self.futures = pool, list[Future[Any]]()
+
+        def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+            self.futures.append(self.pool.submit(fn, *args, **kwargs))
+            return self.futures[-1]
+
+    shut = WorkerPool(1)
+    shut.shutdown()
+    pool = WorkerPool(2, preload=("hpctl.report.calibration",))
+    counted = Counted(pool)
+    drawn: dict[str, dict[str, bytes]] = {}
+    try:
+        # Both workers up (started, the report imported) before the figures.
+        assert [f.result(timeout=120) for f in [pool.submit(abs, -1), pool.submit(abs, -2)]] == [1, 2]
+        for name, workers in (("here", None), ("workers", counted), ("failing", Failing()), ("shut", shut)):
+            with OutputDir(tmp_path / name, "test") as out:
+                paths = calibration.draw_record_plots(pairs, out, workers)
+            assert [[p.name for p in ps] for ps in paths] == [[f"{prefix}_{d.name}.png" for d in result.datasets] for _, prefix in pairs]
+            drawn[name] = {p.name: p.read_bytes() for p in (tmp_path / name).glob("*.png")}
+    finally:
+        pool.shutdown()
+    assert len(drawn["here"]) == 2 * len(records)
+    assert len(counted.futures) == 2 * len(records) and 0 < sum(not f.cancelled() for f in counted.futures) < len(counted.futures)
+    assert drawn["workers"] == drawn["here"] and drawn["failing"] == drawn["here"] and drawn["shut"] == drawn["here"]

@@ -95,3 +95,33 @@ def test_an_unguarded_script_is_not_run_again_by_the_workers_nor_its_directorys_
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "6"
     assert len(log.read_text().splitlines()) == 1
+
+
+def test_preloaded_workers_start_at_once_with_their_modules_imported() -> None:
+    # Started with the pool (before any task) and with the modules named
+    # imported: a task that only asks finds them (it imports nothing itself).
+    asks = "sorted(m for m in ('colorsys', 'wave') if m in __import__('sys').modules)"
+    pool = WorkerPool(2, preload=("colorsys", "wave"))
+    try:
+        deadline = time.monotonic() + 60
+        while len(pool._children) < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert len(pool._children) == 2  # no task submitted yet
+        assert pool.submit(eval, asks).result(timeout=60) == ["colorsys", "wave"]
+    finally:
+        pool.shutdown()
+    lazy = WorkerPool(1)
+    try:
+        time.sleep(0.2)
+        assert not lazy._children
+        assert lazy.submit(eval, asks).result(timeout=60) == []
+    finally:
+        lazy.shutdown()
+
+
+def test_a_module_that_fails_to_preload_fails_only_the_tasks_that_need_it() -> None:
+    pool = WorkerPool(1, preload=("hpctl_no_such_module",))
+    try:
+        assert pool.submit(operator.mul, 2.0, 3.0).result(timeout=60) == 6.0
+    finally:
+        pool.shutdown()

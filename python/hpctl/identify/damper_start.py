@@ -323,12 +323,15 @@ def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effect
         p.add_done_callback(done)
 
 
-def static_pool(workers: int) -> WorkerPool:
+def static_pool(workers: int, preload: Sequence[str] = ()) -> WorkerPool:
     """A pool of ``workers`` processes for :func:`prefetch_static`
     (:mod:`hpctl.identify.workers`: they never import the caller's
-    script). A worker that cannot start fails its tasks, and the fits that
-    asked for them are computed in the caller's process, as without it."""
-    return WorkerPool(workers)
+    script), started at once with this module imported (and ``preload``'s:
+    the report's figures, :func:`hpctl.report.calibration.record_plots`,
+    where the caller draws them there too). A worker that cannot start
+    fails its tasks, and the fits that asked for them are computed in the
+    caller's process, as without it."""
+    return WorkerPool(workers, preload=(__name__, *preload))
 
 
 #: The model's parameters the static fit also starts (its shared terms),

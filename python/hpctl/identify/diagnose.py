@@ -1119,6 +1119,7 @@ def diagnose(
     progress: Progress | None = None,
     workers: int | None = None,
     flexible: bool = False,
+    statics: Executor | None = None,
 ) -> Diagnosis:
     """Runs the diagnosis loop from the declared model ``start_effects``.
     ``progress`` gets a line per step (the round, the candidate, an
@@ -1145,13 +1146,20 @@ def diagnose(
     processes of hpctl's own (:mod:`hpctl.identify.workers`), the first
     round's begun while the declared model is fitted; where a worker cannot
     start or fails, the fit that needs one computes it itself. Either way
-    the same values."""
+    the same values. ``statics``: the caller's pool for them
+    (:func:`~hpctl.identify.damper_start.static_pool`), left open (the
+    command line draws the report's figures there after); without, the
+    diagnosis starts its own and shuts it down."""
     clock = _Clock(progress or (lambda _m: None), max_rounds)
     n_workers = workers or default_workers()
     pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="hpctl-diagnose")
     # The flexible model's static damper fits in processes of their own
     # (hpctl.identify.damper_start.prefetch_static says why).
-    statics = static_pool(min(len(STARTS), os.cpu_count() or 1)) if flexible else None
+    own = statics is None and flexible
+    if own:
+        statics = static_pool(min(len(STARTS), os.cpu_count() or 1))
+    elif not flexible:
+        statics = None  # a fixed-shape model has no static fit
     try:
         # Held for the whole diagnosis, not only while a fit runs: see hpctl.identify.blas.
         with one_blas_thread():
@@ -1162,7 +1170,7 @@ def diagnose(
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     finally:
-        if statics is not None:
+        if own and statics is not None:
             # A static fit nobody asked for yet is not waited for.
             statics.shutdown(wait=False, cancel_futures=True)
         pool.shutdown(wait=True)

@@ -26,6 +26,7 @@ down, or the caller's process ends however it ends.
 
 from __future__ import annotations
 
+import importlib
 import os
 import pickle
 import queue
@@ -33,7 +34,7 @@ import signal
 import subprocess
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import IO, Any, ParamSpec, TypeVar
@@ -47,11 +48,16 @@ class WorkerError(RuntimeError):
 
 
 class WorkerPool(Executor):
-    """``workers`` processes, each started when a task first needs it."""
+    """``workers`` processes, each started when a task first needs it; with
+    ``preload`` (modules, by name) started at once, each importing them as
+    it starts: the imports then run beside the caller's own work (a
+    diagnosis reading its records) instead of in front of the first tasks
+    (a worker's start with SciPy and matplotlib is about a second)."""
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, preload: Sequence[str] = ()) -> None:
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
+        self._preload = tuple(preload)
         self._tasks: queue.SimpleQueue[tuple[Future[Any], bytes] | None] = queue.SimpleQueue()
         self._lock = threading.Lock()
         self._closed = False
@@ -93,6 +99,11 @@ class WorkerPool(Executor):
     def _serve(self) -> None:
         child: subprocess.Popen[bytes] | None = None
         try:
+            if self._preload:
+                try:
+                    child = self._spawn()
+                except OSError:
+                    child = None  # started again for the first task, which fails if it cannot
             while (item := self._tasks.get()) is not None:
                 future, payload = item
                 if not future.set_running_or_notify_cancel():
@@ -100,9 +111,7 @@ class WorkerPool(Executor):
                 try:
                     if child is None or child.poll() is not None:
                         self._forget(child)
-                        child = _start()
-                        with self._lock:
-                            self._children.add(child)
+                        child = self._spawn()
                     if child.stdin is None or child.stdout is None:
                         raise OSError("the worker has no pipes")
                     child.stdin.write(len(payload).to_bytes(8, "little") + payload)
@@ -120,6 +129,12 @@ class WorkerPool(Executor):
         finally:
             self._forget(child)
 
+    def _spawn(self) -> subprocess.Popen[bytes]:
+        child = _start(self._preload)
+        with self._lock:
+            self._children.add(child)
+        return child
+
     def _forget(self, child: subprocess.Popen[bytes] | None) -> None:
         if child is not None:
             with self._lock:
@@ -131,14 +146,15 @@ class WorkerPool(Executor):
 #: the child's path (after its own site-packages, so that it changes
 #: nothing another module is found by), and ``-P`` keeps the working
 #: directory off it (a ``numpy.py`` there is not imported).
-_BOOT = "import sys; sys.path.append({root!r}); from hpctl.identify.workers import _main; _main()"
+_BOOT = "import sys; sys.path.append({root!r}); from hpctl.identify.workers import _main; _main({preload!r})"
 
 
-def _start() -> subprocess.Popen[bytes]:
+def _start(preload: Sequence[str] = ()) -> subprocess.Popen[bytes]:
     root = str(Path(__file__).resolve().parents[2])
     # BLAS on one thread from the start (the worker also limits it).
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    return subprocess.Popen([sys.executable, "-P", "-c", _BOOT.format(root=root)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+    boot = _BOOT.format(root=root, preload=tuple(preload))
+    return subprocess.Popen([sys.executable, "-P", "-c", boot], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
 
 
 def _stop(child: subprocess.Popen[bytes] | None) -> None:
@@ -164,14 +180,21 @@ def _read(stream: IO[bytes]) -> bytes:
     return body
 
 
-def _main() -> None:
-    """The worker: tasks from stdin, answers to stdout, until stdin closes."""
+def _main(preload: Sequence[str] = ()) -> None:
+    """The worker: ``preload``'s modules imported, then tasks from stdin,
+    answers to stdout, until stdin closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     # The protocol keeps the real stdout; anything a task prints goes to stderr.
     out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
     from threadpoolctl import threadpool_limits
 
+    for name in preload:
+        # A module that fails to import fails the tasks that need it, as without preloading.
+        try:
+            importlib.import_module(name)
+        except Exception as e:
+            print(f"hpctl worker: preloading {name} failed: {e!r}", file=sys.stderr)
     # As the diagnosis's own process (hpctl.identify.blas): the same rounding.
     threadpool_limits(1)
     src = sys.stdin.buffer

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
 from hpctl.identify.switching import places  # noqa: E402
+from hpctl.identify.workers import WorkerError  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
 from hpctl.report.plots import save, valve_states  # noqa: E402
 
@@ -30,14 +32,56 @@ from hpctl.report.plots import save, valve_states  # noqa: E402
 JACOBIAN_WORDS = {"finite_difference": "finite differences", "broyden": "Broyden", "hybrid": "finite differences far, Broyden near"}
 
 
-def record_plots(result: FitResult, out: OutputDir, prefix: str) -> list[Path]:
-    """Per record (:func:`record_figure`), written as ``PREFIX_RECORD.png``."""
-    paths = []
-    for i, d in enumerate(result.datasets):
-        fig = record_figure(result, i)
-        if fig is not None:
-            paths.append(save(fig, out.path(f"{prefix}_{d.name}.png"), dpi=90))
-    return paths
+def record_plots(result: FitResult, out: OutputDir, prefix: str, workers: Executor | None = None) -> list[Path]:
+    """Per record (:func:`record_figure`), written as ``PREFIX_RECORD.png``;
+    drawn in ``workers`` too where given (:func:`draw_record_plots`)."""
+    return draw_record_plots([(result, prefix)], out, workers)[0]
+
+
+def draw_record_plots(plots: Sequence[tuple[FitResult, str]], out: OutputDir, workers: Executor | None = None) -> list[list[Path]]:
+    """:func:`record_plots` of each ``(result, prefix)``, all drawn at once
+    where ``workers`` (worker processes: :mod:`hpctl.identify.workers`) are
+    given: a figure a worker has not taken up yet is drawn in this
+    process, the last first, so that this process works beside them and
+    never waits for a figure it could draw; a worker that fails
+    (:class:`~hpctl.identify.workers.WorkerError`) has its figure drawn
+    here. The same bytes either way (the same code and matplotlib in
+    both). Why processes: matplotlib holds the GIL while it draws (two
+    threads took 1.39 s for five figures, one 1.30 s), and the eleven
+    figures of a diagnosis's report took 2.5 s of a 62 s campaign
+    (BENCHMARKS.md, stop 59)."""
+    jobs = [(k, result, i, out.path(f"{prefix}_{d.name}.png")) for k, (result, prefix) in enumerate(plots)
+            for i, d in enumerate(result.datasets)]
+    drawn: list[Path | None] = [None] * len(jobs)
+    futures: list[Future[Path | None] | None] = [None] * len(jobs)
+    if workers is not None:
+        for n, (_, result, i, path) in enumerate(jobs):
+            try:
+                futures[n] = workers.submit(record_png, result, i, path)
+            except Exception:  # a pool shut down, or a result that cannot be pickled: drawn here
+                break
+    for n in reversed(range(len(jobs))):
+        f = futures[n]
+        if f is None or f.cancel():
+            _, result, i, path = jobs[n]
+            drawn[n] = record_png(result, i, path)
+    for n, f in enumerate(futures):
+        if f is None or f.cancelled():
+            continue
+        try:
+            drawn[n] = f.result()
+        except WorkerError:
+            _, result, i, path = jobs[n]
+            drawn[n] = record_png(result, i, path)
+    return [[p for (k, *_), p in zip(jobs, drawn) if k == which and p is not None] for which in range(len(plots))]
+
+
+def record_png(result: FitResult, i: int, path: Path) -> Path | None:
+    """Record ``i``'s :func:`record_figure` written to ``path`` (None where
+    the model failed on it); a worker process's task
+    (:func:`draw_record_plots`)."""
+    fig = record_figure(result, i)
+    return None if fig is None else save(fig, path, dpi=90)
 
 
 def record_figure(result: FitResult, i: int) -> Figure | None:
@@ -218,9 +262,11 @@ LINEAR_ERRORS = ("Standard errors are linearised at the estimate. Where paramete
                  "`--profile NAME` gives the profile-likelihood interval.")
 
 
-def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = (), profiles: Sequence[ProfileInterval] = ()) -> Path:
-    """fit.md with parameters, errors, plots and the warnings."""
-    plots = record_plots(result, out, "fit")
+def fit_report(result: FitResult, out: OutputDir, caveats: Sequence[Caveat] = (), profiles: Sequence[ProfileInterval] = (),
+               workers: Executor | None = None) -> Path:
+    """fit.md with parameters, errors, plots (drawn in ``workers`` too
+    where given: :func:`draw_record_plots`) and the warnings."""
+    plots = record_plots(result, out, "fit", workers)
     lines = [
         "# hpctl fit",
         "",
@@ -267,9 +313,10 @@ def _after(rnd: Round) -> str:
     return f"{j.rms_ratio:.3g} ({j.worst_rms_ratio:.3g}): {'at the noise' if j.at_noise else 'structure remains'}"
 
 
-def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] = ()) -> Path:
+def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] = (), workers: Executor | None = None) -> Path:
     """report.md: the story from the declared model to the verdict, and the
-    warnings."""
+    warnings; its figures drawn in ``workers`` too where given
+    (:func:`draw_record_plots`)."""
     initial, final = diag.initial, diag.final
     lines = [
         "# hpctl diagnosis",
@@ -364,8 +411,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         lines += ["", "Strongest correlations of the final residual with physical quantities:", "",
                   "| record | channel | quantity | correlation |", "|---|---|---|---|"]
         lines += [f"| {c.record} | {c.channel} | {c.regressor} | {c.r:+.2f} |" for c in strongest]
-    before = record_plots(initial, out, "declared")
-    after = record_plots(final, out, "final")
+    before, after = draw_record_plots([(initial, "declared"), (final, "final")], out, workers)
     lines += ["", "## Plots", "", "Declared model:", "", *[f"![{p.stem}]({p.name})" for p in before], "", "Final model:", "",
               *[f"![{p.stem}]({p.name})" for p in after], ""]
     out.write_text("report.md", "\n".join(lines))
