@@ -87,3 +87,39 @@ def test_kept_drives_are_held_to_their_bytes(datasets: list[ds.Dataset], monkeyp
     monkeypatch.setattr(ds, "DRAWN_DRIVES_KEPT_BYTES", 0)
     with_input_noise_and_clock(d, np.random.default_rng(9))
     assert len(ds._drawn) == 1
+
+
+def test_a_fits_input_noise_draws_are_prepared_beside_it_and_the_fit_is_the_same(
+        datasets: list[ds.Dataset], monkeypatch: pytest.MonkeyPatch) -> None:
+    # fit() prepares its input-noise draws' drives in a thread of its own
+    # (fit._prepare_input_draws) while it fits; the draws then asked for
+    # are all kept (none prepared in the fit's own thread), nothing is left
+    # preparing after it, and the result is the one without that thread,
+    # to the last bit.
+    import threading
+
+    from hpctl.identify import fit as fit_module
+
+    def fitted() -> fit_module.FitResult:
+        # Every drive kept before dropped: each fit prepares its own.
+        monkeypatch.setattr(ds, "_drawn", type(ds._drawn)())
+        monkeypatch.setattr(ds, "_drawn_bytes", [0])
+        return fit_module.fit(datasets, ("heat_transfer", "real_gas"), max_nfev=4)
+
+    where: list[str] = []
+    drive = ds._drive
+
+    def counted(*a: object) -> object:
+        where.append(threading.current_thread().name)
+        return drive(*a)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(ds, "_drive", counted)
+    beside = fitted()
+    assert len(where) == fit_module.INPUT_NOISE_DRAWS * len(datasets) and set(where) == {"hpctl-input-draws"}, set(where)
+    assert not fit_module._preparing and not [t for t in threading.enumerate() if t.name == "hpctl-input-draws"]
+    monkeypatch.setattr(fit_module, "_prepare_input_draws", lambda _datasets: None)
+    where.clear()
+    alone = fitted()
+    assert len(where) == fit_module.INPUT_NOISE_DRAWS * len(datasets) and set(where) == {threading.current_thread().name}
+    assert beside.values == alone.values and beside.stderr == alone.stderr and beside.rss == alone.rss
+    assert np.array_equal(beside.covariance, alone.covariance)

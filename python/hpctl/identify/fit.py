@@ -14,6 +14,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
@@ -28,6 +29,7 @@ from hpctl.identify import MAX_NFEV, MAX_NFEV_LIMIT, output_only
 from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STATIC_TERMS, static_damper_values
 from hpctl.identify.dataset import (
+    DRAWN_DRIVES_KEPT_BYTES,
     Dataset,
     carried_drives,
     carried_records,
@@ -466,23 +468,31 @@ def fit(
     from a peak above it (:data:`STRIBECK_RESTART`), and the lower cost is
     kept; the message says which."""
     with one_blas_thread():  # see hpctl.identify.blas
-        run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
-                                held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors, place_switches=place_switches)
-        result = run(initial=initial)
-        if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
-            return result
+        # Started here, so that their preparation has the fit's BLAS setting.
+        if errors and input_noise:
+            _prepare_input_draws(datasets)
         try:
-            again = run(initial={**result.values, **STRIBECK_RESTART})
-        except HpctlError as e:
-            # The restart is a second opinion: its failure never costs the first fit.
-            result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
+            run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
+                                    held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors, place_switches=place_switches)
+            result = run(initial=initial)
+            if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
+                return result
+            try:
+                again = run(initial={**result.values, **STRIBECK_RESTART})
+            except HpctlError as e:
+                # The restart is a second opinion: its failure never costs the first fit.
+                result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
+                return result
+            gain = objective(result) - objective(again)
+            if gain > 0.0:
+                again.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {gain:.3g} lower, kept"
+                return again
+            result.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {-gain:.3g} higher, the first optimum kept"
             return result
-        gain = objective(result) - objective(again)
-        if gain > 0.0:
-            again.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {gain:.3g} lower, kept"
-            return again
-        result.message += f"; restarted with the Stribeck peak above the smoothing velocity: cost {-gain:.3g} higher, the first optimum kept"
-        return result
+        finally:
+            # A fit that failed or had nothing to fit never asked for them:
+            # not left preparing beyond it.
+            _join_input_draws(datasets)
 
 
 def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
@@ -997,6 +1007,59 @@ INPUT_NOISE_DRAWS = 32
 INPUT_NOISE_SEED = 12
 
 
+def _input_draws(datasets: Sequence[Dataset]) -> list[list[Dataset]]:
+    """The datasets driven by :data:`INPUT_NOISE_DRAWS` seeded draws of
+    their input's noise (:func:`~hpctl.identify.dataset.with_input_noise`,
+    its drives kept there): the same draws on every call."""
+    rng = np.random.default_rng(INPUT_NOISE_SEED)
+    return [[with_input_noise(d, rng) for d in datasets] for _ in range(INPUT_NOISE_DRAWS)]
+
+
+def _records_key(datasets: Sequence[Dataset]) -> tuple[int, ...]:
+    return tuple(id(d.record) for d in datasets)
+
+
+#: The threads preparing a fit's input-noise draws (:func:`_prepare_input_draws`), by its records.
+_preparing: dict[tuple[int, ...], threading.Thread] = {}
+_preparing_lock = threading.Lock()
+
+
+def _prepare_input_draws(datasets: Sequence[Dataset]) -> None:
+    """Prepares the input-noise draws' drives (:func:`_input_draws`) in a
+    thread of their own while the fit runs, for
+    :func:`_input_noise_residuals` to find kept. Their preparation (the
+    drawn inputs' corners and rates: about 1 s of Python on the bundled
+    campaign) then runs while this process waits for its static damper
+    start or the model's runs, which hold no GIL. Only where every draw
+    fits in what :func:`~hpctl.identify.dataset._drawn_drive` keeps (else
+    the first would be dropped for the last before they are asked for)."""
+    if INPUT_NOISE_DRAWS * 3 * 8 * sum(len(d.times_s) for d in datasets) > DRAWN_DRIVES_KEPT_BYTES:
+        return
+    key = _records_key(datasets)
+
+    def work() -> None:
+        try:
+            _input_draws(datasets)
+        except Exception:  # noqa: S110 - the fit prepares them itself, and says what fails
+            pass
+
+    with _preparing_lock:
+        if key in _preparing:
+            return
+        thread = threading.Thread(target=work, name="hpctl-input-draws", daemon=True)
+        _preparing[key] = thread
+    thread.start()
+
+
+def _join_input_draws(datasets: Sequence[Dataset]) -> None:
+    """Waits for :func:`_prepare_input_draws`'s thread for ``datasets``'
+    records, if one was started."""
+    with _preparing_lock:
+        thread = _preparing.pop(_records_key(datasets), None)
+    if thread is not None:
+        thread.join()
+
+
 def _output_share(datasets: Sequence[Dataset], fold: int | None) -> FloatArray:
     """Per residual: the share of its weight that is the channel's own
     (output) noise, (sigma / weight_sigma)^2; the rest of the weight is the
@@ -1031,8 +1094,8 @@ def _input_noise_residuals(
     window: on the virtual rig's sweep it is about a fifth of the variance
     of the charge and gas time constant, which a covariance assuming
     independent residuals missed (issue 12, docs/foreign-rig.md)."""
-    rng = np.random.default_rng(INPUT_NOISE_SEED)
-    noisy = [[with_input_noise(d, rng) for d in datasets] for _ in range(INPUT_NOISE_DRAWS)]
+    _join_input_draws(datasets)  # its drives are kept: taken from there below
+    noisy = _input_draws(datasets)
     flat = [d for draw in noisy for d in draw]
     sims = simulate_all(model, flat, [values])[0]
     n = len(datasets)
