@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -237,15 +237,23 @@ def _confounded_caveats(result: FitResult) -> list[Caveat]:
     return out
 
 
-def _worker_pool() -> WorkerPool:
-    """Worker processes for a flexible fit's static damper fits
+@contextlib.contextmanager
+def _worker_pool(flexible: bool) -> Iterator[WorkerPool | None]:
+    """For a flexible run: worker processes for its static damper fits
     (:func:`hpctl.identify.damper_start.prefetch_static`) and then the
     report's figures (:func:`hpctl.report.calibration.draw_record_plots`),
     started now with both imported, beside this process's reading of the
-    records."""
+    records; shut down on leaving (what is queued dropped). None otherwise."""
+    if not flexible:
+        yield None
+        return
     from hpctl.identify.damper_start import STARTS, static_pool
 
-    return static_pool(min(len(STARTS), os.cpu_count() or 1), preload=("hpctl.report.calibration",))
+    pool = static_pool(min(len(STARTS), os.cpu_count() or 1), preload=("hpctl.report.calibration",))
+    try:
+        yield pool
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _model_gas(result: FitResult) -> str:
@@ -298,61 +306,52 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
     not converge or left more than noise is a warning."""
     rep = Reporter(quiet, as_json)
     with errors(rep):
+        from hpctl.identify.damper_start import prefetch_static
+        from hpctl.identify.dataset import prepare
+        from hpctl.identify.fit import at_own_noise, fit, model_for
+        from hpctl.identify.profile import profile_interval
+        from hpctl.report import calibration as report
+
         effects = parse_model(model)
         budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
         recs = _records(records)
         # The flexible model's static damper start, its three starts side by
         # side (3.7 s in this process alone on the bundled campaign), and the
         # figures after.
-        workers = _worker_pool() if flexible else None
-        try:
-            _fit_records(rep, recs, effects, flexible, budget, profiled, out_dir, force, strict, as_json, workers)
-        finally:
+        with _worker_pool(flexible) as workers:
+            datasets = prepare(recs)
+            # Named wrong, said before the fit, not after it.
+            fitted_model = model_for(datasets, effects, flexible=flexible)
+            names = [p.name for p in fitted_model.params]
+            for name in profiled:
+                if name not in names:
+                    raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
             if workers is not None:
-                workers.shutdown(wait=False, cancel_futures=True)
-
-
-def _fit_records(rep: Reporter, recs: list[RigRecord], effects: tuple[str, ...], flexible: bool, budget: int, profiled: tuple[str, ...],
-                 out_dir: Path, force: bool, strict: bool, as_json: bool, workers: WorkerPool | None) -> None:
-    from hpctl.identify.damper_start import prefetch_static
-    from hpctl.identify.dataset import prepare
-    from hpctl.identify.fit import at_own_noise, fit, model_for
-    from hpctl.identify.profile import profile_interval
-    from hpctl.report import calibration as report
-
-    datasets = prepare(recs)
-    # Named wrong, said before the fit, not after it.
-    fitted_model = model_for(datasets, effects, flexible=flexible)
-    names = [p.name for p in fitted_model.params]
-    for name in profiled:
-        if name not in names:
-            raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
-    if workers is not None:
-        prefetch_static(datasets, fitted_model.params, fitted_model.effects, workers)
-    with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
-        with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
-            # Reported and judged in its own model's weights (the
-            # input's noise carried through it, not the template's).
-            fitted = fit(datasets, effects, flexible=flexible, max_nfev=budget)
-            result = at_own_noise(fitted)
-        profiles: list[ProfileInterval] = []
-        for name in profiled:
-            # In the fit's own weights, where its estimate is the
-            # optimum (the report's are the fitted model's, above).
-            with status(rep, f"profile of {name}"):
-                profiles.append(profile_interval(fitted, name))
-        caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + _profile_caveats(profiles)
-        report.fit_report(result, out, caveats, profiles, workers)
-        document = with_warnings(report.fit_summary(result, profiles), caveats)
-        out.write_json("fit.json", document)
-    if as_json:
-        click.echo(json.dumps(document, indent=2))
-    else:
-        _print_fit(rep, result)
-        for iv in profiles:
-            rep.say(iv.describe())
-        rep.say(f"Wrote fit.md, fit.json and plots to {out_dir}/")
-    finish(rep, caveats, strict)
+                prefetch_static(datasets, fitted_model.params, fitted_model.effects, workers)
+            with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
+                with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
+                    # Reported and judged in its own model's weights (the
+                    # input's noise carried through it, not the template's).
+                    fitted = fit(datasets, effects, flexible=flexible, max_nfev=budget)
+                    result = at_own_noise(fitted)
+                profiles: list[ProfileInterval] = []
+                for name in profiled:
+                    # In the fit's own weights, where its estimate is the
+                    # optimum (the report's are the fitted model's, above).
+                    with status(rep, f"profile of {name}"):
+                        profiles.append(profile_interval(fitted, name))
+                caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + _profile_caveats(profiles)
+                report.fit_report(result, out, caveats, profiles, workers)
+                document = with_warnings(report.fit_summary(result, profiles), caveats)
+                out.write_json("fit.json", document)
+        if as_json:
+            click.echo(json.dumps(document, indent=2))
+        else:
+            _print_fit(rep, result)
+            for iv in profiles:
+                rep.say(iv.describe())
+            rep.say(f"Wrote fit.md, fit.json and plots to {out_dir}/")
+        finish(rep, caveats, strict)
 
 
 @click.command("diagnose")
@@ -460,18 +459,14 @@ def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...],
 
     # The flexible model's static damper fits' worker processes, kept for
     # the report's figures after (hpctl.report.calibration.draw_record_plots).
-    statics = _worker_pool() if flexible else None
-    try:
-        with output_dir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
-            with status(rep, "diagnosing") as spinner:
-                diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update, flexible=flexible, statics=statics)
-            caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
-            path = report.diagnosis_report(diag, out, caveats, workers=statics)
-            document = with_warnings(diagnose.summary(diag), caveats)
-            out.write_json("diagnosis.json", document)
-    finally:
-        if statics is not None:
-            statics.shutdown(wait=False, cancel_futures=True)
+    with _worker_pool(flexible) as statics, \
+            output_dir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
+        with status(rep, "diagnosing") as spinner:
+            diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update, flexible=flexible, statics=statics)
+        caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
+        path = report.diagnosis_report(diag, out, caveats, workers=statics)
+        document = with_warnings(diagnose.summary(diag), caveats)
+        out.write_json("diagnosis.json", document)
     if as_json:
         click.echo(json.dumps(document, indent=2))
     else:

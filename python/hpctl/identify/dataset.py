@@ -326,6 +326,13 @@ _drawn_bytes = [0]
 _drawn_lock = threading.Lock()
 
 
+def drawn_drive_bytes(n_samples: int) -> int:
+    """What a kept drawn drive of ``n_samples`` counts against
+    :data:`DRAWN_DRIVES_KEPT_BYTES`: the input, its smoothed displacement and
+    rate (float64 each)."""
+    return 3 * 8 * n_samples
+
+
 def _drawn_drive(rec: RigRecord, t: FloatArray, x: FloatArray) -> Rig:
     """:func:`_drive`'s rig for a drawn input ``x`` (the measured input plus
     a draw of its noise), kept for the same record, instants and input.
@@ -348,7 +355,7 @@ def _drawn_drive(rec: RigRecord, t: FloatArray, x: FloatArray) -> Rig:
             _drawn.move_to_end(key)
             return hit[3]
     rig = _drive(rec, t, x)[0]
-    size = 3 * x.nbytes
+    size = drawn_drive_bytes(len(x))
     with _drawn_lock:
         old = _drawn.pop(key, None)
         _drawn_bytes[0] += size - (old[4] if old is not None else 0)

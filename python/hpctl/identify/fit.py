@@ -33,6 +33,7 @@ from hpctl.identify.dataset import (
     Dataset,
     carried_drives,
     carried_records,
+    drawn_drive_bytes,
     fold_mask,
     loop_area_j,
     uses_damper,
@@ -1033,7 +1034,7 @@ def _prepare_input_draws(datasets: Sequence[Dataset]) -> None:
     start or the model's runs, which hold no GIL. Only where every draw
     fits in what :func:`~hpctl.identify.dataset._drawn_drive` keeps (else
     the first would be dropped for the last before they are asked for)."""
-    if INPUT_NOISE_DRAWS * 3 * 8 * sum(len(d.times_s) for d in datasets) > DRAWN_DRIVES_KEPT_BYTES:
+    if INPUT_NOISE_DRAWS * sum(drawn_drive_bytes(len(d.times_s)) for d in datasets) > DRAWN_DRIVES_KEPT_BYTES:
         return
     key = _records_key(datasets)
 
