@@ -88,3 +88,32 @@ fn with_an_ideal_gas_only_the_gas_mass_moves_the_time_constant() {
     state.v_gas_m3 *= 0.8; // the same density and temperature
     assert!((heat_part(&state) - 10.0 / (0.8 * TAU_S)).abs() < 1e-12, "{}", heat_part(&state));
 }
+
+#[test]
+fn any_exponent_moves_the_conductance_as_that_power_of_the_heat_capacity() {
+    // tau = tau_s (m c_v / (m c_v)_static)^n, so the implied conductance
+    // m c_v / tau is the static one times (c_v / c_v,static)^(1 - n) (the
+    // mass does not move without a leak), c_v taken from CoolProp's grid.
+    // The core's power (exp(n ln r), not pow: stop 60) is checked by it.
+    let grid = fixture("n2_grid.csv");
+    let reference = grid.iter().find(|r| r["p_pa"] == 15e6 && (r["t_k"] - 293.15).abs() < 1e-9).unwrap();
+    for exponent in [0.5, 0.9066172447224166, -2.0, 3.0] {
+        let unit = with_conductance(Gas::Span, Some(exponent), None, reference["p_pa"], reference["t_k"]);
+        let m = unit.gas_masses_kg().0;
+        let conductance = m * reference["cv_j_per_kg_k"] / TAU_S;
+        let mut moved = 0.0_f64;
+        for row in grid.iter().filter(|r| (5e6..=40e6).contains(&r["p_pa"]) && r["t_k"] > 230.0 && r["t_k"] < 380.0) {
+            let state = state_at(&unit, row["rho_kg_m3"], row["t_k"]);
+            let wall_k = row["t_k"] + 12.0;
+            let (rate, _) = unit.evaluate(&state, AT_REST, HARD, wall_k);
+            let implied = m * row["cv_j_per_kg_k"] * rate.t_gas_k / (wall_k - row["t_k"]);
+            let expected = conductance * (row["cv_j_per_kg_k"] / reference["cv_j_per_kg_k"]).powf(1.0 - exponent);
+            // The core's c_v within 1e-4 of CoolProp's, raised to 1 - n.
+            let tolerance = 2e-4 * (1.0 - exponent).abs().max(1.0);
+            assert!((implied / expected - 1.0).abs() < tolerance, "n = {exponent}, {row:?}: hA {implied} vs {expected}");
+            moved = moved.max((expected / conductance - 1.0).abs());
+        }
+        // The rows move the conductance by more than the tolerance.
+        assert!(moved > 10.0 * 2e-4, "n = {exponent}: moved by {moved}");
+    }
+}
