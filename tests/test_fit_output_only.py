@@ -119,13 +119,22 @@ def test_a_fit_is_the_fit_with_every_column_run(datasets: list[Dataset], monkeyp
     # errors of the unidentified parameters move by up to 60 % (the
     # Hessian's smallest eigenvalues are the rounding's), so they are not
     # compared.
+    #
+    # Without the logged switches' placement: it fits again from each
+    # pass's places (a dozen fits of two evaluations here), and its
+    # accept-or-not decisions (a joint step of the places and the
+    # parameters) follow that rounding too. With it, the model's powers as
+    # exp(n ln x) instead of pow (stop 60) flipped one such decision and
+    # the two ended 1.5e-4 apart in the residual sum of squares, 0.29
+    # errors on a blow-off; one step, as here, 1e-9 and 0.0000 errors
+    # apart with either arithmetic (7e-10 and 1.1e-9).
     effects = (*EFFECTS, "friction")
-    quick = fit(datasets, effects, flexible=True, max_nfev=2, input_noise=False)
+    quick = fit(datasets, effects, flexible=True, max_nfev=2, input_noise=False, place_switches=False)
     monkeypatch.setattr(fit_module, "OUTPUT_ONLY_COLUMNS", False)
-    runs = fit(datasets, effects, flexible=True, max_nfev=2, input_noise=False)
-    assert quick.rss == pytest.approx(runs.rss, rel=1e-5)
+    runs = fit(datasets, effects, flexible=True, max_nfev=2, input_noise=False, place_switches=False)
+    assert quick.rss == pytest.approx(runs.rss, rel=1e-7)
     for name, value in runs.values.items():
-        assert abs(quick.values[name] - value) <= 0.05 * runs.stderr[name], name
+        assert abs(quick.values[name] - value) <= 0.01 * runs.stderr[name], name
 
 
 def test_models_whose_damper_reaches_the_state_run_every_column(datasets: list[Dataset]) -> None:
