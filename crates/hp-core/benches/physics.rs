@@ -112,5 +112,16 @@ fn sdof(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, baseline, eos, sdof);
+fn power_law(c: &mut Criterion) {
+    // The effects' power laws (wall conductance, oil cooling, leakage) at
+    // every stage of every step: `unit::power` (exp of n ln x) against the
+    // libm crate's fdlibm pow it replaced (stop 60), at a wall-conductance
+    // factor's typical base and a fitted exponent.
+    let mut g = c.benchmark_group("power_law");
+    g.bench_function("libm_pow", |b| b.iter(|| libm::pow(black_box(0.97), black_box(0.9066))));
+    g.bench_function("unit_power", |b| b.iter(|| hp_core::unit::power(black_box(0.97), black_box(0.9066))));
+    g.finish();
+}
+
+criterion_group!(benches, baseline, eos, sdof, power_law);
 criterion_main!(benches);
