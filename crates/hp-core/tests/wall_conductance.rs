@@ -13,6 +13,9 @@ const HARD: Valves = Valves { valve5_open: false, valve6_open: false };
 const AT_REST: StrutMotion = StrutMotion { disp_m: 0.0, vel_m_s: 0.0 };
 const TAU_S: f64 = 1.7;
 
+/// A row of a CoolProp fixture, by column.
+type Row = std::collections::HashMap<String, f64>;
+
 fn with_conductance(gas: Gas, exponent: Option<f64>, leakage: Option<Leakage>, static_p_pa: f64, static_t_k: f64) -> Unit {
     unit_with(|p| {
         p.gas = gas;
@@ -30,6 +33,22 @@ fn state_at(unit: &Unit, rho: f64, t_k: f64) -> UnitState {
     s
 }
 
+/// The conductance `m c_v dT/dt / (T_w - T)` the unit implies at rest, 12 K
+/// below its wall, in each row of CoolProp's grid between 5 and 40 MPa and
+/// 230 and 380 K (`c_v` the grid's): at rest the temperature rate is the
+/// heat flow alone, `m c_v dT/dt = hA (T_w - T)`.
+fn implied_conductances<'g>(unit: &Unit, grid: &'g [Row]) -> Vec<(&'g Row, f64)> {
+    let m = unit.gas_masses_kg().0;
+    grid.iter()
+        .filter(|r| (5e6..=40e6).contains(&r["p_pa"]) && r["t_k"] > 230.0 && r["t_k"] < 380.0)
+        .map(|row| {
+            let wall_k = row["t_k"] + 12.0;
+            let (rate, _) = unit.evaluate(&state_at(unit, row["rho_kg_m3"], row["t_k"]), AT_REST, HARD, wall_k);
+            (row, m * row["cv_j_per_kg_k"] * rate.t_gas_k / (wall_k - row["t_k"]))
+        })
+        .collect()
+}
+
 #[test]
 fn exponent_one_keeps_the_wall_conductance_fixed_in_every_state() {
     // The static state is one row of CoolProp's grid, the gas then taken to
@@ -42,11 +61,7 @@ fn exponent_one_keeps_the_wall_conductance_fixed_in_every_state() {
     let m = unit.gas_masses_kg().0;
     let conductance = m * reference["cv_j_per_kg_k"] / TAU_S;
     let mut checked = 0;
-    for row in grid.iter().filter(|r| (5e6..=40e6).contains(&r["p_pa"]) && r["t_k"] > 230.0 && r["t_k"] < 380.0) {
-        let state = state_at(&unit, row["rho_kg_m3"], row["t_k"]);
-        let wall_k = row["t_k"] + 12.0;
-        let (rate, _) = unit.evaluate(&state, AT_REST, HARD, wall_k);
-        let implied = m * row["cv_j_per_kg_k"] * rate.t_gas_k / (wall_k - row["t_k"]);
+    for (row, implied) in implied_conductances(&unit, &grid) {
         // The core's c_v against CoolProp's: within 1e-4 (docs/accuracy.md).
         assert!((implied / conductance - 1.0).abs() < 2e-4, "{row:?}: hA {implied} vs {conductance}");
         checked += 1;
@@ -99,14 +114,9 @@ fn any_exponent_moves_the_conductance_as_that_power_of_the_heat_capacity() {
     let reference = grid.iter().find(|r| r["p_pa"] == 15e6 && (r["t_k"] - 293.15).abs() < 1e-9).unwrap();
     for exponent in [0.5, 0.9066172447224166, -2.0, 3.0] {
         let unit = with_conductance(Gas::Span, Some(exponent), None, reference["p_pa"], reference["t_k"]);
-        let m = unit.gas_masses_kg().0;
-        let conductance = m * reference["cv_j_per_kg_k"] / TAU_S;
+        let conductance = unit.gas_masses_kg().0 * reference["cv_j_per_kg_k"] / TAU_S;
         let mut moved = 0.0_f64;
-        for row in grid.iter().filter(|r| (5e6..=40e6).contains(&r["p_pa"]) && r["t_k"] > 230.0 && r["t_k"] < 380.0) {
-            let state = state_at(&unit, row["rho_kg_m3"], row["t_k"]);
-            let wall_k = row["t_k"] + 12.0;
-            let (rate, _) = unit.evaluate(&state, AT_REST, HARD, wall_k);
-            let implied = m * row["cv_j_per_kg_k"] * rate.t_gas_k / (wall_k - row["t_k"]);
+        for (row, implied) in implied_conductances(&unit, &grid) {
             let expected = conductance * (row["cv_j_per_kg_k"] / reference["cv_j_per_kg_k"]).powf(1.0 - exponent);
             // The core's c_v within 1e-4 of CoolProp's, raised to 1 - n.
             let tolerance = 2e-4 * (1.0 - exponent).abs().max(1.0);
