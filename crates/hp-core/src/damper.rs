@@ -155,35 +155,34 @@ impl DamperCurve {
 
     /// Pressure drop for a flow magnitude `q_m3_s >= 0`, Pa.
     pub fn pressure_drop_pa(&self, q_m3_s: f64) -> f64 {
-        if self.staged() {
-            return self.staged_pressure_drop_pa(q_m3_s).0;
-        }
-        if self.smooth() {
-            return self.smooth_pressure_drop_pa(q_m3_s).0;
-        }
-        let (orifice, _) = self.below_blowoff(q_m3_s);
-        if orifice <= self.blowoff_pa {
-            orifice
-        } else {
-            self.blowoff_pa + self.blowoff_slope_pa_s_per_m3 * (q_m3_s - self.blowoff_flow_m3_s())
-        }
+        self.at(&self.knees(), q_m3_s).0
     }
 
     /// `d(dp)/dq` of [`DamperCurve::pressure_drop_pa`] at a flow magnitude
     /// `q_m3_s >= 0`, Pa s/m^3 (the sharp knee's slope from below at the
     /// knee itself).
     pub fn pressure_drop_slope_pa_s_per_m3(&self, q_m3_s: f64) -> f64 {
+        self.at(&self.knees(), q_m3_s).1
+    }
+
+    /// The pressure drop and its slope at a flow magnitude `q_m3_s >= 0`,
+    /// with the curve's [`Knees`] (its flow-independent parts): the
+    /// two-stage curve, the smooth one or the sharp one, as the curve is
+    /// set (see the type's description).
+    #[inline]
+    fn at(&self, k: &Knees, q_m3_s: f64) -> (f64, f64) {
         if self.staged() {
-            return self.staged_pressure_drop_pa(q_m3_s).1;
+            return self.staged_at(k, q_m3_s);
         }
         if self.smooth() {
-            return self.smooth_pressure_drop_pa(q_m3_s).1;
+            return self.smooth_at(&k.first, q_m3_s);
         }
         let (orifice, slope) = self.below_blowoff(q_m3_s);
         if orifice <= self.blowoff_pa {
-            slope
+            (orifice, slope)
         } else {
-            self.blowoff_slope_pa_s_per_m3
+            // `k.first.q_b` is the blow-off flow ([`DamperCurve::first_knee`]).
+            (self.blowoff_pa + self.blowoff_slope_pa_s_per_m3 * (q_m3_s - k.first.q_b), self.blowoff_slope_pa_s_per_m3)
         }
     }
 
@@ -195,29 +194,25 @@ impl DamperCurve {
         (libm::copysign(dp, q), slope)
     }
 
-    /// The smooth-knee curve (see the type's description) and its slope
-    /// `d(dp)/dq`, at flow `q_m3_s >= 0`.
-    fn smooth_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
-        self.smooth_at(&self.first_knee(), q_m3_s)
-    }
-
-    /// What the smooth curve needs that does not depend on the flow (the
-    /// first blow-off's ramp); with [`DamperCurve::knees`], computed once
-    /// where a curve is inverted (Newton's iterations on every evaluation
-    /// of a model with compressible oil), each in the same expression as
-    /// before, so the curve is the same to the last bit.
+    /// The first blow-off's ramp: with the second's ([`DamperCurve::knees`])
+    /// what the curve needs that does not depend on the flow, computed once
+    /// per curve ([`PreparedDamper`]) or per inversion, each in the same
+    /// expression as at every evaluation before (stop 61), so the curve is
+    /// the same to the last bit.
     fn first_knee(&self) -> Ramp {
         let q_b = self.blowoff_flow_m3_s();
         Ramp::new(q_b, self.blowoff_knee * q_b)
     }
 
-    /// The two-stage curve's flow-independent parts: both blow-offs' ramps.
+    /// The curve's flow-independent parts: both blow-offs' ramps (the
+    /// second's unused without a second stage).
     fn knees(&self) -> Knees {
         let x_2 = (self.blowoff2_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3;
         Knees { first: self.first_knee(), second: Ramp::new(x_2, self.blowoff_knee * x_2) }
     }
 
-    /// [`DamperCurve::smooth_pressure_drop_pa`] with its first knee.
+    /// The smooth-knee curve (see the type's description) and its slope
+    /// `d(dp)/dq`, at flow `q_m3_s >= 0`, with its first knee.
     #[inline]
     fn smooth_at(&self, first: &Ramp, q_m3_s: f64) -> (f64, f64) {
         let s = self.blowoff_slope_pa_s_per_m3;
@@ -227,13 +222,8 @@ impl DamperCurve {
     }
 
     /// The two-stage curve (see the type's description) and its slope, at
-    /// flow `q_m3_s >= 0`; a knee of 0 gives the sharp ramps (the rounded
-    /// ramp's formula is exact at zero width).
-    fn staged_pressure_drop_pa(&self, q_m3_s: f64) -> (f64, f64) {
-        self.staged_at(&self.knees(), q_m3_s)
-    }
-
-    /// [`DamperCurve::staged_pressure_drop_pa`] with its [`Knees`].
+    /// flow `q_m3_s >= 0`, with its [`Knees`]; a knee of 0 gives the sharp
+    /// ramps (the rounded ramp's formula is exact at zero width).
     #[inline]
     fn staged_at(&self, k: &Knees, q_m3_s: f64) -> (f64, f64) {
         let (s, s2) = (self.blowoff_slope_pa_s_per_m3, self.blowoff2_slope_pa_s_per_m3);
@@ -257,18 +247,21 @@ impl DamperCurve {
     /// }
     /// ```
     pub fn flow_m3_s(&self, dp_pa: f64) -> f64 {
+        self.flow_at(&self.knees(), dp_pa)
+    }
+
+    /// [`DamperCurve::flow_m3_s`] with the curve's [`Knees`].
+    fn flow_at(&self, k: &Knees, dp_pa: f64) -> f64 {
         if self.staged() {
-            let k = self.knees();
-            return self.bracketed_flow_m3_s(dp_pa, |q| self.staged_at(&k, q));
+            return self.bracketed_flow_m3_s(k.first.q_b, dp_pa, |q| self.staged_at(k, q));
         }
         if self.smooth() {
-            let first = self.first_knee();
-            return self.bracketed_flow_m3_s(dp_pa, |q| self.smooth_at(&first, q));
+            return self.bracketed_flow_m3_s(k.first.q_b, dp_pa, |q| self.smooth_at(&k.first, q));
         }
         if dp_pa <= self.blowoff_pa {
             self.orifice_flow_m3_s(dp_pa)
         } else {
-            self.blowoff_flow_m3_s() + (dp_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3
+            k.first.q_b + (dp_pa - self.blowoff_pa) / self.blowoff_slope_pa_s_per_m3
         }
     }
 
@@ -281,14 +274,14 @@ impl DamperCurve {
     /// `S2` far above a steep orifice), each step staying inside and the
     /// bracket shrinking by a few per cent, and after its iterations hand
     /// back a flow 3.5 x the root's (a fitted damper, docs/foreign-rig.md).
-    fn bracketed_flow_m3_s(&self, dp_pa: f64, curve: impl Fn(f64) -> (f64, f64)) -> f64 {
+    fn bracketed_flow_m3_s(&self, blowoff_flow_m3_s: f64, dp_pa: f64, curve: impl Fn(f64) -> (f64, f64)) -> f64 {
         if dp_pa <= 0.0 {
             return 0.0;
         }
         let mut lo = 0.0;
         // A first guess from both limbs; the smooth curve can lie below it
         // (the knee's offset), so double the upper end until it brackets.
-        let mut hi = self.blowoff_flow_m3_s() + dp_pa / self.slowest_slope_pa_s_per_m3() + self.orifice_flow_m3_s(dp_pa);
+        let mut hi = blowoff_flow_m3_s + dp_pa / self.slowest_slope_pa_s_per_m3() + self.orifice_flow_m3_s(dp_pa);
         for _ in 0..64 {
             if curve(hi).0 >= dp_pa {
                 break;
@@ -345,7 +338,7 @@ impl DamperCurve {
 /// (the first numerator is at least 2 w^2 by Cauchy-Schwarz). Exact at
 /// `w = 0`: the sharp ramp and its step. `s_b` does not depend on the
 /// flow: computed once per knee ([`Ramp::new`]).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Ramp {
     q_b: f64,
     w: f64,
@@ -355,7 +348,7 @@ struct Ramp {
 /// The flow-independent parts of a two-stage curve's knees
 /// ([`DamperCurve::knees`]): the first blow-off's ramp over the flow, the
 /// second stage's over the first ramp.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Knees {
     first: Ramp,
     second: Ramp,
@@ -420,28 +413,16 @@ impl Damper {
 
     /// Signed pressure drop from strut to accumulator for a signed flow out
     /// of the strut `q_m3_s`, with valve 5 open by the fraction
-    /// `bypass_open` (0 = closed = damper on, 1 = open), Pa.
-    #[inline(always)]
+    /// `bypass_open` (0 = closed = damper on, 1 = open), Pa. Each call
+    /// prepares the curves' knees: where the damper is evaluated many
+    /// times, [`PreparedDamper`] does that once.
     pub fn pressure_drop_pa(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
-        let (on, off) = if q_m3_s >= 0.0 {
-            (&self.on_compression, &self.off_compression)
-        } else {
-            (&self.on_rebound, &self.off_rebound)
-        };
-        let q = libm::fabs(q_m3_s);
-        let dp = blend_curves(on, off, bypass_open, |c| c.pressure_drop_pa(q));
-        libm::copysign(dp, q_m3_s)
+        PreparedDamper::new(self).pressure_drop_pa(q_m3_s, bypass_open)
     }
 
     /// `d(dp)/dq` of [`Damper::pressure_drop_pa`], Pa s/m^3.
     pub fn pressure_drop_slope_pa_s_per_m3(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
-        let (on, off) = if q_m3_s >= 0.0 {
-            (&self.on_compression, &self.off_compression)
-        } else {
-            (&self.on_rebound, &self.off_rebound)
-        };
-        let q = libm::fabs(q_m3_s);
-        blend_curves(on, off, bypass_open, |c| c.pressure_drop_slope_pa_s_per_m3(q))
+        PreparedDamper::new(self).pressure_drop_slope_pa_s_per_m3(q_m3_s, bypass_open)
     }
 
     /// Signed flow out of the strut that a signed pressure drop `dp_pa`
@@ -451,11 +432,110 @@ impl Damper {
     /// the pack passes) and when oil compliance makes the strut pressure a
     /// state.
     pub fn flow_m3_s(&self, dp_pa: f64, bypass_open: f64) -> f64 {
-        let (on, off) = if dp_pa >= 0.0 {
+        PreparedDamper::new(self).flow_m3_s(dp_pa, bypass_open)
+    }
+}
+
+/// A curve with its [`Knees`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PreparedCurve {
+    curve: DamperCurve,
+    knees: Knees,
+}
+
+impl PreparedCurve {
+    fn new(curve: &DamperCurve) -> Self {
+        PreparedCurve { curve: *curve, knees: curve.knees() }
+    }
+
+    #[inline]
+    fn at(&self, q_m3_s: f64) -> (f64, f64) {
+        self.curve.at(&self.knees, q_m3_s)
+    }
+
+    fn flow_m3_s(&self, dp_pa: f64) -> f64 {
+        self.curve.flow_at(&self.knees, dp_pa)
+    }
+}
+
+/// A [`Damper`] with every curve's knees (the blow-off flows and the
+/// ramps' flow-independent roots) computed once: the same values as
+/// [`Damper`]'s to the last bit, for a unit that evaluates its damper at
+/// every stage of every step. A two-stage curve's knees had been computed
+/// at every evaluation (three square roots, two divisions), about a third
+/// of the damper's time in a flexible fit's runs (perf, stop 60). Built by
+/// [`crate::unit::Unit::new`] from its validated parameters, which do not
+/// change after.
+///
+/// ```
+/// use hp_core::damper::PreparedDamper;
+/// use hp_core::presets;
+/// let mut damper = presets::seed_unit().damper;
+/// // A smooth knee in compression, a second stage in rebound (valve 5 closed).
+/// damper.on_compression.blowoff_knee = 0.5;
+/// let rebound = &mut damper.on_rebound;
+/// (rebound.blowoff_knee, rebound.blowoff2_pa) = (0.3, 2.0 * rebound.blowoff_pa);
+/// rebound.blowoff2_slope_pa_s_per_m3 = 0.5 * rebound.blowoff_slope_pa_s_per_m3;
+/// damper.validate().unwrap();
+/// let prepared = PreparedDamper::new(&damper);
+/// for q in [-2e-3, -1e-4, 0.0, 3e-5, 1e-3] {
+///     for bypass in [0.0, 0.3, 1.0] {
+///         let dp = damper.pressure_drop_pa(q, bypass);
+///         assert_eq!(prepared.pressure_drop_pa(q, bypass), dp);
+///         assert_eq!(prepared.pressure_drop_slope_pa_s_per_m3(q, bypass), damper.pressure_drop_slope_pa_s_per_m3(q, bypass));
+///         assert_eq!(prepared.flow_m3_s(dp, bypass), damper.flow_m3_s(dp, bypass));
+///     }
+/// }
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PreparedDamper {
+    on_compression: PreparedCurve,
+    on_rebound: PreparedCurve,
+    off_compression: PreparedCurve,
+    off_rebound: PreparedCurve,
+}
+
+impl PreparedDamper {
+    /// The damper's curves with their knees.
+    pub fn new(damper: &Damper) -> Self {
+        PreparedDamper {
+            on_compression: PreparedCurve::new(&damper.on_compression),
+            on_rebound: PreparedCurve::new(&damper.on_rebound),
+            off_compression: PreparedCurve::new(&damper.off_compression),
+            off_rebound: PreparedCurve::new(&damper.off_rebound),
+        }
+    }
+
+    /// The valve-5 closed and open curves of a flow direction (compression:
+    /// `out_of_strut`).
+    #[inline(always)]
+    fn pair(&self, out_of_strut: bool) -> (&PreparedCurve, &PreparedCurve) {
+        if out_of_strut {
             (&self.on_compression, &self.off_compression)
         } else {
             (&self.on_rebound, &self.off_rebound)
-        };
+        }
+    }
+
+    /// [`Damper::pressure_drop_pa`].
+    #[inline(always)]
+    pub fn pressure_drop_pa(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
+        let (on, off) = self.pair(q_m3_s >= 0.0);
+        let q = libm::fabs(q_m3_s);
+        let dp = blend_curves(on, off, bypass_open, |c| c.at(q).0);
+        libm::copysign(dp, q_m3_s)
+    }
+
+    /// [`Damper::pressure_drop_slope_pa_s_per_m3`].
+    pub fn pressure_drop_slope_pa_s_per_m3(&self, q_m3_s: f64, bypass_open: f64) -> f64 {
+        let (on, off) = self.pair(q_m3_s >= 0.0);
+        let q = libm::fabs(q_m3_s);
+        blend_curves(on, off, bypass_open, |c| c.at(q).1)
+    }
+
+    /// [`Damper::flow_m3_s`].
+    pub fn flow_m3_s(&self, dp_pa: f64, bypass_open: f64) -> f64 {
+        let (on, off) = self.pair(dp_pa >= 0.0);
         let dp = libm::fabs(dp_pa);
         let q = if bypass_open <= 0.0 {
             on.flow_m3_s(dp)
@@ -468,7 +548,7 @@ impl Damper {
             let mut hi = on.flow_m3_s(dp).max(off.flow_m3_s(dp));
             for _ in 0..60 {
                 let mid = 0.5 * (lo + hi);
-                if blend(on.pressure_drop_pa(mid), off.pressure_drop_pa(mid), bypass_open) > dp {
+                if blend(on.at(mid).0, off.at(mid).0, bypass_open) > dp {
                     hi = mid;
                 } else {
                     lo = mid;
@@ -489,7 +569,7 @@ fn blend(on: f64, off: f64, bypass_open: f64) -> f64 {
 /// valve fully closed or open (always, unless it lags) only that curve is
 /// evaluated, the hot path's common case.
 #[inline]
-fn blend_curves(on: &DamperCurve, off: &DamperCurve, bypass_open: f64, f: impl Fn(&DamperCurve) -> f64) -> f64 {
+fn blend_curves(on: &PreparedCurve, off: &PreparedCurve, bypass_open: f64, f: impl Fn(&PreparedCurve) -> f64) -> f64 {
     if bypass_open <= 0.0 {
         f(on)
     } else if bypass_open >= 1.0 {

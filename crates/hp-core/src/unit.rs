@@ -16,7 +16,7 @@
 //! The optional [`Effects`] are the model terms `hpctl diagnose` can add or
 //! remove; with all of them off the unit is the seed's model.
 
-use crate::damper::{Damper, Orifice};
+use crate::damper::{Damper, Orifice, PreparedDamper};
 use crate::effect::{EffectParams, EffectVisitor};
 use crate::effect_params;
 use crate::error::{check_range, Error, Result};
@@ -573,6 +573,9 @@ pub struct Unit {
     small_mass_kg: f64,
     large_mass_kg: f64,
     valve6_coefficient: f64,
+    /// The damper with its curves' knees computed once (it is evaluated at
+    /// every stage of every step).
+    damper: PreparedDamper,
     /// `c_v` of the gas at the static state, J/(kg K): the reference of a
     /// time constant that moves with the heat capacity ([`WallConductance`]).
     static_cv_j_per_kg_k: f64,
@@ -690,6 +693,7 @@ impl Unit {
             small_mass_kg: rho * p.small_acc_volume_m3,
             large_mass_kg: rho * p.large_acc_volume_m3,
             valve6_coefficient: p.valve6.coefficient(p.oil_density_kg_m3),
+            damper: PreparedDamper::new(&p.damper),
             static_cv_j_per_kg_k: p.gas.props(rho, p.static_temperature_k).cv_j_per_kg_k,
             plain: p.effects == NO_EFFECTS && matches!(p.heat, HeatTransfer::TimeConstant(_)),
         })
@@ -1031,7 +1035,7 @@ impl Unit {
 
         // Strut pressure and damper flow, with cavitation.
         let displaced_rate = area * motion.vel_m_s; // oil pushed out of the strut volume
-        let cavitation_flow = || p.damper.flow_m3_s(p.vapour_pressure_pa - p_s, s5);
+        let cavitation_flow = || self.damper.flow_m3_s(p.vapour_pressure_pa - p_s, s5);
         // With oil compliance and the strut not pinned: `B / V_oil`, the
         // strut pressure's rate per net oil flow into the strut side.
         let mut oil_stiffness_pa_per_m3 = None;
@@ -1040,7 +1044,7 @@ impl Unit {
                 if state.v_void_m3 > 0.0 {
                     (p.vapour_pressure_pa, cavitation_flow(), true)
                 } else {
-                    let p_strut = p_s + p.damper.pressure_drop_pa(displaced_rate, s5);
+                    let p_strut = p_s + self.damper.pressure_drop_pa(displaced_rate, s5);
                     if p_strut < p.vapour_pressure_pa {
                         (p.vapour_pressure_pa, cavitation_flow(), true)
                     } else {
@@ -1049,7 +1053,7 @@ impl Unit {
                 }
             }
             Some(c) => {
-                let q = p.damper.flow_m3_s(state.p_strut_pa - p_s, s5);
+                let q = self.damper.flow_m3_s(state.p_strut_pa - p_s, s5);
                 let net = displaced_rate - q; // net oil volume squeezed into the strut side
                 let pinned = state.p_strut_pa <= p.vapour_pressure_pa && (state.v_void_m3 > 0.0 || net < 0.0);
                 if pinned {
@@ -1252,10 +1256,9 @@ impl Unit {
         s5: f64,
         oil_stiffness_pa_per_m3: f64,
     ) -> FlowCoupling {
-        let p = &self.params;
         // A curve without bleed stands vertical at no flow: no finite
         // linearisation there, and the error control does without.
-        let slope = 1.0 / p.damper.pressure_drop_slope_pa_s_per_m3(q_m3_s, s5);
+        let slope = 1.0 / self.damper.pressure_drop_slope_pa_s_per_m3(q_m3_s, s5);
         let slope = if slope.is_finite() { slope } else { 0.0 };
         let g = PressureGradient::of(heat, props_s, gas_s.mass_kg, gas_s.volume_m3);
         // The flow grows with the strut pressure and falls with S's. The
@@ -1292,7 +1295,7 @@ impl Unit {
         let p = &self.params;
         let area = p.piston_area_m2;
         let q = area * motion.vel_m_s;
-        let dp_dv = area * p.damper.pressure_drop_slope_pa_s_per_m3(q, s5);
+        let dp_dv = area * self.damper.pressure_drop_slope_pa_s_per_m3(q, s5);
         let g = PressureGradient::of(heat, props_s, gas_s.mass_kg, gas_s.volume_m3);
         let force_per_state = UnitState {
             t_gas_k: area * g.per_t,

@@ -446,6 +446,7 @@ pub fn damper_pressure_drop_pa<'py>(
         // candidates run in threads, and this loop (a Newton inversion per
         // sample, about 20 ns each) is the part of their work that can
         // overlap another thread's Python.
+        let d = hp_core::damper::PreparedDamper::new(&d);
         Ok(py.detach(|| q.iter().map(|&qi| d.pressure_drop_pa(qi, bypass_open)).collect::<Vec<f64>>()))
     })
     .map(|dp| dp.into_pyarray(py))
