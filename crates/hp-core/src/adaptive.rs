@@ -271,14 +271,33 @@ const R_DENSE: [[f64; 3]; 4] = [
     [-1.045260255335102, 2.398120075195581, -0.9169932983520199],
 ];
 
-/// The outcome of one trial step.
-struct Attempt<const N: usize> {
-    /// Error estimate in the weighted RMS norm (accepted when at most 1).
-    err: f64,
-    y1: [f64; N],
+/// A point the integration reached, with what the step to it left: the
+/// state, its derivative and stiff part, the step's dense output.
+///
+/// Why two of them ([`Integrator`]'s `points`): a trial step writes its end
+/// into the one not current and an accepted step makes it current, so that
+/// nothing is copied. Returned by value, a trial's 1.8 kB (20 states: the
+/// dense output's five rows, the stiff part's four) was copied twice or
+/// more per step, about a tenth of a rig run's time in `memmove` (perf,
+/// stop 60).
+#[derive(Debug, Clone, Copy)]
+struct Point<const N: usize> {
+    y: [f64; N],
+    f: [f64; N],
+    stiff: LowRank<N>,
     dense: Dense<N>,
-    /// The derivative and stiff part at `y1`, when the method computed them.
-    next: Option<([f64; N], LowRank<N>)>,
+}
+
+/// The current point and the trial's (the other), from [`Integrator`]'s
+/// two.
+#[inline(always)]
+fn split<const N: usize>(points: &mut [Point<N>; 2], second: bool) -> (&Point<N>, &mut Point<N>) {
+    let [a, b] = points;
+    if second {
+        (b, a)
+    } else {
+        (a, b)
+    }
 }
 
 /// `y + h sum(a_j k_j)` over the first `n` entries.
@@ -293,6 +312,18 @@ fn combine<const N: usize, const K: usize>(n: usize, y: &[f64; N], h: f64, terms
         *o += h * s;
     }
     out
+}
+
+/// Weighted RMS norm over the first `n` entries of the error estimate `err`
+/// between states `y0` and `y1`.
+fn error_norm<const N: usize>(n: usize, atol: &[f64; N], rtol: f64, y0: &[f64; N], y1: &[f64; N], err: &[f64; N]) -> f64 {
+    let mut sum = 0.0;
+    for (((a, b), e), atol) in y0.iter().zip(y1).zip(err).zip(atol).take(n) {
+        let scale = atol + rtol * libm::fabs(*a).max(libm::fabs(*b));
+        let r = e / scale;
+        sum += r * r;
+    }
+    libm::sqrt(sum / n.max(1) as f64)
 }
 
 /// `sum_i v_i x_i` over the first `n` entries.
@@ -339,15 +370,18 @@ fn woodbury<const N: usize>(n: usize, terms: &[RankOne<N>], c: f64) -> impl Fn([
 pub struct Integrator<const N: usize> {
     n: usize,
     t: f64,
-    y: [f64; N],
-    f: [f64; N],
-    stiff: LowRank<N>,
+    /// The current point (`points[1]` where `second`) and the scratch a
+    /// trial step writes ([`Point`] says why).
+    points: [Point<N>; 2],
+    second: bool,
+    /// A trial step's end holds its derivative and stiff part (the last
+    /// stage of Dormand-Prince's steps).
+    trial_has_next: bool,
     h: f64,
     control: Control,
     atol: [f64; N],
     t_prev: f64,
     h_prev: f64,
-    dense: Dense<N>,
     stats: Stats,
     /// Error norm of the last accepted step (for the PI step control).
     err_prev: f64,
@@ -424,19 +458,19 @@ impl<const N: usize> Integrator<N> {
     pub fn new<S: AdaptiveSystem<N> + ?Sized>(system: &S, t_s: f64, y: [f64; N], h_s: f64, control: Control) -> Result<Self> {
         let (f, stiff) = system.derivatives_with_stiff_part(t_s, &y)?;
         let n = system.integrated_len().min(N);
+        let point = Point { y, f, stiff, dense: Dense::Rosenbrock([y, [0.0; N], [0.0; N], [0.0; N]]) };
         Ok(Integrator {
             n,
             t: t_s,
-            y,
-            f,
-            stiff,
+            points: [point, point],
+            second: false,
+            trial_has_next: false,
             // max then min rather than clamp: no panic on a bad bound.
             h: h_s.max(control.min_step_s).min(control.max_dt_s),
             control,
             atol: system.abs_tolerance(),
             t_prev: t_s,
             h_prev: 0.0,
-            dense: Dense::Rosenbrock([y, [0.0; N], [0.0; N], [0.0; N]]),
             stats: Stats { evaluations: 1, ..Stats::default() },
             err_prev: 1e-4,
             stiff_rate: spectral_radius(n, stiff.terms()),
@@ -447,14 +481,64 @@ impl<const N: usize> Integrator<N> {
     /// Restarts at the current point after the system changed
     /// discontinuously (e.g. a valve switched), keeping the step size.
     pub fn restart<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S) -> Result<()> {
-        let (f, stiff) = system.derivatives_with_stiff_part(self.t, &self.y)?;
-        self.f = f;
-        self.stiff = stiff;
+        let (f, stiff) = system.derivatives_with_stiff_part(self.t, &self.point().y)?;
+        let now = self.point_mut();
+        now.f = f;
+        now.stiff = stiff;
+        now.dense = Dense::Rosenbrock([now.y, [0.0; N], [0.0; N], [0.0; N]]);
         self.stiff_rate = spectral_radius(self.n, stiff.terms());
         self.stats.evaluations += 1;
         self.t_prev = self.t;
         self.h_prev = 0.0;
-        self.dense = Dense::Rosenbrock([self.y, [0.0; N], [0.0; N], [0.0; N]]);
+        Ok(())
+    }
+
+    /// The current point.
+    #[inline(always)]
+    fn point(&self) -> &Point<N> {
+        let [a, b] = &self.points;
+        if self.second {
+            b
+        } else {
+            a
+        }
+    }
+
+    /// The current point, to change.
+    #[inline(always)]
+    fn point_mut(&mut self) -> &mut Point<N> {
+        let [a, b] = &mut self.points;
+        if self.second {
+            b
+        } else {
+            a
+        }
+    }
+
+    /// The trial step's end becomes the current point, at `t1_s` after a
+    /// step of `h_s` (its derivative and stiff part set).
+    #[inline(always)]
+    fn adopt(&mut self, t1_s: f64, h_s: f64) {
+        self.second = !self.second;
+        self.t_prev = self.t;
+        self.h_prev = h_s;
+        self.t = t1_s;
+        self.stiff_rate = spectral_radius(self.n, self.point().stiff.terms());
+        self.stats.accepted += 1;
+    }
+
+    /// Sets the trial's end's derivative and stiff part where the step did
+    /// not leave them (a Rosenbrock step) or moved its state (projected);
+    /// counts the evaluation.
+    fn complete_trial<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, t1_s: f64, projected: bool) -> Result<()> {
+        if self.trial_has_next && !projected {
+            return Ok(());
+        }
+        self.stats.evaluations += 1;
+        let (_, next) = split(&mut self.points, self.second);
+        let (f, stiff) = system.derivatives_with_stiff_part(t1_s, &next.y)?;
+        next.f = f;
+        next.stiff = stiff;
         Ok(())
     }
 
@@ -465,12 +549,12 @@ impl<const N: usize> Integrator<N> {
 
     /// Current state.
     pub fn y(&self) -> &[f64; N] {
-        &self.y
+        &self.point().y
     }
 
     /// Derivative at the current state.
     pub fn derivative(&self) -> &[f64; N] {
-        &self.f
+        &self.point().f
     }
 
     /// Work done so far.
@@ -495,12 +579,13 @@ impl<const N: usize> Integrator<N> {
     /// The solution at `t_s` within the last accepted step (from its
     /// dense output; the current state at its end).
     pub fn dense(&self, t_s: f64) -> [f64; N] {
+        let now = self.point();
         if self.h_prev <= 0.0 || t_s >= self.t {
-            return self.y;
+            return now.y;
         }
         let theta = ((t_s - self.t_prev) / self.h_prev).clamp(0.0, 1.0);
-        let mut out = self.y;
-        match &self.dense {
+        let mut out = now.y;
+        match &now.dense {
             Dense::DormandPrince([r1, r2, r3, r4, r5]) => {
                 let one = 1.0 - theta;
                 for (i, o) in out.iter_mut().enumerate().take(self.n) {
@@ -518,16 +603,6 @@ impl<const N: usize> Integrator<N> {
         out
     }
 
-    /// Weighted RMS norm of the error estimate `err` between states `y0` and `y1`.
-    fn error_norm(&self, y0: &[f64; N], y1: &[f64; N], err: &[f64; N]) -> f64 {
-        let mut sum = 0.0;
-        for (((a, b), e), atol) in y0.iter().zip(y1).zip(err).zip(&self.atol).take(self.n) {
-            let scale = atol + self.control.rtol * libm::fabs(*a).max(libm::fabs(*b));
-            let r = e / scale;
-            sum += r * r;
-        }
-        libm::sqrt(sum / self.n.max(1) as f64)
-    }
 
     /// Takes one step to exactly `t_end_s` and accepts it whatever its error
     /// estimate: for replaying the steps of an error-controlled run (a
@@ -539,29 +614,15 @@ impl<const N: usize> Integrator<N> {
             return Err(Error::OutOfRange { name: "step end (replayed)", value: t_end_s, min: self.t, max: f64::MAX });
         }
         let method = self.method_for(h);
-        let a = match method {
+        match method {
             Method::DormandPrince => self.try_dormand_prince(system, h)?,
             Method::Rosenbrock => self.try_rosenbrock(system, h)?,
         };
-        let mut y1 = a.y1;
-        let projected = system.project(t_end_s, &mut y1);
-        system.check(t_end_s, &y1)?;
-        let (f1, stiff) = match a.next {
-            Some(next) if !projected => next,
-            _ => {
-                self.stats.evaluations += 1;
-                system.derivatives_with_stiff_part(t_end_s, &y1)?
-            }
-        };
-        self.t_prev = self.t;
-        self.h_prev = h;
-        self.t = t_end_s;
-        self.y = y1;
-        self.f = f1;
-        self.stiff = stiff;
-        self.stiff_rate = spectral_radius(self.n, stiff.terms());
-        self.dense = a.dense;
-        self.stats.accepted += 1;
+        let (_, next) = split(&mut self.points, self.second);
+        let projected = system.project(t_end_s, &mut next.y);
+        system.check(t_end_s, &next.y)?;
+        self.complete_trial(system, t_end_s, projected)?;
+        self.adopt(t_end_s, h);
         if method == Method::Rosenbrock {
             self.stats.rosenbrock += 1;
         }
@@ -570,7 +631,7 @@ impl<const N: usize> Integrator<N> {
 
     /// The method of a step of size `h` from the current point.
     fn method_for(&self, h: f64) -> Method {
-        if self.stiff.rank() == 0 {
+        if self.point().stiff.rank() == 0 {
             return Method::DormandPrince;
         }
         match self.control.stiff {
@@ -583,7 +644,7 @@ impl<const N: usize> Integrator<N> {
     /// The longest step Dormand-Prince takes while its steps are held
     /// stable, s (infinite when they are not held).
     fn hold_s(&self) -> f64 {
-        let holding = self.control.stiff == StiffMethod::Switching && self.switching.explicit && self.stiff.rank() > 0;
+        let holding = self.control.stiff == StiffMethod::Switching && self.switching.explicit && self.point().stiff.rank() > 0;
         if holding && self.stiff_rate > 0.0 {
             DP_HOLD / self.stiff_rate
         } else {
@@ -597,7 +658,7 @@ impl<const N: usize> Integrator<N> {
     /// steps are no longer than what the explicit ones can stably take,
     /// back to those.
     fn switch_after(&mut self, method: Method, h: f64) {
-        if self.control.stiff != StiffMethod::Switching || self.stiff.rank() == 0 {
+        if self.control.stiff != StiffMethod::Switching || self.point().stiff.rank() == 0 {
             return;
         }
         let s = &mut self.switching;
@@ -678,61 +739,45 @@ impl<const N: usize> Integrator<N> {
                 Method::Rosenbrock => 1.0 / 3.0,
             } - 0.75 * beta;
             match attempt {
-                Ok(a) if a.err <= 1.0 => {
-                    let mut y1 = a.y1;
-                    let projected = system.project(t1, &mut y1);
-                    if let Err(e) = system.check(t1, &y1) {
+                Ok(err) if err <= 1.0 => {
+                    let (_, next) = split(&mut self.points, self.second);
+                    let projected = system.project(t1, &mut next.y);
+                    if let Err(e) = system.check(t1, &next.y) {
                         last_error = e;
                         self.h = 0.25 * h;
                         self.stats.rejected += 1;
                         continue;
                     }
-                    let (f1, stiff) = match a.next {
-                        // Dormand-Prince's last stage is the derivative at the new point.
-                        Some(next) if !projected => next,
-                        _ => {
-                            self.stats.evaluations += 1;
-                            match system.derivatives_with_stiff_part(t1, &y1) {
-                                Ok(v) => v,
-                                Err(e) => {
-                                    last_error = e;
-                                    self.h = 0.25 * h;
-                                    self.stats.rejected += 1;
-                                    continue;
-                                }
-                            }
-                        }
-                    };
-                    self.t_prev = self.t;
-                    self.h_prev = t1 - self.t;
-                    self.t = t1;
-                    self.y = y1;
-                    self.f = f1;
-                    self.stiff = stiff;
-                    self.stiff_rate = spectral_radius(self.n, stiff.terms());
-                    self.dense = a.dense;
-                    self.stats.accepted += 1;
+                    // Dormand-Prince's last stage is the derivative at the
+                    // new point (unless the projection moved it).
+                    if let Err(e) = self.complete_trial(system, t1, projected) {
+                        last_error = e;
+                        self.h = 0.25 * h;
+                        self.stats.rejected += 1;
+                        continue;
+                    }
+                    self.adopt(t1, t1 - self.t);
                     if method == Method::Rosenbrock {
                         self.stats.rosenbrock += 1;
                     }
                     // err^-exponent err_prev^beta as one exp of logs: two
                     // of fdlibm's pow were 4 % of a run (perf, stop 60);
                     // err_prev >= 1e-4, err > 0, so both logs are finite.
-                    let factor = if a.err > 0.0 {
-                        0.9 * libm::exp(beta * libm::log(self.err_prev) - exponent * libm::log(a.err))
+                    let factor = if err > 0.0 {
+                        0.9 * libm::exp(beta * libm::log(self.err_prev) - exponent * libm::log(err))
                     } else {
                         5.0
                     };
-                    self.err_prev = a.err.max(1e-4);
+                    self.err_prev = err.max(1e-4);
                     self.h = h * factor.clamp(0.2, 5.0);
                     if !landing {
                         self.switch_after(method, h);
                     }
                     return Ok(method);
                 }
-                Ok(a) => {
+                Ok(err) => {
                     self.stats.rejected += 1;
-                    let factor = if a.err.is_finite() { 0.9 * libm::exp(-exponent * libm::log(a.err)) } else { 0.25 };
+                    let factor = if err.is_finite() { 0.9 * libm::exp(-exponent * libm::log(err)) } else { 0.25 };
                     self.h = h * factor.clamp(0.1, 0.9);
                 }
                 Err(e) => {
@@ -747,50 +792,68 @@ impl<const N: usize> Integrator<N> {
 }
 
 impl<const N: usize> Integrator<N> {
-    /// One Dormand-Prince 5(4) trial step of size `h`.
-    fn try_dormand_prince<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, h: f64) -> Result<Attempt<N>> {
-        let (n, t, y, k1) = (self.n, self.t, self.y, self.f);
-        let k2 = system.derivatives(t + C2 * h, &combine(n, &y, h, [(A21, &k1)]))?;
-        let k3 = system.derivatives(t + C3 * h, &combine(n, &y, h, [(A31, &k1), (A32, &k2)]))?;
-        let k4 = system.derivatives(t + C4 * h, &combine(n, &y, h, [(A41, &k1), (A42, &k2), (A43, &k3)]))?;
-        let k5 = system.derivatives(t + C5 * h, &combine(n, &y, h, [(A51, &k1), (A52, &k2), (A53, &k3), (A54, &k4)]))?;
-        let k6 = system.derivatives(t + h, &combine(n, &y, h, [(A61, &k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)]))?;
-        let y1 = combine(n, &y, h, [(A71, &k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)]);
+    /// One Dormand-Prince 5(4) trial step of size `h`, its end written to
+    /// the trial point (with its derivative and stiff part: the last
+    /// stage); its error estimate in the weighted RMS norm (accepted when
+    /// at most 1).
+    fn try_dormand_prince<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, h: f64) -> Result<f64> {
+        self.trial_has_next = false;
+        let (n, t) = (self.n, self.t);
+        let (now, next) = split(&mut self.points, self.second);
+        let (y, k1) = (&now.y, &now.f);
+        let k2 = system.derivatives(t + C2 * h, &combine(n, y, h, [(A21, k1)]))?;
+        let k3 = system.derivatives(t + C3 * h, &combine(n, y, h, [(A31, k1), (A32, &k2)]))?;
+        let k4 = system.derivatives(t + C4 * h, &combine(n, y, h, [(A41, k1), (A42, &k2), (A43, &k3)]))?;
+        let k5 = system.derivatives(t + C5 * h, &combine(n, y, h, [(A51, k1), (A52, &k2), (A53, &k3), (A54, &k4)]))?;
+        let k6 = system.derivatives(t + h, &combine(n, y, h, [(A61, k1), (A62, &k2), (A63, &k3), (A64, &k4), (A65, &k5)]))?;
+        next.y = combine(n, y, h, [(A71, k1), (A73, &k3), (A74, &k4), (A75, &k5), (A76, &k6)]);
         self.stats.evaluations += 5;
-        let (k7, stiff) = system.derivatives_with_stiff_part(t + h, &y1)?;
+        let (k7, stiff) = system.derivatives_with_stiff_part(t + h, &next.y)?;
         self.stats.evaluations += 1;
         let zero = [0.0; N];
-        let err = combine(n, &zero, h, [(E1, &k1), (E3, &k3), (E4, &k4), (E5, &k5), (E6, &k6), (E7, &k7)]);
-        let err = self.error_norm(&y, &y1, &err);
+        let err = combine(n, &zero, h, [(E1, k1), (E3, &k3), (E4, &k4), (E5, &k5), (E6, &k6), (E7, &k7)]);
+        let err = error_norm(n, &self.atol, self.control.rtol, y, &next.y, &err);
         // Continuous extension: r1 = y0, r2 = y1 - y0, r3 = h k1 - r2,
-        // r4 = r2 - h k7 - r3, r5 = h sum(d_i k_i).
-        let mut r = [y, zero, zero, zero, zero];
-        let r5 = combine(n, &zero, h, [(D1, &k1), (D3, &k3), (D4, &k4), (D5, &k5), (D6, &k6), (D7, &k7)]);
-        for i in 0..n {
-            let g = |v: &[f64; N]| v.get(i).copied().unwrap_or(0.0);
-            let r2 = g(&y1) - g(&y);
-            let r3 = h * g(&k1) - r2;
-            let r4 = r2 - h * g(&k7) - r3;
-            for (slot, value) in r.iter_mut().skip(1).zip([r2, r3, r4, g(&r5)]) {
-                if let Some(x) = slot.get_mut(i) {
-                    *x = value;
+        // r4 = r2 - h k7 - r3, r5 = h sum(d_i k_i); written in place.
+        let r5 = combine(n, &zero, h, [(D1, k1), (D3, &k3), (D4, &k4), (D5, &k5), (D6, &k6), (D7, &k7)]);
+        if !matches!(next.dense, Dense::DormandPrince(_)) {
+            next.dense = Dense::DormandPrince([zero; 5]);
+        }
+        if let Dense::DormandPrince(r) = &mut next.dense {
+            r[0] = *y;
+            for i in 0..n {
+                let g = |v: &[f64; N]| v.get(i).copied().unwrap_or(0.0);
+                let r2 = g(&next.y) - g(y);
+                let r3 = h * g(k1) - r2;
+                let r4 = r2 - h * g(&k7) - r3;
+                for (slot, value) in r.iter_mut().skip(1).zip([r2, r3, r4, g(&r5)]) {
+                    if let Some(x) = slot.get_mut(i) {
+                        *x = value;
+                    }
                 }
             }
         }
-        Ok(Attempt { err, y1, dense: Dense::DormandPrince(r), next: Some((k7, stiff)) })
+        next.f = k7;
+        next.stiff = stiff;
+        self.trial_has_next = true;
+        Ok(err)
     }
 
     /// One ROS34PW2 trial step of size `h`, linearly implicit in the
-    /// stiff part at the step's start.
-    fn try_rosenbrock<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, h: f64) -> Result<Attempt<N>> {
-        let (n, t, y, f1) = (self.n, self.t, self.y, self.f);
+    /// stiff part at the step's start, its end written to the trial point
+    /// (without its derivative); its error estimate.
+    fn try_rosenbrock<S: AdaptiveSystem<N> + ?Sized>(&mut self, system: &S, h: f64) -> Result<f64> {
+        self.trial_has_next = false;
+        let (n, t) = (self.n, self.t);
+        let (now, next) = split(&mut self.points, self.second);
+        let (y, f1) = (&now.y, &now.f);
         let zero = [0.0; N];
-        let terms = self.stiff.terms();
+        let terms = now.stiff.terms();
         let solve = woodbury(n, terms, h * GAMMA);
         // Stage i: (I - h gamma W) k_i = h f(Y_i) + h W sum_j gamma_ij k_j,
         // W = sum_j u_j v_j^T, Y_i = y + sum_j alpha_ij k_j.
-        let stage = |f: [f64; N], g: [f64; N]| -> [f64; N] {
-            let mut r = combine(n, &zero, h, [(1.0, &f)]);
+        let stage = |f: &[f64; N], g: [f64; N]| -> [f64; N] {
+            let mut r = combine(n, &zero, h, [(1.0, f)]);
             for RankOne { u, v } in terms {
                 let s = h * dot(n, v, &g);
                 r = combine(n, &r, s, [(1.0, u)]);
@@ -798,23 +861,24 @@ impl<const N: usize> Integrator<N> {
             solve(r)
         };
         let k1 = stage(f1, zero);
-        let f2 = system.derivatives(t + RC2 * h, &combine(n, &y, 1.0, [(RA21, &k1)]))?;
-        let k2 = stage(f2, combine(n, &zero, 1.0, [(RG21, &k1)]));
-        let f3 = system.derivatives(t + RC3 * h, &combine(n, &y, 1.0, [(RA31, &k1), (RA32, &k2)]))?;
-        let k3 = stage(f3, combine(n, &zero, 1.0, [(RG31, &k1), (RG32, &k2)]));
-        let f4 = system.derivatives(t + RC4 * h, &combine(n, &y, 1.0, [(RA43, &k3)]))?;
-        let k4 = stage(f4, combine(n, &zero, 1.0, [(RG41, &k1), (RG42, &k2), (RG43, &k3)]));
+        let f2 = system.derivatives(t + RC2 * h, &combine(n, y, 1.0, [(RA21, &k1)]))?;
+        let k2 = stage(&f2, combine(n, &zero, 1.0, [(RG21, &k1)]));
+        let f3 = system.derivatives(t + RC3 * h, &combine(n, y, 1.0, [(RA31, &k1), (RA32, &k2)]))?;
+        let k3 = stage(&f3, combine(n, &zero, 1.0, [(RG31, &k1), (RG32, &k2)]));
+        let f4 = system.derivatives(t + RC4 * h, &combine(n, y, 1.0, [(RA43, &k3)]))?;
+        let k4 = stage(&f4, combine(n, &zero, 1.0, [(RG41, &k1), (RG42, &k2), (RG43, &k3)]));
         self.stats.evaluations += 3;
         let [b1, b2, b3, b4] = RB;
         let [e1, e2, e3, e4] = RB_EMBEDDED;
-        let y1 = combine(n, &y, 1.0, [(b1, &k1), (b2, &k2), (b3, &k3), (b4, &k4)]);
+        next.y = combine(n, y, 1.0, [(b1, &k1), (b2, &k2), (b3, &k3), (b4, &k4)]);
         let err = combine(n, &zero, 1.0, [(b1 - e1, &k1), (b2 - e2, &k2), (b3 - e3, &k3), (b4 - e4, &k4)]);
-        let err = self.error_norm(&y, &y1, &err);
+        let err = error_norm(n, &self.atol, self.control.rtol, y, &next.y, &err);
         let [d1, d2, d3, d4] = R_DENSE;
         let power = |p: usize| {
             let c = |d: [f64; 3]| d.get(p).copied().unwrap_or(0.0);
             combine(n, &zero, 1.0, [(c(d1), &k1), (c(d2), &k2), (c(d3), &k3), (c(d4), &k4)])
         };
-        Ok(Attempt { err, y1, dense: Dense::Rosenbrock([y, power(0), power(1), power(2)]), next: None })
+        next.dense = Dense::Rosenbrock([*y, power(0), power(1), power(2)]);
+        Ok(err)
     }
 }
