@@ -6,7 +6,7 @@ whether its end depends on its start.
     python scripts/trace_fit.py out/bench-diagnose/<version>/campaign --model seed --flexible [--static-nfev 100]
 
 ``--static-nfev`` sets the flexible model's static damper fit's budget per
-start (``hpctl.identify.damper_start.MAX_NFEV``), which moves the dynamic
+start (``hpctl.identify.damper_static.MAX_NFEV``), which moves the dynamic
 fit's start a little: docs/foreign-rig.md ("The static damper fit reads the
 SDOF steps") has the table this makes. The records are read as ``hpctl
 fit`` reads them; nothing is written.
@@ -23,7 +23,7 @@ import numpy as np
 
 import hpctl.identify.fit as fit_module
 from hpctl.cli.calibrate import _records
-from hpctl.identify import MAX_NFEV, MAX_NFEV_FLEXIBLE, damper_start
+from hpctl.identify import MAX_NFEV, MAX_NFEV_FLEXIBLE, damper_static
 from hpctl.identify.dataset import prepare
 from hpctl.model.effects import parse_model
 
@@ -36,7 +36,7 @@ def main() -> None:
     ap.add_argument("--static-nfev", type=int, default=None, help="the static damper fit's evaluations per start")
     args = ap.parse_args()
     if args.static_nfev is not None:
-        damper_start.MAX_NFEV = args.static_nfev
+        damper_static.MAX_NFEV = args.static_nfev
     effects = parse_model(args.model)
     datasets = prepare(_records(tuple(args.records)))
     names = [p.name for p in fit_module.model_for(datasets, effects, flexible=args.flexible).params]

@@ -24,7 +24,7 @@ from hpctl._coretypes import UnitDict
 from hpctl._effect_params import Friction
 from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
-from hpctl.identify import damper_start
+from hpctl.identify import damper_start, damper_static
 from hpctl.identify import fit as fit_module
 from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.dataset import Dataset, prepare
@@ -106,7 +106,7 @@ def _static_unit(values: dict[str, float]) -> UnitDict:
     return Unit.seed().with_effects(friction=friction).to_dict()
 
 
-def _curve_forces_n(datasets: list[Dataset], values: dict[str, float], branch: str, s: damper_start._Samples) -> dict[str, np.ndarray]:
+def _curve_forces_n(datasets: list[Dataset], values: dict[str, float], branch: str, s: damper_static.Samples) -> dict[str, np.ndarray]:
     """hpctl's force at one branch's samples: the nominal curve's, and the
     static fit's ``values`` with the friction it found (hp-core's law)."""
     unit = _static_unit(values)

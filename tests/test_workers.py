@@ -125,3 +125,48 @@ def test_a_module_that_fails_to_preload_fails_only_the_tasks_that_need_it() -> N
         assert pool.submit(operator.mul, 2.0, 3.0).result(timeout=60) == 6.0
     finally:
         pool.shutdown()
+
+
+#: A task that reads the worker's own modules (``eval`` pickles by name).
+IMPORTED = "'colorsys' in __import__('sys').modules"
+
+
+def test_a_later_module_is_imported_once_a_worker_is_idle_after_its_first_task() -> None:
+    # Not before the first task (which must not wait for it), and then
+    # without any task asking for it.
+    pool = WorkerPool(1, preload=("json",), later=("colorsys",))
+    try:
+        assert pool.submit(eval, IMPORTED).result(timeout=60) is False
+        deadline = time.monotonic() + 60
+        while not pool.submit(eval, IMPORTED).result(timeout=60):
+            assert time.monotonic() < deadline, "the later module was never imported"
+            time.sleep(0.05)
+    finally:
+        pool.shutdown()
+
+
+def test_a_later_module_that_cannot_be_imported_leaves_the_worker_serving() -> None:
+    pool = WorkerPool(1, later=("hpctl_no_such_module",))
+    try:
+        first = pool.submit(os.getpid).result(timeout=60)
+        time.sleep(0.5)  # idle: the import is tried (and fails) here
+        assert [pool.submit(operator.mul, 2.0, 3.0).result(timeout=60) for _ in range(3)] == [6.0] * 3
+        assert pool.submit(os.getpid).result(timeout=60) == first  # the same worker, not a new one
+    finally:
+        pool.shutdown()
+
+
+def test_a_static_fits_worker_starts_without_reading_records() -> None:
+    # The static fit's code alone (hpctl.identify.damper_static), not the
+    # records' signal processing behind hpctl.identify.damper_start
+    # (SciPy's signal filters): the static fits wait for the workers'
+    # start while the CPU is busiest.
+    from hpctl.identify.damper_start import static_pool
+
+    pool = static_pool(1)
+    try:
+        loaded = pool.submit(eval, "sorted(m for m in ('scipy.signal', 'hpctl.identify.dataset', 'hpctl.identify.damper_static', "
+                                   "'matplotlib') if m in __import__('sys').modules)").result(timeout=60)
+    finally:
+        pool.shutdown()
+    assert loaded == ["hpctl.identify.damper_static"]

@@ -242,14 +242,16 @@ def _worker_pool(flexible: bool) -> Iterator[WorkerPool | None]:
     """For a flexible run: worker processes for its static damper fits
     (:func:`hpctl.identify.damper_start.prefetch_static`) and then the
     report's figures (:func:`hpctl.report.calibration.draw_record_plots`),
-    started now with both imported, beside this process's reading of the
-    records; shut down on leaving (what is queued dropped). None otherwise."""
+    started now beside this process's reading of the records, the static
+    fit's code imported at once and the figures' once a worker is idle
+    (:func:`hpctl.identify.damper_start.static_pool`); shut down on leaving
+    (what is queued dropped). None otherwise."""
     if not flexible:
         yield None
         return
     from hpctl.identify.damper_start import STARTS, static_pool
 
-    pool = static_pool(min(len(STARTS), os.cpu_count() or 1), preload=("hpctl.report.calibration",))
+    pool = static_pool(min(len(STARTS), os.cpu_count() or 1), later=("hpctl.report.calibration",))
     try:
         yield pool
     finally:
@@ -307,7 +309,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
     rep = Reporter(quiet, as_json)
     with errors(rep):
         from hpctl.identify.damper_start import prefetch_static
-        from hpctl.identify.dataset import prepare
+        from hpctl.identify.dataset import carry_input_noise, measured_datasets
         from hpctl.identify.fit import at_own_noise, fit, model_for
         from hpctl.identify.profile import profile_interval
         from hpctl.report import calibration as report
@@ -319,15 +321,18 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         # side (3.7 s in this process alone on the bundled campaign), and the
         # figures after.
         with _worker_pool(flexible) as workers:
-            datasets = prepare(recs)
+            measured = measured_datasets(recs)
             # Named wrong, said before the fit, not after it.
-            fitted_model = model_for(datasets, effects, flexible=flexible)
+            fitted_model = model_for(measured, effects, flexible=flexible)
             names = [p.name for p in fitted_model.params]
             for name in profiled:
                 if name not in names:
                     raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
             if workers is not None:
-                prefetch_static(datasets, fitted_model.params, fitted_model.effects, workers)
+                # Begun before the input's noise is carried into the
+                # weights, which it does not read (measured_datasets says why).
+                prefetch_static(measured, fitted_model.params, fitted_model.effects, workers)
+            datasets = carry_input_noise(measured)
             with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
                 with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
                     # Reported and judged in its own model's weights (the

@@ -43,21 +43,19 @@ from __future__ import annotations
 import collections
 import dataclasses
 import threading
-import warnings
 from collections.abc import Sequence
 from concurrent.futures import Executor, Future
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 from scipy.signal import savgol_coeffs, savgol_filter
 
-from hpctl import _core
+from hpctl.identify.damper_static import Samples, StaticProblem, StaticResidual, solve_start
 from hpctl.identify.dataset import Dataset
 from hpctl.identify.signals import filter_bends, within_reach
 from hpctl.identify.workers import WorkerPool
-from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param, shaped_damper
-from hpctl.model.unit import STANDARD_GRAVITY_M_S2, Damper
+from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param
+from hpctl.model.unit import STANDARD_GRAVITY_M_S2
 
 FloatArray = NDArray[np.float64]
 
@@ -88,30 +86,13 @@ MIN_SAMPLES = 50
 #: At most this many samples per branch, spread evenly over its speeds'
 #: order (a heat run has 10^5: the curve needs the range, not the count).
 MAX_SAMPLES = 2000
-#: Robust loss scale, in noise units: a sample further off (an end stop's
-#: force, a valve's transient) counts linearly, not squared.
-LOSS_SCALE = 3.0
 #: Starts of every branch's orifice and blow-off multipliers (the damper's
 #: shape may be far from nominal in either; the other parameters start
 #: where the flexible model starts them); the best end is taken.
 STARTS = ((1.0, 1.0), (30.0, 0.5), (30.0, 2.0))
-#: Evaluations per start (each costs a few milliseconds).
-MAX_NFEV = 200
 
 
-@dataclasses.dataclass(frozen=True)
-class _Samples:
-    """One branch's samples: the flow out of the strut, m^3/s (signed), the
-    force to explain, N, its noise, N, and the piston area, m^2 (per sample)."""
-
-    q_m3_s: FloatArray
-    force_n: FloatArray
-    sigma_n: FloatArray
-    area_m2: FloatArray
-    transducer: FloatArray
-
-
-def _branch_samples(datasets: Sequence[Dataset], branch: str) -> _Samples | None:
+def _branch_samples(datasets: Sequence[Dataset], branch: str) -> Samples | None:
     on, compression = branch.startswith("on_"), branch.endswith("_compression")
     parts: list[tuple[FloatArray, ...]] = []
     for d in datasets:
@@ -138,7 +119,7 @@ def _branch_samples(datasets: Sequence[Dataset], branch: str) -> _Samples | None
         # Evenly over the speeds' order: each speed range as the records hold it.
         pick = np.argsort(np.abs(q))[np.linspace(0, len(q) - 1, MAX_SAMPLES).astype(int)]
         q, y, s, a, f = q[pick], y[pick], s[pick], a[pick], f[pick]
-    return _Samples(q, y, s, a, f)
+    return Samples(q, y, s, a, f)
 
 
 #: The body's acceleration on an SDOF record: a Savitzky-Golay second
@@ -323,15 +304,20 @@ def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effect
         p.add_done_callback(done)
 
 
-def static_pool(workers: int, preload: Sequence[str] = ()) -> WorkerPool:
+def static_pool(workers: int, later: Sequence[str] = ()) -> WorkerPool:
     """A pool of ``workers`` processes for :func:`prefetch_static`
     (:mod:`hpctl.identify.workers`: they never import the caller's
-    script), started at once with this module imported (and ``preload``'s:
-    the report's figures, :func:`hpctl.report.calibration.record_plots`,
-    where the caller draws them there too). A worker that cannot start
-    fails its tasks, and the fits that asked for them are computed in the
-    caller's process, as without it."""
-    return WorkerPool(workers, preload=(__name__, *preload))
+    script), started at once with what a static fit's start needs
+    imported (:mod:`hpctl.identify.damper_static`); ``later``'s modules
+    (the report's figures, :func:`hpctl.report.calibration.record_plots`,
+    where the caller draws them there too) each worker imports once it has
+    run a task and none is waiting, not before the static fits (measured,
+    ``hpctl fit --flexible`` on the bundled campaign: the static fits
+    waited for workers that imported hpctl's identification and the
+    figures first, 1.3 s of CPU each while the CPU was busiest). A worker
+    that cannot start fails its tasks, and the fits that asked for them
+    are computed in the caller's process, as without it."""
+    return WorkerPool(workers, preload=("hpctl.identify.damper_static",), later=later)
 
 
 #: The model's parameters the static fit also starts (its shared terms),
@@ -339,74 +325,6 @@ def static_pool(workers: int, preload: Sequence[str] = ()) -> WorkerPool:
 #: ratio and velocity, the smoothing velocity).
 _STARTED = ("friction_coulomb_n", "sensor_force_offset_n")
 _FRICTION_SHAPE = ("friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s")
-
-
-@dataclasses.dataclass(frozen=True)
-class StaticProblem:
-    """One static fit as its starts need it (:func:`fit_static_damper`),
-    picklable: a worker process solves a start (:func:`solve_start`).
-    ``x`` is the fit's vector: the branches' shape parameters (in the fit's
-    coordinates), the shared constants (N), the friction's shape."""
-
-    nominal: Damper
-    branches: tuple[str, ...]
-    samples: tuple[_Samples, ...]
-    shape: tuple[Param, ...]
-    constants: tuple[str, ...]
-    friction_shape: tuple[Param, ...]
-    lo: FloatArray
-    hi: FloatArray
-    prior: tuple[tuple[int, float, float], ...]
-    smoothing_m_s: float
-    sparsity: NDArray[np.bool_]
-    starts: tuple[FloatArray, ...] = ()
-
-
-class _Static:
-    """A :class:`StaticProblem`'s residual, in noise units."""
-
-    def __init__(self, problem: StaticProblem) -> None:
-        self.p = problem
-        self.n_shape = len(problem.shape)
-        self.n_fixed = self.n_shape + len(problem.constants)
-        self.speeds = [s.q_m3_s / s.area_m2 for s in problem.samples]
-        # The branches' flows by valve 5's state, each state's in one call of
-        # the core: a call reads the whole damper and picks each sample's branch
-        # by its flow's sign, so one call per state gives every branch's drop
-        # (the same per sample) for half the calls' overhead.
-        samples = problem.samples
-        self.by_state = [(bypass, ks, np.concatenate([samples[k].q_m3_s for k in ks]), np.cumsum([len(samples[k].q_m3_s) for k in ks])[:-1])
-                         for bypass, ks in ((0.0, [k for k, b in enumerate(problem.branches) if b.startswith("on_")]),
-                                            (1.0, [k for k, b in enumerate(problem.branches) if not b.startswith("on_")])) if ks]
-
-    def columns(self, x: FloatArray) -> list[FloatArray]:
-        # hp-core's friction law (`Friction::force_n`) per newton of Coulomb
-        # force, written out here: through `_core.friction_force_n` the
-        # static fit's values move in their last bits, and those of a fit
-        # started from them by 6e-5 in the residual after one step (the
-        # shape parameters these records leave unidentified follow the
-        # rounding: tests/test_fit_output_only.py).
-        p = self.p
-        level, smooth = [np.ones(len(v)) for v in self.speeds], p.smoothing_m_s
-        if p.friction_shape:
-            ratio, velocity_m_s, smooth = (q.from_x(float(xi)) for q, xi in zip(p.friction_shape, x[self.n_fixed:]))
-            level = [1.0 + (ratio - 1.0) * np.exp(-((v / velocity_m_s) ** 2)) for v in self.speeds]
-        return [np.array([s.transducer if c == "offset" else lv * np.tanh(v / smooth) for c in p.constants])
-                .reshape(len(p.constants), len(v)).T for v, lv, s in zip(self.speeds, level, p.samples)]
-
-    def residual(self, x: FloatArray) -> FloatArray:
-        p = self.p
-        values = {q.name: q.from_x(float(xi)) for q, xi in zip(p.shape, x[:self.n_shape])}
-        damper = shaped_damper(p.nominal, values).to_dict()
-        drops: list[FloatArray] = [np.empty(0)] * len(p.samples)
-        for bypass, ks, q, cuts in self.by_state:
-            for k, dp in zip(ks, np.split(_core.damper_pressure_drop_pa(damper, q, bypass), cuts)):
-                drops[k] = dp
-        rows = []
-        for s, cols, dp in zip(p.samples, self.columns(x), drops):
-            force = s.area_m2 * dp + cols @ x[self.n_shape:self.n_fixed]
-            rows.append((force - s.force_n) / s.sigma_n)
-        return np.concatenate(rows + [np.array([(x[i] - c) / sd for i, c, sd in p.prior])])
 
 
 def static_problem(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str] = ()) -> StaticProblem | None:
@@ -468,7 +386,7 @@ def static_problem(datasets: Sequence[Dataset], params: Sequence[Param], effects
     c0 = np.zeros(len(constants))
     if constants:
         slow = [(abs(s.q_m3_s / s.area_m2) <= SLOW_SPEED_M_S) for _, _, s in found]
-        a = np.concatenate([cols[m] for cols, m in zip(_Static(problem).columns(np.array([0.0] * n_fixed + friction_x0)), slow)])
+        a = np.concatenate([cols[m] for cols, m in zip(StaticResidual(problem).columns(np.array([0.0] * n_fixed + friction_x0)), slow)])
         if len(a) >= MIN_SLOW_SAMPLES:
             y = np.concatenate([s.force_n[m] for (_, _, s), m in zip(found, slow)])
             c0 = np.linalg.lstsq(a, y, rcond=None)[0]
@@ -479,20 +397,6 @@ def static_problem(datasets: Sequence[Dataset], params: Sequence[Param], effects
                  for p in shape}
         starts.append(np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0) + friction_x0))
     return dataclasses.replace(problem, starts=tuple(starts))
-
-
-def solve_start(problem: StaticProblem, k: int) -> tuple[FloatArray, float] | None:
-    """The static fit from ``problem``'s start ``k``: where it ends and its
-    cost, or None where the curve cannot be evaluated there (or it ends
-    off the finite numbers)."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            sol = least_squares(_Static(problem).residual, problem.starts[k], bounds=(problem.lo, problem.hi), method="trf", loss="soft_l1",
-                                f_scale=LOSS_SCALE, x_scale="jac", jac_sparsity=problem.sparsity, max_nfev=MAX_NFEV)
-    except (ValueError, _core.HpctlError):
-        return None
-    return (sol.x, float(sol.cost)) if np.all(np.isfinite(sol.x)) else None
 
 
 def static_values(problem: StaticProblem, params: Sequence[Param], ends: Sequence[tuple[FloatArray, float] | None]) -> dict[str, float]:

@@ -115,14 +115,31 @@ def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
 
 
 def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[Dataset]:
-    """Checks that the records can be fitted and prepares them. Each
-    channel's noise is its level from the lowest order of differences that
-    holds noise only (:func:`hpctl.identify.signals.noise_level`), plus what that level
+    """Checks that the records can be fitted and prepares them: their
+    noise as measured (:func:`measured_datasets`), then the weights with
+    the input's noise carried through the model (:func:`carry_input_noise`)."""
+    return carry_input_noise(measured_datasets(records, template))
+
+
+def measured_datasets(records: Sequence[RigRecord], template: Unit | None = None) -> list[Dataset]:
+    """:func:`prepare`'s first part: checks that the records can be fitted
+    and reads each channel's noise: its level from the lowest order of
+    differences that holds noise only
+    (:func:`hpctl.identify.signals.noise_level`), plus what that level
     misses of a correlated noise the records of the channel show when
     sampled at different rates (:func:`hpctl.identify.signals.noise_colour`:
     one transducer per channel name in one fit; a record whose differences
     hold the signal at every order takes the channel's noise from the
-    others, where that is less)."""
+    others, where that is less). The weights are that noise alone.
+
+    Carrying the input's noise into the weights (:func:`carry_input_noise`)
+    is most of :func:`prepare`'s time (1.0-1.6 of 1.1-1.7 s on the bundled
+    campaign). What a flexible fit's static damper fit reads of a record
+    (:mod:`hpctl.identify.damper_start`) is final here, and carrying keeps
+    those objects (it replaces the weights alone): the command line and the
+    diagnosis start those fits in worker processes on these datasets while
+    this process carries the noise, and the fits on the carried datasets
+    find them under way."""
     if not records:
         raise HpctlError("no records to fit")
     drives = []
@@ -174,11 +191,11 @@ def prepare(records: Sequence[RigRecord], template: Unit | None = None) -> list[
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise,
                            noise_colour={c: k for c, k in colours.items() if c in targets}, input_jitter_s=jitter[rec.kind],
                            noise_unchecked=tuple(unchecked)))
-    return _carry_input_noise(out)
+    return out
 
 
 #: Draws of the input's noise through the records' unit
-#: (:func:`_carry_input_noise`), their seed, and the moving window (samples)
+#: (:func:`carry_input_noise`), their seed, and the moving window (samples)
 #: over which their squares are averaged: about 16 x 31 samples a
 #: variance, a sampling error of about 6 % on the carried part. Four draws
 #: (stop 29) read a friction's reversals too low where they dominate: the
@@ -190,7 +207,7 @@ CARRIED_SEED = 11
 CARRIED_WINDOW = 31
 
 
-def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
+def carry_input_noise(datasets: Sequence[Dataset]) -> list[Dataset]:
     """Each record's weights with the noise its measured input
     displacement puts into the model's outputs: the outputs' change
     when the record's unit (:func:`base_unit`) is driven by the measured
@@ -211,7 +228,7 @@ def _carry_input_noise(datasets: list[Dataset]) -> list[Dataset]:
     noise alone."""
     carried = carried_records(datasets)
     if not carried:
-        return datasets
+        return list(datasets)
     drives = carried_drives(datasets, carried)
     cases = [Case(d.base, d.rig, d.times_s, spring_hard=d.spring_hard, damper_on=d.damper_on, ambient_k=d.ambient_k,
                   channels=["time_s", *OUTPUTS[d.record.kind]], gas_table=True, switch_lead=LOGGED_SWITCH_LEAD) for drive in drives for d in drive]

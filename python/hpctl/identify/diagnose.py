@@ -30,10 +30,11 @@ from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STARTS, prefetch_sta
 from hpctl.identify.dataset import (
     DAMPER_WORKING_SPEED_M_S,
     Dataset,
+    carry_input_noise,
     clock_jitters,
     loop_area_j,
+    measured_datasets,
     noise_colours,
-    prepare,
     traits,
     uses_damper,
 )
@@ -1180,13 +1181,16 @@ def _diagnose(
     records: Sequence[RigRecord], start_effects: Sequence[str], candidates: Sequence[str] | None, max_rounds: int, clock: _Clock,
     pool: Executor, flexible: bool = False, statics: Executor | None = None,
 ) -> Diagnosis:
-    datasets = prepare(records)
+    measured = measured_datasets(records)
     pool_effects = [e for e in (candidates or LIBRARY) if e in LIBRARY]
     effects = tuple(e for e in LIBRARY if e in start_effects)
     if statics is not None:
-        # The first round's candidates' static fits while the declared
-        # model's is fitted (in this thread) and the model fitted from it.
-        _prefetch_statics(datasets, effects, _screened(datasets, effects, pool_effects), statics)
+        # The first round's candidates' static fits while the input's noise
+        # is carried into the weights (which they do not read:
+        # hpctl.identify.dataset.measured_datasets), the declared model's is
+        # fitted (in this thread) and the model fitted from it.
+        _prefetch_statics(measured, effects, _screened(measured, effects, pool_effects), statics)
+    datasets = carry_input_noise(measured)
     declared = ', '.join(effects) or 'classical polytropic ideal gas'
     clock.say(f"fitting the declared model ({declared}{', the damper characteristic identified' if flexible else ''})")
     t0 = time.perf_counter()

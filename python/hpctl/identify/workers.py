@@ -52,16 +52,24 @@ class WorkerPool(Executor):
     ``preload`` (modules, by name) started at once, each importing them as
     it starts: the imports then run beside the caller's own work (a
     diagnosis reading its records) instead of in front of the first tasks
-    (a worker's start with SciPy and matplotlib is about a second)."""
+    (a worker's start with SciPy and matplotlib is about a second).
+    ``later``'s modules a worker imports once it has run a task and no
+    task is waiting or running in any worker: what later tasks need (the
+    report's figures) without delaying the first ones (the static damper
+    fits, two cores' hyperthreads sharing one physical core: an import
+    beside the last start made it 1.4 s instead of 1.2); a task that comes
+    meanwhile waits for the import."""
 
-    def __init__(self, workers: int, preload: Sequence[str] = ()) -> None:
+    def __init__(self, workers: int, preload: Sequence[str] = (), later: Sequence[str] = ()) -> None:
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self._preload = tuple(preload)
+        self._later = pickle.dumps((_import_all, (tuple(later),), {}), protocol=pickle.HIGHEST_PROTOCOL) if later else None
         self._tasks: queue.SimpleQueue[tuple[Future[Any], bytes] | None] = queue.SimpleQueue()
         self._lock = threading.Lock()
         self._closed = False
         self._children: set[subprocess.Popen[bytes]] = set()
+        self._running = 0  # tasks running in the workers (under _lock)
         self._threads = [threading.Thread(target=self._serve, name=f"hpctl-worker-{i}", daemon=True) for i in range(workers)]
         for t in self._threads:
             t.start()
@@ -98,36 +106,61 @@ class WorkerPool(Executor):
 
     def _serve(self) -> None:
         child: subprocess.Popen[bytes] | None = None
+        # The child that has imported ``later``'s modules (or was asked to).
+        later_in: subprocess.Popen[bytes] | None = None
         try:
             if self._preload:
                 try:
                     child = self._spawn()
                 except OSError:
                     child = None  # started again for the first task, which fails if it cannot
-            while (item := self._tasks.get()) is not None:
+            ran = False
+            while True:
+                owed = self._later is not None and ran and child is not None and later_in is not child
+                if owed and self._later is not None and child is not None and self._idle():
+                    later_in = child
+                    try:
+                        _ask(child, self._later)
+                    except (OSError, EOFError, pickle.UnpicklingError, ValueError):
+                        pass  # the next task finds the child gone and starts another
+                    continue
+                try:
+                    # Owing the import, the pool is looked at again shortly.
+                    item = self._tasks.get(timeout=0.1 if owed else None)
+                except queue.Empty:
+                    continue
+                if item is None:
+                    break
                 future, payload = item
                 if not future.set_running_or_notify_cancel():
                     continue
+                ran = True
+                with self._lock:
+                    self._running += 1
                 try:
                     if child is None or child.poll() is not None:
                         self._forget(child)
                         child = self._spawn()
-                    if child.stdin is None or child.stdout is None:
-                        raise OSError("the worker has no pipes")
-                    child.stdin.write(len(payload).to_bytes(8, "little") + payload)
-                    child.stdin.flush()
-                    ok, value = pickle.loads(_read(child.stdout))
+                    ok, value = _ask(child, payload)
                 except (OSError, EOFError, pickle.UnpicklingError, ValueError) as e:
                     future.set_exception(WorkerError(f"worker process failed: {e!r}"))
                     self._forget(child)
                     child = None
                     continue
+                finally:
+                    with self._lock:
+                        self._running -= 1
                 if ok:
                     future.set_result(value)
                 else:
                     future.set_exception(value)
         finally:
             self._forget(child)
+
+    def _idle(self) -> bool:
+        """No task waiting, none running in any worker."""
+        with self._lock:
+            return self._running == 0 and self._tasks.empty()
 
     def _spawn(self) -> subprocess.Popen[bytes]:
         child = _start(self._preload)
@@ -155,6 +188,26 @@ def _start(preload: Sequence[str] = ()) -> subprocess.Popen[bytes]:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     boot = _BOOT.format(root=root, preload=tuple(preload))
     return subprocess.Popen([sys.executable, "-P", "-c", boot], stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+
+
+def _ask(child: subprocess.Popen[bytes], payload: bytes) -> tuple[bool, Any]:
+    """Sends a pickled task to ``child`` and reads its answer."""
+    if child.stdin is None or child.stdout is None:
+        raise OSError("the worker has no pipes")
+    child.stdin.write(len(payload).to_bytes(8, "little") + payload)
+    child.stdin.flush()
+    answer: tuple[bool, Any] = pickle.loads(_read(child.stdout))
+    return answer
+
+
+def _import_all(names: Sequence[str]) -> None:
+    """A worker's task: imports ``names`` (:class:`WorkerPool`'s ``later``);
+    one that fails is left to the tasks that need it, as a preload."""
+    for name in names:
+        try:
+            importlib.import_module(name)
+        except Exception as e:
+            print(f"hpctl worker: importing {name} failed: {e!r}", file=sys.stderr)
 
 
 def _stop(child: subprocess.Popen[bytes] | None) -> None:
