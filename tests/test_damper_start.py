@@ -27,7 +27,7 @@ from hpctl.errors import ParameterError
 from hpctl.identify import damper_start, damper_static
 from hpctl.identify import fit as fit_module
 from hpctl.identify.blas import one_blas_thread
-from hpctl.identify.dataset import Dataset, prepare
+from hpctl.identify.dataset import Dataset, carry_input_noise, measured_datasets, prepare
 from hpctl.identify.diagnose import NOISE_CEILING, diagnose
 from hpctl.identify.fit import fit, model_for, rss_at
 from hpctl.model.effects import FRICTION_SMOOTHING_VELOCITY_M_S, shaped_damper
@@ -407,6 +407,36 @@ def test_a_static_fit_prefetched_in_worker_processes_is_the_fit_here_and_not_com
             pool.shutdown()
     assert "friction_coulomb_n" in here and "damper_off_compression_orifice_scale" in here
     assert got == here and calls == []
+
+
+def test_a_static_fit_started_before_the_input_noise_is_carried_is_the_one_the_fit_asks_for(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The command line and the diagnosis start the static fits on the
+    # records' measured noise (measured_datasets) and carry the input's
+    # noise into the weights meanwhile: the fit on the carried datasets
+    # finds them (nothing it reads was replaced) and gets what a fit on
+    # prepare()'s datasets computes; carrying gives prepare()'s weights.
+    g = generate(None, 7, tests=[t for t in sweep_tests() if t.name in SHORT])
+    records = [read_record(p) for p in g.records]
+    prepared = prepare(records)
+    model = model_for(prepared, ("heat_transfer", "real_gas", "friction"), flexible=True)
+    with one_blas_thread():
+        here = damper_start.fit_static_damper(prepared, model.params, model.effects)
+        calls = _counting(monkeypatch)
+        measured = measured_datasets(records)
+        pool = damper_start.static_pool(2)
+        try:
+            damper_start.prefetch_static(measured, model.params, model.effects, pool)
+            carried = carry_input_noise(measured)
+            got = damper_start.static_damper_values(carried, model.params, model.effects)
+        finally:
+            pool.shutdown()
+    assert got == here and calls == []
+    for c, p in zip(carried, prepared, strict=True):
+        assert c.weight_sigma.keys() == p.weight_sigma.keys()
+        for k in p.weight_sigma:
+            np.testing.assert_array_equal(c.weight_sigma[k], p.weight_sigma[k])
+    # The measured datasets' weights are the output noise alone, which carrying raised.
+    assert any(np.any(c.weight_sigma[k] > m.weight_sigma[k]) for c, m in zip(carried, measured, strict=True) for k in m.weight_sigma)
 
 
 def test_a_static_fit_whose_workers_fail_is_computed_here(monkeypatch: pytest.MonkeyPatch) -> None:
