@@ -318,8 +318,8 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
         recs = _records(records)
         # The flexible model's static damper start, its three starts side by
-        # side (3.7 s in this process alone on the bundled campaign), and the
-        # figures after.
+        # side (1.2 s each in this process alone on the bundled campaign), and
+        # the figures after.
         with _worker_pool(flexible) as workers:
             measured = measured_datasets(recs)
             # Named wrong, said before the fit, not after it.
