@@ -603,7 +603,6 @@ impl<const N: usize> Integrator<N> {
         out
     }
 
-
     /// Takes one step to exactly `t_end_s` and accepts it whatever its error
     /// estimate: for replaying the steps of an error-controlled run (a
     /// finite-difference derivative of the solution with respect to a
