@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares as scipy_least_squares
 
-from hpctl.identify.trust_region import compress, least_squares
+from hpctl.identify.trust_region import QR_BLOCK_ROWS, compress, least_squares
 
 
 def _both(fun, jac, x0, lb, ub, **kw):
@@ -45,7 +45,9 @@ def _decay_problem(seed: int):
 
 def test_compress_gives_the_gram_matrix_and_the_gradient():
     rng = np.random.default_rng(3)
-    for m, k in [(500, 7), (7, 7), (4, 9)]:
+    # Tall ones are reduced a block of rows at a time: one of whole blocks
+    # and a short last one, one just above the blocked size.
+    for m, k in [(500, 7), (7, 7), (4, 9), (5 * QR_BLOCK_ROWS + 17, 30), (2 * QR_BLOCK_ROWS + 1, 3)]:
         j, f = rng.standard_normal((m, k)), rng.standard_normal(m)
         r, qf = compress(j, f)
         assert r.shape == (min(m, k), k)

@@ -1416,8 +1416,17 @@ class _Secant:
             return None
         if self.far_share is not None and actual > self.far_share * float(self.f @ self.f):
             return None
-        j = self.j.copy(order="K")  # new: the optimiser may still hold self.j
-        rows = slice(0, len(f) - self.n_prior)
-        j[rows] += np.outer((f - self.f - self.j @ dx)[rows], dx / dd)
+        # A new array (the optimiser may still hold self.j), written a
+        # column at a time from the old one: the same products and sums as
+        # adding np.outer(du, w), bit for bit, without the outer product's
+        # m x k temporary and the copy before it (the bundled heat run's
+        # 135,003 x 27: 39 ms an update that way, three passes over 29 MB).
+        n_data = len(f) - self.n_prior
+        du = (f - self.f - self.j @ dx)[:n_data]
+        w = dx / dd
+        j = np.empty_like(self.j, order="F")
+        for i in range(j.shape[1]):
+            np.add(self.j[:n_data, i], du * w[i], out=j[:n_data, i])
+        j[n_data:] = self.j[n_data:]
         self.x, self.f, self.j, self.exact = x.copy(), f, j, False
         return j

