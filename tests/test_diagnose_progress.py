@@ -217,3 +217,49 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
         confirmed = diagnose_module._confirmed([], None, (), ranked[0], clock, ahead)  # type: ignore[arg-type]
     assert confirmed.delta_bic == 9_000.0 and confirmed.broyden_delta_bic == 8_000.0 and not ahead
     assert calls.count((("friction",), again)) == 1 and len(calls) == 4
+
+
+def test_the_accepted_models_full_fit_starts_with_its_cross_validation(monkeypatch: pytest.MonkeyPatch) -> None:
+    # _accept starts a candidate's full fit (with the input noise) as its
+    # cross-validation begins, beside it; the round then takes that fit
+    # instead of fitting again. Stand-ins: the cross-validation of the
+    # model with the candidate waits until the full fit has begun (a
+    # timeout there is the failure); the first candidate's cross-validation
+    # rejects it (its full fit leaves ``full``), the second's accepts.
+    import threading
+
+    began: dict[tuple[str, ...], threading.Event] = {("friction",): threading.Event(), ("leakage",): threading.Event()}
+    fitted: list[tuple[str, ...]] = []
+
+    def fake_full_fit(datasets: Any, current: Any, effects: Any, c: Any) -> Any:
+        fitted.append(c.effects)
+        began[c.effects].set()
+        return SimpleNamespace(effects=c.effects)
+
+    def fake_cv(datasets: Any, effects: Any, start: Any, pool: Any = None, held: Any = None) -> float:
+        added = tuple(e for e in effects if e not in ("heat_transfer", "real_gas"))
+        if not added:
+            return 100.0  # the model the candidates extend
+        assert began[added].wait(60.0), f"{added}'s full fit did not start beside its cross-validation"
+        return 150.0 if added == ("friction",) else 50.0
+
+    monkeypatch.setattr(diagnose_module, "_full_fit", fake_full_fit)
+    monkeypatch.setattr(diagnose_module, "cross_validation", fake_cv)
+    monkeypatch.setattr(diagnose_module, "_with_errors", lambda datasets, c: None)
+    monkeypatch.setattr(diagnose_module, "shape_values", lambda result: {})
+    monkeypatch.setattr(diagnose_module.Candidate, "shows_itself", property(lambda self: True))
+
+    def candidate(add: tuple[str, ...], delta_bic: float) -> Any:
+        result = SimpleNamespace(model=SimpleNamespace(flexible=False), values={}, stopped=False)
+        return diagnose_module.Candidate(add, 1, result, delta_bic, 0.5)  # type: ignore[arg-type]
+
+    ranked = [candidate(("friction",), 900.0), candidate(("leakage",), 800.0)]
+    current = SimpleNamespace(values={}, model=SimpleNamespace(flexible=False))
+    clock = diagnose_module._Clock(lambda _m: None, 1)
+    full: dict[tuple[str, ...], Any] = {}
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        accepted = diagnose_module._accept([], current, ("heat_transfer", "real_gas"), ranked, clock, pool, full=full)  # type: ignore[arg-type]
+        assert accepted is ranked[1] and accepted.cv_improves and ranked[0].cv_improves is False
+        assert list(full) == [("leakage",)]
+        assert full[("leakage",)].result().effects == ("leakage",)
+    assert sorted(fitted) == [("friction",), ("leakage",)]

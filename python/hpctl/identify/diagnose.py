@@ -1076,11 +1076,32 @@ def offset_delta_bic(current: FitResult) -> float:
     return n * math.log(rss / (rss - gain)) - k * math.log(n)
 
 
+def _full_fit(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], c: Candidate) -> FitResult:
+    """The model with ``c`` fitted as a model that goes on is: with the
+    input noise carried through (honest errors, its bias taken out; the
+    screening fit left them out), from ``c``'s screening optimum, with a
+    larger evaluation budget than a screening fit's (the model that goes on
+    is the next round's baseline, and one stopped short of its optimum lets
+    the next candidate "explain" the rest of the way, see
+    :attr:`Candidate.shows_itself`)."""
+    flexible = current.model.flexible
+    return fit(datasets, effects + c.effects, initial=c.result.values, flexible=flexible, max_nfev=ACCEPTED_MAX_NFEV,
+               ftol=accepted_ftol(current.n, len(c.result.model.params)), jacobian=accepted_jacobian(flexible, current.n))
+
+
 def _accept(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], clock: _Clock, pool: Executor,
-    ahead: dict[tuple[str, ...], Future[Candidate]] | None = None,
+    ahead: dict[tuple[str, ...], Future[Candidate]] | None = None, full: dict[tuple[str, ...], Future[FitResult]] | None = None,
 ) -> Candidate | None:
-    """The best-ranked candidate that the evidence supports, if any."""
+    """The best-ranked candidate that the evidence supports, if any.
+
+    With ``full``: a candidate's :func:`_full_fit` is started in ``pool``
+    as its cross-validation begins, its future kept in ``full`` under its
+    effects, so that the fit the accepted model needs runs beside the
+    cross-validation's instead of after it (the bundled heat run: 4.6 s of
+    cross-validation, then 9.2 s of that fit). The same computation as
+    the one after acceptance, so the result does not depend on it; one
+    the cross-validation rejects is cancelled, or finishes unread."""
     cv_before: float | None = None  # the declared model's: the same for every candidate
     for c in ranked[:3]:
         if c.delta_bic <= BIC_STRONG:
@@ -1099,6 +1120,8 @@ def _accept(
         if not c.shows_itself:
             continue
         clock.tell(f"cross-validating {c.effect}", clock.ACCEPT_FITS)
+        if full is not None and c.effects not in full:
+            full[c.effects] = pool.submit(_full_fit, datasets, current, effects, c)
         if cv_before is None:
             before = pool.submit(cross_validation, datasets, effects, current.values, None, shape_values(current))
             cv_after = cross_validation(datasets, effects + c.effects, c.result.values, pool, shape_values(c.result))
@@ -1108,6 +1131,8 @@ def _accept(
         c.cv_before, c.cv_after = cv_before, cv_after
         if c.cv_improves is not False:
             return c
+        if full is not None and c.effects in full:
+            full.pop(c.effects).cancel()
     return None
 
 
@@ -1230,24 +1255,20 @@ def _diagnose(
         # Finite-difference screenings started while the last screening
         # fits ran (_try_all), for _confirmed.
         ahead: dict[tuple[str, ...], Future[Candidate]] = {}
+        # The full fits of candidates being cross-validated (_accept).
+        full: dict[tuple[str, ...], Future[FitResult]] = {}
         tried = _try_all(datasets, current, effects, [(e,) for e in pool_now], clock, pool, ahead=ahead)
-        accepted = _accept(datasets, current, effects, tried, clock, pool, ahead)
+        accepted = _accept(datasets, current, effects, tried, clock, pool, ahead, full)
         pairs = pairs_to_try([c.effects[0] for c in tried]) if accepted is None else []
         if pairs:
             tried_pairs = _try_all(datasets, current, effects, pairs, clock, pool, kind="pair", ahead=ahead)
-            accepted = _accept(datasets, current, effects, tried_pairs, clock, pool, ahead)
+            accepted = _accept(datasets, current, effects, tried_pairs, clock, pool, ahead, full)
             tried += tried_pairs
         judgement = None
         while accepted is not None:
-            # Honest errors (and the input noise's bias taken out) for the
-            # model that goes on: the screening fit left them out.
             clock.tell(f"fitting the model with {accepted.effect} (with the input noise)", 2.0)
-            # A larger evaluation budget than a screening fit's: the model
-            # that goes on is the next round's baseline, and one stopped
-            # short of its optimum lets the next candidate "explain" the
-            # rest of the way (see Candidate.shows_itself).
-            refit = fit(datasets, effects + accepted.effects, initial=accepted.result.values, flexible=flexible, max_nfev=ACCEPTED_MAX_NFEV,
-                        ftol=accepted_ftol(current.n, len(accepted.result.model.params)), jacobian=accepted_jacobian(flexible, current.n))
+            started = full.pop(accepted.effects, None)
+            refit = started.result() if started is not None else _full_fit(datasets, current, effects, accepted)
             accepted.refit_delta_bic = refit.bic - current.bic
             # The gain must hold in that fit: on the foreign rig's 75-minute
             # heat run a sensor lag screened at -9,945 and its full fit
@@ -1258,8 +1279,9 @@ def _diagnose(
             clock.say(f"round {clock.round}/{max_rounds}: {accepted.effect} not accepted: its full fit changed the BIC by "
                       f"{accepted.refit_delta_bic:+.1f} (screening: {-accepted.delta_bic:+.1f})")
             rest = [c for c in tried if c is not accepted and c.refit_delta_bic is None]
-            accepted = _accept(datasets, current, effects, rest, clock, pool, ahead)
-        for unused in ahead.values():
+            accepted = _accept(datasets, current, effects, rest, clock, pool, ahead, full)
+        unused_futures: list[Future[Candidate] | Future[FitResult]] = [*ahead.values(), *full.values()]
+        for unused in unused_futures:
             # Not started yet: dropped (one running finishes unread).
             unused.cancel()
         if accepted is not None:
