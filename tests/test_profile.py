@@ -28,7 +28,7 @@ from hpctl.cli import main as cli_main
 from hpctl.errors import ParameterError
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import FitResult, fit, residual_vector, simulate_all
+from hpctl.identify.fit import FitResult, _to_values, fit, residual_vector, simulate_all, standard_errors, values_from_x
 from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, held_rise, profile_interval, profile_point
 from hpctl.model.unit import Unit
 from hpctl.report.calibration import LINEAR_ERRORS
@@ -65,22 +65,25 @@ def curvature_errors(result: FitResult, h: float = 1e-3) -> dict[str, float]:
     at = simulate_all(model, result.datasets, [result.values], record_steps=True)[0]
     steps = [None if isinstance(s, Exception) else s["step_end_s"] for s in at]
     moved = [x0 + sign * h * np.eye(len(x0))[i] for i in range(len(x0)) for sign in (1.0, -1.0)]
-    runs = simulate_all(model, result.datasets, [{**result.values, **{p.name: p.from_x(float(xi)) for p, xi in zip(params, x)}} for x in moved],
-                        steps=steps)
+    runs = simulate_all(model, result.datasets, [{**result.values, **values_from_x(params, x)} for x in moved], steps=steps)
     r = [residual_vector(result.datasets, sims) for sims in runs]
     j = np.column_stack([(r[2 * i] - r[2 * i + 1]) / (2.0 * h) for i in range(len(x0))])
     prior = np.diag([0.0 if p.prior_sigma is None else 1.0 / p.prior_sigma for p in params])
-    cx = np.linalg.inv(j.T @ j + prior.T @ prior)
-    d = [p.from_x(float(xi)) * math.log(10) if p.log else p.scale for p, xi in zip(params, x0)]
-    return {p.name: float(math.sqrt(cx[i, i]) * d[i]) for i, p in enumerate(params)}
+    return standard_errors(params, _to_values(params, x0, np.linalg.inv(j.T @ j + prior.T @ prior)))
+
+
+@pytest.fixture(scope="module")
+def curvature(friction_fit: tuple[FitResult, dict[str, float]]) -> dict[str, float]:
+    """:func:`curvature_errors` of the friction fit, once for the module."""
+    return curvature_errors(friction_fit[0])
 
 
 @pytest.mark.parametrize("name", ["friction_coulomb_n", "tau_s", "charge_scale"])
 def test_where_the_cost_is_a_parabola_the_profile_interval_is_the_linear_one(friction_fit: tuple[FitResult, dict[str, float]],
-                                                                          name: str, seed: int) -> None:
+                                                                          curvature: dict[str, float], name: str, seed: int) -> None:
     result, _ = friction_fit
     iv = profile_interval(result, name)
-    est, se = result.values[name], curvature_errors(result)[name]
+    est, se = result.values[name], curvature[name]
     context = f"seed={seed} {iv.describe()} curvature's error {se:.6g} points={[(q.value, q.rise) for q in iv.points]}"
     assert iv.lower is not None and iv.upper is not None, context
     assert iv.lower < est < iv.upper, context

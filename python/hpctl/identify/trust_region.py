@@ -102,21 +102,19 @@ def compress(j: FloatArray, f: FloatArray) -> tuple[FloatArray, FloatArray]:
     the whole): the same ``R`` up to the signs of its rows (which ``Q^T f``
     shares, so ``R^T R`` and ``R^T Q^T f`` are the same) and rounding."""
     m, k = j.shape
-    if m > 2 * QR_BLOCK_ROWS:
-        block = np.empty((QR_BLOCK_ROWS, k + 1), order="F")
-        tops = []
-        for start in range(0, m, QR_BLOCK_ROWS):
-            stop = min(m, start + QR_BLOCK_ROWS)
-            a = block if stop - start == QR_BLOCK_ROWS else np.empty((stop - start, k + 1), order="F")
-            a[:, :k] = j[start:stop]
-            a[:, k] = f[start:stop]
-            tops.append(_r_of(a)[: min(stop - start, k + 1)])
-        stacked = np.asfortranarray(np.vstack(tops))
-        return _split(_r_of(stacked), k)
-    a = np.empty((m, k + 1), order="F")
-    a[:, :k] = j
-    a[:, k] = f
-    return _split(_r_of(a), k)
+    if m <= 2 * QR_BLOCK_ROWS:
+        return _split(_r_of(_augmented(j, f)), k)
+    # A short last block's R has as many rows as it (the slice keeps them).
+    tops = [_r_of(_augmented(j[s:s + QR_BLOCK_ROWS], f[s:s + QR_BLOCK_ROWS]))[: k + 1] for s in range(0, m, QR_BLOCK_ROWS)]
+    return _split(_r_of(np.asfortranarray(np.vstack(tops))), k)
+
+
+def _augmented(j: FloatArray, f: FloatArray) -> FloatArray:
+    """``[J f]`` in a new column-major array, for :func:`_r_of` to overwrite."""
+    a = np.empty((j.shape[0], j.shape[1] + 1), order="F")
+    a[:, :-1] = j
+    a[:, -1] = f
+    return a
 
 
 def _r_of(a: FloatArray) -> FloatArray:
