@@ -24,7 +24,7 @@ from hpctl._coretypes import UnitDict
 from hpctl._effect_params import Friction
 from hpctl.data.records import read_record
 from hpctl.errors import ParameterError
-from hpctl.identify import damper_start, damper_static
+from hpctl.identify import damper_start, damper_static, workers
 from hpctl.identify import fit as fit_module
 from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.dataset import Dataset, carry_input_noise, measured_datasets, prepare
@@ -398,7 +398,7 @@ def test_a_static_fit_prefetched_in_worker_processes_is_the_fit_here_and_not_com
     with one_blas_thread():
         here = damper_start.fit_static_damper(datasets, params, effects)  # type: ignore[arg-type]
         calls = _counting(monkeypatch)
-        pool = damper_start.static_pool(2)
+        pool = workers.static_pool(2)
         try:
             damper_start.prefetch_static(datasets, params, effects, pool)  # type: ignore[arg-type]
             placed = [dataclasses.replace(d, switch_leads=d.switch_leads + 0.0) for d in datasets]
@@ -423,7 +423,7 @@ def test_a_static_fit_started_before_the_input_noise_is_carried_is_the_one_the_f
         here = damper_start.fit_static_damper(prepared, model.params, model.effects)
         calls = _counting(monkeypatch)
         measured = measured_datasets(records)
-        pool = damper_start.static_pool(2)
+        pool = workers.static_pool(2)
         try:
             damper_start.prefetch_static(measured, model.params, model.effects, pool)
             carried = carry_input_noise(measured)
@@ -445,7 +445,7 @@ def test_a_static_fit_whose_workers_fail_is_computed_here(monkeypatch: pytest.Mo
         here = damper_start.fit_static_damper(datasets, params, effects)  # type: ignore[arg-type]
         calls = _counting(monkeypatch)
         monkeypatch.setattr(sys, "executable", "/nonexistent/python")  # no worker can start
-        pool = damper_start.static_pool(1)
+        pool = workers.static_pool(1)
         try:
             damper_start.prefetch_static(datasets, params, effects, pool)  # type: ignore[arg-type]
             got = damper_start.static_damper_values(datasets, params, effects)  # type: ignore[arg-type]

@@ -161,7 +161,7 @@ def test_a_static_fits_worker_starts_without_reading_records() -> None:
     # records' signal processing behind hpctl.identify.damper_start
     # (SciPy's signal filters): the static fits wait for the workers'
     # start while the CPU is busiest.
-    from hpctl.identify.damper_start import static_pool
+    from hpctl.identify.workers import static_pool
 
     pool = static_pool(1)
     try:

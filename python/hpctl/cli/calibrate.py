@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -244,14 +243,16 @@ def _worker_pool(flexible: bool) -> Iterator[WorkerPool | None]:
     report's figures (:func:`hpctl.report.calibration.draw_record_plots`),
     started now beside this process's reading of the records, the static
     fit's code imported at once and the figures' once a worker is idle
-    (:func:`hpctl.identify.damper_start.static_pool`); shut down on leaving
-    (what is queued dropped). None otherwise."""
+    (:func:`hpctl.identify.workers.static_pool`); shut down on leaving
+    (what is queued dropped). None otherwise. Entered before the command
+    imports SciPy and hpctl's identification, which leave a core idle for
+    the workers' own imports."""
     if not flexible:
         yield None
         return
-    from hpctl.identify.damper_start import STARTS, static_pool
+    from hpctl.identify.workers import static_pool
 
-    pool = static_pool(min(len(STARTS), os.cpu_count() or 1), later=("hpctl.report.calibration",))
+    pool = static_pool(later=("hpctl.report.calibration",))
     try:
         yield pool
     finally:
@@ -307,7 +308,10 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
     A record the model cannot be simulated on is an error; a fit that did
     not converge or left more than noise is a warning."""
     rep = Reporter(quiet, as_json)
-    with errors(rep):
+    # The flexible model's static damper start, its three starts side by
+    # side (1.2 s each in this process alone on the bundled campaign), and
+    # the figures after; the workers started first.
+    with errors(rep), _worker_pool(flexible) as workers:
         from hpctl.identify.damper_start import prefetch_static
         from hpctl.identify.dataset import carry_input_noise, measured_datasets
         from hpctl.identify.fit import at_own_noise, fit, model_for
@@ -317,38 +321,34 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         effects = parse_model(model)
         budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
         recs = _records(records)
-        # The flexible model's static damper start, its three starts side by
-        # side (1.2 s each in this process alone on the bundled campaign), and
-        # the figures after.
-        with _worker_pool(flexible) as workers:
-            measured = measured_datasets(recs)
-            # Named wrong, said before the fit, not after it.
-            fitted_model = model_for(measured, effects, flexible=flexible)
-            names = [p.name for p in fitted_model.params]
+        measured = measured_datasets(recs)
+        # Named wrong, said before the fit, not after it.
+        fitted_model = model_for(measured, effects, flexible=flexible)
+        names = [p.name for p in fitted_model.params]
+        for name in profiled:
+            if name not in names:
+                raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
+        if workers is not None:
+            # Begun before the input's noise is carried into the
+            # weights, which it does not read (measured_datasets says why).
+            prefetch_static(measured, fitted_model.params, fitted_model.effects, workers)
+        datasets = carry_input_noise(measured)
+        with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
+            with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
+                # Reported and judged in its own model's weights (the
+                # input's noise carried through it, not the template's).
+                fitted = fit(datasets, effects, flexible=flexible, max_nfev=budget)
+                result = at_own_noise(fitted)
+            profiles: list[ProfileInterval] = []
             for name in profiled:
-                if name not in names:
-                    raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
-            if workers is not None:
-                # Begun before the input's noise is carried into the
-                # weights, which it does not read (measured_datasets says why).
-                prefetch_static(measured, fitted_model.params, fitted_model.effects, workers)
-            datasets = carry_input_noise(measured)
-            with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
-                with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
-                    # Reported and judged in its own model's weights (the
-                    # input's noise carried through it, not the template's).
-                    fitted = fit(datasets, effects, flexible=flexible, max_nfev=budget)
-                    result = at_own_noise(fitted)
-                profiles: list[ProfileInterval] = []
-                for name in profiled:
-                    # In the fit's own weights, where its estimate is the
-                    # optimum (the report's are the fitted model's, above).
-                    with status(rep, f"profile of {name}"):
-                        profiles.append(profile_interval(fitted, name))
-                caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + _profile_caveats(profiles)
-                report.fit_report(result, out, caveats, profiles, workers)
-                document = with_warnings(report.fit_summary(result, profiles), caveats)
-                out.write_json("fit.json", document)
+                # In the fit's own weights, where its estimate is the
+                # optimum (the report's are the fitted model's, above).
+                with status(rep, f"profile of {name}"):
+                    profiles.append(profile_interval(fitted, name))
+            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + _profile_caveats(profiles)
+            report.fit_report(result, out, caveats, profiles, workers)
+            document = with_warnings(report.fit_summary(result, profiles), caveats)
+            out.write_json("fit.json", document)
         if as_json:
             click.echo(json.dumps(document, indent=2))
         else:
@@ -459,19 +459,20 @@ def _parse_sets(sets: tuple[str, ...]) -> dict[str, float]:
 
 def _run_diagnosis(rep: Reporter, recs: list[RigRecord], start: tuple[str, ...], max_rounds: int, out_dir: Path, as_json: bool,
                    command: str, force: bool, strict: bool, flexible: bool = False) -> None:
-    from hpctl.identify import diagnose
-    from hpctl.report import calibration as report
+    # The flexible model's static damper fits' worker processes, started
+    # before the imports below (_worker_pool says why) and kept for the
+    # report's figures after (hpctl.report.calibration.draw_record_plots).
+    with _worker_pool(flexible) as statics:
+        from hpctl.identify import diagnose
+        from hpctl.report import calibration as report
 
-    # The flexible model's static damper fits' worker processes, kept for
-    # the report's figures after (hpctl.report.calibration.draw_record_plots).
-    with _worker_pool(flexible) as statics, \
-            output_dir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
-        with status(rep, "diagnosing") as spinner:
-            diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update, flexible=flexible, statics=statics)
-        caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
-        path = report.diagnosis_report(diag, out, caveats, workers=statics)
-        document = with_warnings(diagnose.summary(diag), caveats)
-        out.write_json("diagnosis.json", document)
+        with output_dir(out_dir, command, force=force, protect=("diagnosis.json", "report.md")) as out:
+            with status(rep, "diagnosing") as spinner:
+                diag = diagnose.diagnose(recs, start, max_rounds=max_rounds, progress=spinner.update, flexible=flexible, statics=statics)
+            caveats = _record_caveats(recs, _model_gas(diag.final)) + _diagnosis_caveats(diag)
+            path = report.diagnosis_report(diag, out, caveats, workers=statics)
+            document = with_warnings(diagnose.summary(diag), caveats)
+            out.write_json("diagnosis.json", document)
     if as_json:
         click.echo(json.dumps(document, indent=2))
     else:

@@ -25,3 +25,11 @@ MAX_NFEV = 60
 MAX_NFEV_FLEXIBLE = 300
 #: The largest budget :func:`hpctl.identify.fit.fit` accepts.
 MAX_NFEV_LIMIT = 100_000
+#: The flexible model's static damper fit's starts
+#: (:mod:`hpctl.identify.damper_start`): every branch's orifice and
+#: blow-off multipliers (the damper's shape may be far from nominal in
+#: either; the other parameters start where the flexible model starts
+#: them); the best end is taken. Here because each start is a task of a
+#: worker process (:func:`hpctl.identify.workers.static_pool`), which the
+#: command line starts before it imports SciPy.
+STATIC_STARTS = ((1.0, 1.0), (30.0, 0.5), (30.0, 2.0))

@@ -59,22 +59,60 @@ def _residual_ss(basis: FloatArray, x: FloatArray) -> FloatArray:
     return np.asarray(np.sum((x - fitted[..., 0]) ** 2, axis=-1))
 
 
-def _smooth_ss(u: FloatArray, xw: FloatArray) -> FloatArray:
+def _even(n: int) -> FloatArray:
+    """A window of ``n`` evenly spaced instants, in sampling intervals from
+    its centre."""
+    return np.arange(n, dtype=float) - (n - 1) / 2.0
+
+
+def _regular(u: FloatArray) -> NDArray[np.bool_]:
+    """Which windows (rows of ``u``) are evenly sampled (all, on a rig's clock)."""
+    return np.asarray(np.all(np.abs(u - _even(u.shape[1])) < 1e-6, axis=1))
+
+
+def _complement_ss(xw: FloatArray, basis: FloatArray) -> FloatArray:
+    """The residual sums of squares of the windows ``xw`` (m x n) about each
+    of the bases ``basis`` (..., n, p) they share, (m, ...): the projections
+    on the bases' orthogonal complements, one matrix product."""
+    q, _ = np.linalg.qr(basis, mode="complete")
+    comp = q[..., _PARAMS:]  # (..., n, n - p)
+    n, k = comp.shape[-2:]
+    lead = comp.shape[:-2]
+    flat = np.moveaxis(comp.reshape(-1, n, k), 1, 0).reshape(n, -1)  # n x (bases k)
+    return np.asarray(np.sum((xw @ flat).reshape(len(xw), -1, k) ** 2, axis=-1).reshape(len(xw), *lead))
+
+
+def _smooth_ss(u: FloatArray, xw: FloatArray, regular: NDArray[np.bool_]) -> FloatArray:
     """The residual sums of squares of the windows ``xw`` (m x 2w) about one
     polynomial of degree six in ``u`` (their instants in sampling intervals
-    from the trial interval's centre). Evenly sampled windows (all, on a
-    rig's clock) share one basis, so their residual is a projection on its
-    orthogonal complement, a matrix product; only the others take a QR each
-    (a whole 75-minute heat run at 200 Hz can be one bend: 900,000 windows)."""
-    n = u.shape[1]
-    even = np.arange(n) - (n - 1) / 2.0
-    regular = np.all(np.abs(u - even) < 1e-6, axis=1)
+    from the trial interval's centre). The ``regular`` windows (evenly
+    sampled: :func:`_regular`) share one basis, so their residual is a
+    projection on its orthogonal complement, a matrix product; only the
+    others take a QR each (a whole 75-minute heat run at 200 Hz can be one
+    bend: 900,000 windows)."""
     out = np.empty(len(u))
-    q, _ = np.linalg.qr(even[:, None] ** np.arange(_PARAMS), mode="complete")
-    out[regular] = np.sum((xw[regular] @ q[:, _PARAMS:]) ** 2, axis=1)
+    out[regular] = _complement_ss(xw[regular], _even(u.shape[1])[:, None] ** np.arange(_PARAMS))
     if not np.all(regular):
         irregular = ~regular
         out[irregular] = _residual_ss(u[irregular][..., None] ** np.arange(_PARAMS), xw[irregular])
+    return out
+
+
+def _join_ss(u: FloatArray, xw: FloatArray, regular: NDArray[np.bool_], frac: FloatArray, after: bool) -> FloatArray:
+    """The residual sums of squares of the windows ``xw`` (c x 2w, at
+    instants ``u``) about the join (:func:`_join_basis`) at each trial
+    instant ``frac`` (c x trials). As in :func:`_smooth_ss`, the
+    ``regular`` windows share a basis per trial instant: their residuals
+    are projections, the others' a QR per window and trial (the QRs were
+    0.15 s of the 0.29 s that the 80 drives of the bundled campaign's
+    carried input noise took to locate their corners; stop 63)."""
+    out = np.empty((len(u), len(frac)))
+    if np.any(regular):
+        out[regular] = _complement_ss(xw[regular], _join_basis(_even(u.shape[1])[None, :] - frac[:, None], after))
+    if not np.all(regular):
+        irregular = ~regular
+        uc = u[irregular][:, None, :] - frac[None, :, None]  # c x trials x 2w
+        out[irregular] = _residual_ss(_join_basis(uc, after), np.broadcast_to(xw[irregular][:, None, :], uc.shape))
     return out
 
 
@@ -120,7 +158,8 @@ def corners(t: FloatArray, x: FloatArray, sigma: float, bends: NDArray[np.bool_]
         return np.zeros(0)
     u = (t[win] - 0.5 * (t[ks] + t[ks + 1])[:, None]) / h[:, None]
     xw = x[win] - x[win].mean(axis=1, keepdims=True)
-    smooth_ss = _smooth_ss(u, xw)
+    regular = _regular(u)
+    smooth_ss = _smooth_ss(u, xw, regular)
     floor = CORNER_MIN_GAIN * max(sigma, 1e-12) ** 2
     # The join's sum of squares is at least zero: an interval whose smooth
     # fit is already within the gain holds no corner (a sine sampled a few
@@ -129,10 +168,8 @@ def corners(t: FloatArray, x: FloatArray, sigma: float, bends: NDArray[np.bool_]
     if cand.size == 0:
         return np.zeros(0)
     frac = (np.arange(CORNER_TRIALS) + 0.5) / CORNER_TRIALS - 0.5  # trial tau, in intervals from the centre
-    uc = u[cand][:, None, :] - frac[None, :, None]  # c x trials x 2w
-    xc = np.broadcast_to(xw[cand][:, None, :], uc.shape)
     # The cubic on either side: the other side's curve is the quartic.
-    join_ss = np.minimum(*(_residual_ss(_join_basis(uc, after), xc) for after in (True, False)))
+    join_ss = np.minimum(*(_join_ss(u[cand], xw[cand], regular[cand], frac, after) for after in (True, False)))
     best = np.argmin(join_ss, axis=1)
     gain = smooth_ss[cand] - join_ss[np.arange(cand.size), best]
     taus = t[ks[cand]] + (frac[best] + 0.5) * h[cand]

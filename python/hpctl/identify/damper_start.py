@@ -50,10 +50,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import savgol_coeffs, savgol_filter
 
+from hpctl.identify import STATIC_STARTS
 from hpctl.identify.damper_static import Samples, StaticProblem, StaticResidual, solve_start
 from hpctl.identify.dataset import Dataset
 from hpctl.identify.signals import filter_bends, within_reach
-from hpctl.identify.workers import WorkerPool
 from hpctl.model.effects import DAMPER_BRANCHES, FRICTION_SMOOTHING_VELOCITY_M_S, Param
 from hpctl.model.unit import STANDARD_GRAVITY_M_S2
 
@@ -86,10 +86,6 @@ MIN_SAMPLES = 50
 #: At most this many samples per branch, spread evenly over its speeds'
 #: order (a heat run has 10^5: the curve needs the range, not the count).
 MAX_SAMPLES = 2000
-#: Starts of every branch's orifice and blow-off multipliers (the damper's
-#: shape may be far from nominal in either; the other parameters start
-#: where the flexible model starts them); the best end is taken.
-STARTS = ((1.0, 1.0), (30.0, 0.5), (30.0, 2.0))
 
 
 def _branch_samples(datasets: Sequence[Dataset], branch: str) -> Samples | None:
@@ -260,7 +256,7 @@ def _forget(key: tuple[object, ...], pending: Future[dict[str, float]]) -> None:
 
 def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str], pool: Executor) -> None:
     """Starts :func:`static_damper_values`'s fit in ``pool`` (a process
-    pool: :func:`static_pool`), one start a task, unless it is kept or
+    pool: :func:`hpctl.identify.workers.static_pool`), one start a task, unless it is kept or
     under way; the first fit that asks for it waits for it there.
 
     Why processes: the static fit is SciPy's trust region on a few thousand
@@ -302,22 +298,6 @@ def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effect
 
     for p in parts:
         p.add_done_callback(done)
-
-
-def static_pool(workers: int, later: Sequence[str] = ()) -> WorkerPool:
-    """A pool of ``workers`` processes for :func:`prefetch_static`
-    (:mod:`hpctl.identify.workers`: they never import the caller's
-    script), started at once with what a static fit's start needs
-    imported (:mod:`hpctl.identify.damper_static`); ``later``'s modules
-    (the report's figures, :func:`hpctl.report.calibration.record_plots`,
-    where the caller draws them there too) each worker imports once it has
-    run a task and none is waiting, not before the static fits (measured,
-    ``hpctl fit --flexible`` on the bundled campaign: the static fits
-    waited for workers that imported hpctl's identification and the
-    figures first, 1.3 s of CPU each while the CPU was busiest). A worker
-    that cannot start fails its tasks, and the fits that asked for them
-    are computed in the caller's process, as without it."""
-    return WorkerPool(workers, preload=("hpctl.identify.damper_static",), later=later)
 
 
 #: The model's parameters the static fit also starts (its shared terms),
@@ -392,7 +372,7 @@ def static_problem(datasets: Sequence[Dataset], params: Sequence[Param], effects
             c0 = np.linalg.lstsq(a, y, rcond=None)[0]
             c0 = np.maximum(c0, lo[n_shape:n_fixed])
     starts = []
-    for orifice, blowoff in STARTS:
+    for orifice, blowoff in STATIC_STARTS:
         start = {p.name: orifice if p.name.endswith("_orifice_scale") else blowoff if p.name.endswith("_blowoff_scale") else p.initial
                  for p in shape}
         starts.append(np.array([p.to_x(min(max(start[p.name], p.lower), p.upper)) for p in shape] + list(c0) + friction_x0))

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from hpctl.data.records import RigRecord
 from hpctl.identify import MAX_NFEV
 from hpctl.identify.blas import one_blas_thread
-from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, STARTS, prefetch_static, static_pool
+from hpctl.identify.damper_start import ABSORBED_BY_DAMPER, prefetch_static
 from hpctl.identify.dataset import (
     DAMPER_WORKING_SPEED_M_S,
     Dataset,
@@ -42,6 +42,7 @@ from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, model_for, residual_vector, rss_at
 from hpctl.identify.signals import RateNoise, derivative, rate_noise
 from hpctl.identify.switching import places
+from hpctl.identify.workers import static_pool
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, flexible_params
 
 # Decision thresholds. They are statistical, not tuned to a dataset: a BIC
@@ -1173,7 +1174,7 @@ def diagnose(
     round's begun while the declared model is fitted; where a worker cannot
     start or fails, the fit that needs one computes it itself. Either way
     the same values. ``statics``: the caller's pool for them
-    (:func:`~hpctl.identify.damper_start.static_pool`), left open (the
+    (:func:`~hpctl.identify.workers.static_pool`), left open (the
     command line draws the report's figures there after); without, the
     diagnosis starts its own and shuts it down."""
     clock = _Clock(progress or (lambda _m: None), max_rounds)
@@ -1183,7 +1184,7 @@ def diagnose(
     # (hpctl.identify.damper_start.prefetch_static says why).
     own = statics is None and flexible
     if own:
-        statics = static_pool(min(len(STARTS), os.cpu_count() or 1))
+        statics = static_pool()
     elif not flexible:
         statics = None  # a fixed-shape model has no static fit
     try:

@@ -345,20 +345,27 @@ def derivative(t: FloatArray, x: FloatArray, corners: FloatArray | None = None) 
     out[2:n - 2] = _quartic_slope(t, x, i, 2)
     if corners is None or len(corners) == 0:
         return np.asarray(out)
-    taus = np.asarray(corners, float)
+    taus = np.sort(np.asarray(corners, float))
     # First sample after each corner (a sample on a corner is on both sides).
     after = np.searchsorted(t, taus, side="right")
     straddled = np.zeros(n, bool)
     for a in after:
         straddled[max(a - 2, 0):min(a + 2, n)] = True
-    for j in np.flatnonzero(straddled):
-        # The stencil nearest the centred one that no corner splits.
-        for e in (2, 1, 3, 0, 4):
-            lo = j - e
-            if lo < 0 or lo + 4 >= n or np.any((taus > t[lo]) & (taus < t[lo + 4])):
-                continue
-            out[j] = _quartic_slope(t, x, np.array([j]), e)[0]
-            break
+    js = np.flatnonzero(straddled)
+    # The stencil nearest the centred one that no corner splits (strictly
+    # inside its span), each sample's taken together with the others'
+    # (one at a time, these were 0.2 s of the bundled campaign's fit).
+    chosen = np.full(len(js), -1)
+    for e in (2, 1, 3, 0, 4):
+        lo = js - e
+        inside = (lo >= 0) & (lo + 4 < n)
+        a, b = t[np.clip(lo, 0, n - 1)], t[np.clip(lo + 4, 0, n - 1)]
+        split = np.searchsorted(taus, b, side="left") > np.searchsorted(taus, a, side="right")
+        chosen[(chosen < 0) & inside & ~split] = e
+    for e in (2, 1, 3, 0, 4):
+        at = js[chosen == e]
+        if at.size:
+            out[at] = _quartic_slope(t, x, at, e)
     return np.asarray(out)
 
 

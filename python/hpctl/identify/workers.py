@@ -175,6 +175,31 @@ class WorkerPool(Executor):
         _stop(child)
 
 
+def static_pool(workers: int | None = None, later: Sequence[str] = ()) -> WorkerPool:
+    """A pool of ``workers`` processes (default: one per start of the
+    static damper fit, :data:`hpctl.identify.STATIC_STARTS`, at most one
+    per core) for :func:`hpctl.identify.damper_start.prefetch_static`,
+    started at once with what a static fit's start needs imported
+    (:mod:`hpctl.identify.damper_static`); ``later``'s modules (the
+    report's figures, :func:`hpctl.report.calibration.record_plots`, where
+    the caller draws them there too) each worker imports once it has run a
+    task and none is waiting, not before the static fits (measured,
+    ``hpctl fit --flexible`` on the bundled campaign: the static fits
+    waited for workers that imported hpctl's identification and the
+    figures first, 1.3 s of CPU each while the CPU was busiest). A worker
+    that cannot start fails its tasks, and the fits that asked for them
+    are computed in the caller's process, as without it.
+
+    Here, beside the pool, so that a caller can start it before importing
+    SciPy and hpctl's identification (the command line's flexible fit: the
+    workers' imports, 0.45 s of CPU each, then run while the caller's own
+    leave a core idle; stop 63)."""
+    from hpctl.identify import STATIC_STARTS
+
+    n = min(len(STATIC_STARTS), os.cpu_count() or 1) if workers is None else workers
+    return WorkerPool(n, preload=("hpctl.identify.damper_static",), later=later)
+
+
 #: The worker's program: hpctl from where this process has it, appended to
 #: the child's path (after its own site-packages, so that it changes
 #: nothing another module is found by), and ``-P`` keeps the working
