@@ -17,7 +17,7 @@ from hpctl.control import closed_loop
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import fit
-from hpctl.report import calibration, plots
+from hpctl.report import calibration, figures, plots
 from hpctl.report.closed_loop import plot_modes
 from hpctl.sim import experiments, metrics
 
@@ -66,8 +66,8 @@ def test_heat_buildup_is_drawn_as_cycle_means_with_its_headline(heat: experiment
 
 
 def test_figures_are_written_in_the_format_of_their_extension(heat: experiments.Experiment, tmp_path: Path) -> None:
-    assert FIGURE_FORMATS == plots.FORMATS  # the CLI's --format choices
-    for fmt in plots.FORMATS:
+    assert FIGURE_FORMATS == figures.FORMATS  # the CLI's --format choices
+    for fmt in figures.FORMATS:
         fig = plots.heat_buildup(heat, tmp_path / f"heat.{fmt}")
         data = (tmp_path / f"heat.{fmt}").read_bytes()
         assert data.lstrip().startswith(MAGIC[fmt]), fmt
@@ -159,7 +159,7 @@ def test_record_figures_drawn_in_worker_processes_are_the_same_bytes_and_a_faile
 
     shut = WorkerPool(1)
     shut.shutdown()
-    pool = WorkerPool(2, preload=("hpctl.report.calibration",))
+    pool = WorkerPool(2, preload=("hpctl.report.figures",))
     counted = Counted(pool)
     drawn: dict[str, dict[str, bytes]] = {}
     try:

@@ -252,7 +252,7 @@ def _worker_pool(flexible: bool) -> Iterator[WorkerPool | None]:
         return
     from hpctl.identify.workers import static_pool
 
-    pool = static_pool(later=("hpctl.report.calibration",))
+    pool = static_pool(later=("hpctl.report.figures",))
     try:
         yield pool
     finally:

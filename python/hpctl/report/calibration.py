@@ -26,7 +26,8 @@ from hpctl.identify.profile import ProfileInterval  # noqa: E402
 from hpctl.identify.switching import places  # noqa: E402
 from hpctl.identify.workers import WorkerError  # noqa: E402
 from hpctl.model.effects import LIBRARY  # noqa: E402
-from hpctl.report.plots import save, valve_states  # noqa: E402
+from hpctl.report import figures  # noqa: E402
+from hpctl.report.plots import save  # noqa: E402
 
 #: How a screening fit got its Jacobian (``Candidate.screened_by``), in the report's words.
 JACOBIAN_WORDS = {"finite_difference": "finite differences", "broyden": "Broyden", "hybrid": "finite differences far, Broyden near"}
@@ -49,91 +50,70 @@ def draw_record_plots(plots: Sequence[tuple[FitResult, str]], out: OutputDir, wo
     both). Why processes: matplotlib holds the GIL while it draws (two
     threads took 1.39 s for five figures, one 1.30 s), and the eleven
     figures of a diagnosis's report took 2.5 s of a 62 s campaign
-    (BENCHMARKS.md, stop 59)."""
-    jobs = [(k, result, i, out.path(f"{prefix}_{d.name}.png")) for k, (result, prefix) in enumerate(plots)
-            for i, d in enumerate(result.datasets)]
+    (BENCHMARKS.md, stop 59). A worker gets what the figure shows
+    (:class:`~hpctl.report.figures.RecordFigure`), not the fit
+    (:mod:`hpctl.report.figures` says why)."""
+    # A record the model failed on has no figure.
+    jobs = [(k, spec, out.path(f"{prefix}_{d.name}.png")) for k, (result, prefix) in enumerate(plots)
+            for i, d in enumerate(result.datasets) if (spec := record_spec(result, i)) is not None]
     drawn: list[Path | None] = [None] * len(jobs)
-    futures: list[Future[Path | None] | None] = [None] * len(jobs)
+    futures: list[Future[Path] | None] = [None] * len(jobs)
     if workers is not None:
-        for n, (_, result, i, path) in enumerate(jobs):
+        for n, (_, spec, path) in enumerate(jobs):
             try:
-                futures[n] = workers.submit(record_png, result, i, path)
-            except Exception:  # a pool shut down, or a result that cannot be pickled: drawn here
+                futures[n] = workers.submit(figures.record_png, spec, path)
+            except Exception:  # a pool shut down: drawn here
                 break
     for n in reversed(range(len(jobs))):
         f = futures[n]
         if f is None or f.cancel():
-            _, result, i, path = jobs[n]
-            drawn[n] = record_png(result, i, path)
+            drawn[n] = figures.record_png(*jobs[n][1:])
     for n, f in enumerate(futures):
         if f is None or f.cancelled():
             continue
         try:
             drawn[n] = f.result()
         except WorkerError:
-            _, result, i, path = jobs[n]
-            drawn[n] = record_png(result, i, path)
-    return [[p for (k, *_), p in zip(jobs, drawn) if k == which and p is not None] for which in range(len(plots))]
+            drawn[n] = figures.record_png(*jobs[n][1:])
+    return [[p for (k, _, _), p in zip(jobs, drawn) if k == which and p is not None] for which in range(len(plots))]
 
 
-def record_png(result: FitResult, i: int, path: Path) -> Path | None:
-    """Record ``i``'s :func:`record_figure` written to ``path`` (None where
-    the model failed on it); a worker process's task
-    (:func:`draw_record_plots`)."""
-    fig = record_figure(result, i)
-    return None if fig is None else save(fig, path, dpi=90)
-
-
-def record_figure(result: FitResult, i: int) -> Figure | None:
-    """Record ``i`` of a fit: measured vs simulated over time (with the
-    valve states under it when they switch), and the residual over time,
-    displacement and velocity; None if the model failed on it."""
+def record_spec(result: FitResult, i: int) -> figures.RecordFigure | None:
+    """What the figure of record ``i`` of a fit shows (:func:`record_figure`);
+    None if the model failed on it."""
     d = result.datasets[i]
     sim = result.sims[i]
     if isinstance(sim, Exception):
         return None
     channel = "force_n" if "force_n" in d.targets else next(iter(d.targets))
     scale, unit = (1e-3, "kN") if channel == "force_n" else (1e3, "mm") if channel.endswith("_m") else (1e-6, "MPa")
-    t = d.times_s
-    x, v = d.strut_disp_m, d.strut_vel_m_s
-    xlabel = "strut compression (base - body)" if d.record.kind == "sdof" else "strut compression"
-    r = (sim[channel] - d.targets[channel]) * scale
     hard, on = d.record.spring_hard(), d.record.damper_on()
     switching = bool(np.any(hard != hard[0]) or np.any(on != on[0]))
-    if switching:
-        # The valve states under the time plot, on an axis of their own.
-        fig = plt.figure(figsize=(11, 8))
-        grid = fig.add_gridspec(3, 2, height_ratios=[3, 1, 3])
-        top = fig.add_subplot(grid[0, 0])
-        valves = fig.add_subplot(grid[1, 0], sharex=top)
-        ax = np.array([[top, fig.add_subplot(grid[0:2, 1])], [fig.add_subplot(grid[2, 0]), fig.add_subplot(grid[2, 1])]])
-        valve_states(valves, d.record["time_s"], hard, on)
-        valves.set_xlabel("time [s]")
-        valves.grid(True, alpha=0.3)
-        top.tick_params(labelbottom=False)
-    else:
-        fig, ax = plt.subplots(2, 2, figsize=(11, 7))
-    ax[0, 0].plot(t, d.targets[channel] * scale, ".", ms=2, label="measured")
-    ax[0, 0].plot(t, sim[channel] * scale, "-", lw=1, label="model")
-    ax[0, 0].set_xlabel("" if switching else "time [s]")
-    ax[0, 0].set_ylabel(f"{channel} [{unit}]")
-    ax[0, 0].legend()
-    ax[0, 1].plot(t, r, ".", ms=2)
-    ax[0, 1].set_xlabel("time [s]")
-    ax[1, 0].plot(1e3 * x, r, ".", ms=2)
-    ax[1, 0].set_xlabel(f"{xlabel} [mm]")
-    ax[1, 1].plot(v, r, ".", ms=2)
-    ax[1, 1].set_xlabel("velocity [m/s]")
-    for a in (ax[0, 1], ax[1, 0], ax[1, 1]):
-        a.set_ylabel(f"residual (model - measured) [{unit}]")
-        a.axhline(0, color="k", lw=0.5)
-    for a in ax.ravel():
-        a.grid(True, alpha=0.3)
     test = d.record.test
     where = f"{test.excitation}" + (f" {1e3 * test.amplitude_m:g} mm" if test.amplitude_m else "") + (f" at {test.frequency_hz:g} Hz" if test.frequency_hz else "")
     states = "valves switching" if switching else f"{test.spring} spring, damper {test.damper}"
-    fig.suptitle(f"{d.name} ({where}, {states}): {', '.join(result.model.effects) or 'classical polytropic ideal gas'}")
-    return fig
+    return figures.RecordFigure(
+        title=f"{d.name} ({where}, {states}): {', '.join(result.model.effects) or 'classical polytropic ideal gas'}",
+        time_s=d.times_s,
+        measured=d.targets[channel] * scale,
+        model=sim[channel] * scale,
+        residual=(sim[channel] - d.targets[channel]) * scale,
+        disp_mm=1e3 * d.strut_disp_m,
+        vel_m_s=d.strut_vel_m_s,
+        channel_label=f"{channel} [{unit}]",
+        unit=unit,
+        disp_label=f"{'strut compression (base - body)' if d.record.kind == 'sdof' else 'strut compression'} [mm]",
+        valves=figures.Valves(d.record["time_s"], hard, on) if switching else None,
+    )
+
+
+def record_figure(result: FitResult, i: int) -> Figure | None:
+    """Record ``i`` of a fit: measured vs simulated over time (with the
+    valve states under it when they switch), and the residual over time,
+    displacement and velocity (:func:`hpctl.report.figures.record_figure`);
+    None if the model failed on it."""
+    spec = record_spec(result, i)
+    return None if spec is None else figures.record_figure(spec)
 
 
 def loop_area_plot(results: Sequence[tuple[str, FitResult]], path: Path) -> Path | None:

@@ -2,14 +2,13 @@
 
 Every plot function returns its :class:`~matplotlib.figure.Figure` (to
 show in a notebook) and, given a ``path``, writes it there in the format
-its extension names (``.png``, ``.svg``, ``.pdf``: :data:`FORMATS`). One
+its extension names (``.png``, ``.svg``, ``.pdf``: :data:`hpctl.report.figures.FORMATS`). One
 unit per axis; titles carry the test conditions."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import matplotlib
 
@@ -20,30 +19,21 @@ from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from hpctl.errors import ParameterError  # noqa: E402
+from hpctl.report.figures import write  # noqa: E402
 from hpctl.sim import metrics  # noqa: E402
 from hpctl.sim.experiments import SEED_HEAT_BUILDUP, CharacterisationSummary, Experiment, HeatBuildupSummary, StepSummary  # noqa: E402
 from hpctl.sim.sweep import SweepRow  # noqa: E402
 
-#: The file formats a figure is written in (by the path's extension).
-FORMATS = ("png", "svg", "pdf")
-
 
 def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
-    """Lays out, writes (in the format of the extension: :data:`FORMATS`)
+    """Lays out, writes (in the format of the extension:
+    :data:`~hpctl.report.figures.FORMATS`, :func:`hpctl.report.figures.write`)
     and closes a figure (closing frees its memory: pyplot keeps every open
     figure alive; the returned figure can still be drawn or saved)."""
-    path = Path(path)
-    fmt = path.suffix.lstrip(".").lower()
-    if fmt not in FORMATS:
-        raise ParameterError(f"{path}: cannot write a figure as {fmt or 'a file without an extension'!r}; use one of {', '.join('.' + f for f in FORMATS)}")
-    fig.tight_layout()
-    # No timestamps and no random ids in SVG/PDF: the same figure gives
-    # the same bytes (outputs can be compared and versioned).
-    metadata: dict[str, Any] = {"Date": None} if fmt in ("svg", "pdf") else {}
-    with matplotlib.rc_context({"svg.hashsalt": "hpctl"}):
-        fig.savefig(path, dpi=dpi, format=fmt, metadata=metadata)
-    plt.close(fig)
-    return path
+    try:
+        return write(fig, path, dpi)
+    finally:
+        plt.close(fig)
 
 
 def finish(fig: Figure, path: str | Path | None, dpi: int = 110) -> Figure:
@@ -181,16 +171,6 @@ def heat_buildup(e: Experiment, path: str | Path | None = None) -> Figure:
 def _headline(ax: Axes, text: str) -> None:
     ax.text(0.99, 0.03, text, transform=ax.transAxes, ha="right", va="bottom", fontsize=8,
             bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.85, "edgecolor": "0.7"})
-
-
-def valve_states(ax: Axes, t: np.ndarray, spring_hard: np.ndarray, damper_on: np.ndarray) -> None:
-    """The valve states of a record on an axis of their own: valve 6
-    (closed = hard spring) and valve 5 (closed = damper on), as steps."""
-    ax.step(t, 2.0 + np.asarray(spring_hard, float), where="post", color="tab:purple", lw=1.0)
-    ax.step(t, np.asarray(damper_on, float), where="post", color="tab:brown", lw=1.0)
-    ax.set_yticks([0, 1, 2, 3], ["damper off", "damper on", "soft", "hard"], fontsize=7)
-    ax.set_ylim(-0.4, 3.4)
-    ax.set_ylabel("valves")
 
 
 def sweep_plot(rows: Sequence[SweepRow], path: str | Path | None, spring_hard: bool, height_m: float = 0.043, mass_kg: float | None = None) -> Figure:
