@@ -385,6 +385,7 @@ def _counting(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, ...]]:
 
     monkeypatch.setattr(damper_start, "fit_static_damper", counted)
     monkeypatch.setattr(damper_start, "_cache", type(damper_start._cache)())
+    monkeypatch.setattr(damper_start, "_take_backs", {})
     return calls
 
 
@@ -437,6 +438,40 @@ def test_a_static_fit_started_before_the_input_noise_is_carried_is_the_one_the_f
             np.testing.assert_array_equal(c.weight_sigma[k], p.weight_sigma[k])
     # The measured datasets' weights are the output noise alone, which carrying raised.
     assert any(np.any(c.weight_sigma[k] > m.weight_sigma[k]) for c, m in zip(carried, measured, strict=True) for k in m.weight_sigma)
+
+
+def test_a_prefetch_the_caller_helps_takes_back_the_starts_no_worker_began(monkeypatch: pytest.MonkeyPatch) -> None:
+    # hpctl fit --flexible (take_back): the starts still queued when the fit
+    # asks are solved in its own thread, the last first, and give what the
+    # fit here gives; the workers never begin them.
+    from concurrent.futures import Executor, Future
+    from typing import Any
+
+    class Busy(Executor):  # every worker busy: nothing given to it begins
+        def __init__(self) -> None:
+            self.futures: list[Future[Any]] = []
+
+        def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+            self.futures.append(Future())
+            return self.futures[-1]
+
+    datasets, params, effects = _short_with_friction()
+    with one_blas_thread():
+        here = damper_start.fit_static_damper(datasets, params, effects)  # type: ignore[arg-type]
+        calls = _counting(monkeypatch)
+        solved: list[int] = []
+        solve = damper_static.solve_start
+
+        def counted(problem: damper_static.StaticProblem, k: int) -> object:
+            solved.append(k)
+            return solve(problem, k)
+
+        monkeypatch.setattr(damper_start, "solve_start", counted)
+        pool = Busy()
+        damper_start.prefetch_static(datasets, params, effects, pool, take_back=True)  # type: ignore[arg-type]
+        got = damper_start.static_damper_values(datasets, params, effects)  # type: ignore[arg-type]
+    assert got == here and calls == []
+    assert solved == [2, 1, 0] and all(f.cancelled() for f in pool.futures)
 
 
 def test_a_static_fit_whose_workers_fail_is_computed_here(monkeypatch: pytest.MonkeyPatch) -> None:

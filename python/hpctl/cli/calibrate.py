@@ -330,8 +330,10 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
                 raise bad_argument("--profile", name, f"a parameter the model fits ({', '.join(names)})")
         if workers is not None:
             # Begun before the input's noise is carried into the
-            # weights, which it does not read (measured_datasets says why).
-            prefetch_static(measured, fitted_model.params, fitted_model.effects, workers)
+            # weights, which it does not read (measured_datasets says why);
+            # the fit takes back what the workers have not begun when it
+            # asks (this process then has nothing else to do).
+            prefetch_static(measured, fitted_model.params, fitted_model.effects, workers, take_back=True)
         datasets = carry_input_noise(measured)
         with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
             with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):

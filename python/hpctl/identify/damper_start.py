@@ -42,8 +42,9 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future
 
 import numpy as np
@@ -187,6 +188,10 @@ def _second_derivative(x: FloatArray, dt: float, window: int, order: int) -> tup
 CACHE_SIZE = 16
 _cache: collections.OrderedDict[tuple[object, ...], tuple[tuple[Dataset, ...], Future[dict[str, float]]]] = collections.OrderedDict()
 _cache_lock = threading.Lock()
+#: Per kept prefetch that its caller may help (:func:`prefetch_static`'s
+#: ``take_back``): what takes back the starts no worker has taken up yet
+#: and solves them in the thread that waits.
+_take_backs: dict[tuple[object, ...], Callable[[], None]] = {}
 
 
 def _key(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str]) -> tuple[object, ...]:
@@ -213,7 +218,9 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
     ids). A fit
     asked for while another thread computes it, or started in worker
     processes by :func:`prefetch_static`, is waited for, not computed
-    twice; one whose workers failed is computed here."""
+    twice (a prefetch's starts that no worker has taken up yet are taken
+    back and solved here where it asked for that); one whose workers failed
+    is computed here."""
     key = _key(datasets, params, effects)
     with _cache_lock:
         hit = _cache.get(key)
@@ -223,6 +230,9 @@ def static_damper_values(datasets: Sequence[Dataset], params: Sequence[Param], e
         else:
             pending, mine = Future(), True
             _keep(key, datasets, pending)
+        take_back = None if mine else _take_backs.pop(key, None)
+    if take_back is not None:
+        take_back()
     if mine:
         try:
             pending.set_result(fit_static_damper(datasets, params, effects))
@@ -245,7 +255,7 @@ def _keep(key: tuple[object, ...], datasets: Sequence[Dataset], pending: Future[
     # Under _cache_lock.
     _cache[key] = (tuple(datasets), pending)
     while len(_cache) > CACHE_SIZE:
-        _cache.popitem(last=False)
+        _take_backs.pop(_cache.popitem(last=False)[0], None)
 
 
 def _forget(key: tuple[object, ...], pending: Future[dict[str, float]]) -> None:
@@ -254,10 +264,17 @@ def _forget(key: tuple[object, ...], pending: Future[dict[str, float]]) -> None:
             del _cache[key]
 
 
-def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str], pool: Executor) -> None:
+def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str], pool: Executor, take_back: bool = False) -> None:
     """Starts :func:`static_damper_values`'s fit in ``pool`` (a process
     pool: :func:`hpctl.identify.workers.static_pool`), one start a task, unless it is kept or
-    under way; the first fit that asks for it waits for it there.
+    under way; the first fit that asks for it waits for it there. With
+    ``take_back``, that fit first takes back the starts no worker has
+    taken up yet (the last first) and solves them itself: for a caller that
+    has nothing else to do meanwhile (``hpctl fit --flexible``: three starts
+    on two cores' workers, the third waited for one of the first two while
+    this process waited for it, 0.5 s of 3.2 on the bundled campaign; stop
+    63). Never where other threads' fits run (a diagnosis): a start in a
+    thread holds the GIL for its whole solve.
 
     Why processes: the static fit is SciPy's trust region on a few thousand
     samples, Python holding the GIL for most of its time. Beside a
@@ -283,21 +300,48 @@ def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effect
     except BaseException as e:  # a broken or shut-down pool: the caller's fit computes it
         pending.set_exception(e)
         return
+    # Each start's end, from its worker or from the thread that took it back.
+    ends: list[Future[tuple[FloatArray, float] | None]] = [Future() for _ in parts]
     left = [len(parts)]
     lock = threading.Lock()
 
-    def done(_part: Future[tuple[FloatArray, float] | None]) -> None:
+    def done(_end: Future[tuple[FloatArray, float] | None]) -> None:
         with lock:
             left[0] -= 1
             if left[0]:
                 return
         try:
-            pending.set_result(static_values(problem, params, [p.result() for p in parts]))
+            pending.set_result(static_values(problem, params, [end.result() for end in ends]))
         except BaseException as e:
             pending.set_exception(e)
 
-    for p in parts:
-        p.add_done_callback(done)
+    def relay(k: int, part: Future[tuple[FloatArray, float] | None]) -> None:
+        if part.cancelled():
+            return  # taken back: its end comes from there
+        try:
+            ends[k].set_result(part.result())
+        except BaseException as e:
+            ends[k].set_exception(e)
+
+    def take() -> None:
+        for k in reversed(range(len(parts))):
+            if parts[k].cancel():
+                try:
+                    end = solve_start(problem, k)
+                except BaseException as e:
+                    ends[k].set_exception(e)
+                    if not isinstance(e, Exception):
+                        raise  # Ctrl-C: the fit stops (and finds it failed if asked again)
+                else:
+                    ends[k].set_result(end)
+
+    for end in ends:
+        end.add_done_callback(done)
+    for k, p in enumerate(parts):
+        p.add_done_callback(functools.partial(relay, k))
+    if take_back:
+        with _cache_lock:
+            _take_backs[key] = take
 
 
 #: The model's parameters the static fit also starts (its shared terms),
