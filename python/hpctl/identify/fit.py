@@ -18,7 +18,7 @@ import threading
 from array import array
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,6 +63,8 @@ from hpctl.model.unit import Unit
 from hpctl.sim.run import Case, run_many
 
 FloatArray = NDArray[np.float64]
+T = TypeVar("T")
+U = TypeVar("U")
 
 
 @dataclass
@@ -493,9 +495,6 @@ def fit(
     from a peak above it (:data:`STRIBECK_RESTART`), and the lower cost is
     kept; the message says which."""
     with one_blas_thread():  # see hpctl.identify.blas
-        # Started here, so that their preparation has the fit's BLAS setting.
-        if errors and input_noise:
-            _prepare_input_draws(datasets)
         try:
             run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
                                     held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors, place_switches=place_switches)
@@ -597,9 +596,12 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         # (kept in ``runs`` when x was the last point evaluated or the
         # optimiser's iterate; else every column is run).
         at_x = next((v for k, v in runs.values() if k == x.tobytes()), None)
-        quiet = _output_only_columns(model, datasets, params, values_from_x(params, x), perturbed, reaches, at_x)
-        which = [tuple(j for j in r if (i, j) not in quiet) for i, r in enumerate(reaches)]
-        sims = simulate_all(model, datasets, perturbed, steps=ends, which=which)
+        taken, outputs = _output_only_plan(model, datasets, params, values_from_x(params, x), perturbed, reaches, at_x)
+        which = [tuple(j for j in r if (i, j) not in taken) for i, r in enumerate(reaches)]
+        # Those columns computed here while the others run (in Rust,
+        # without the GIL): 17 ms of Python a Jacobian on the bundled
+        # campaign, a core otherwise idle meanwhile (stop 63).
+        sims, quiet = _beside(functools.partial(simulate_all, model, datasets, perturbed, steps=ends, which=which), outputs)
         # Column-major (Fortran order), the prior's rows below the data's:
         # a column is filled in one contiguous write, and SciPy's SVD of it
         # (LAPACK's, on column-major data: the trust region's step, every
@@ -690,6 +692,13 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
                 # the ends, not the starts: at the starts the bulk modulus's
                 # own error decides.
                 fresh_x = _start_x(params, static)
+    if errors and input_noise:
+        # The input-noise draws prepared beside the solve (inside fit()'s
+        # BLAS setting), not beside the static start: a start this thread
+        # takes back from the workers (prefetch_static) holds the GIL as
+        # their preparation does, and each took twice as long beside the
+        # other (stop 63).
+        _prepare_input_draws(datasets)
     if params:
         # x_scale="jac" (trust_region.least_squares's, as SciPy's): each
         # variable scaled by its Jacobian column. With unit scales a
@@ -947,29 +956,71 @@ def _output_only_columns(
     """The perturbed runs the finite-difference Jacobian need not make, by
     (column, dataset): each the base run at ``at`` with the force the
     perturbed damper or friction gives (:mod:`hpctl.identify.output_only`)."""
-    out: dict[tuple[int, int], dict[str, FloatArray]] = {}
-    if not OUTPUT_ONLY_COLUMNS or bases is None:
-        return out
-    for j, (d, base) in enumerate(zip(datasets, bases)):
-        if isinstance(base, Exception) or any(c not in base for c in output_only.CHANNELS):
-            continue
-        reached = [i for i, r in enumerate(reaches) if j in r]
-        shape = [i for i in reached if output_only.is_shape(params[i].name)] if output_only.applies(model.effects, d) else []
-        friction = [i for i in reached if output_only.is_friction(params[i].name)] if output_only.friction_applies(model.effects, d) else []
-        if not shape and not friction:
-            continue
-        unit = model.unit_for(d, at)
-        changes: list[tuple[int, FloatArray]] = []
-        if shape:
-            dampers = [model.unit_for(d, perturbed[i]).damper for i in shape]
-            area = unit.piston_area_m2
-            if output_only.cannot_cavitate(d, [unit.damper, *dampers], base, area, unit.vapour_pressure_pa):
-                changes += zip(shape, output_only.force_changes_n(d, base, unit.damper, dampers, area) or [])
-        if friction:
-            changes += zip(friction, output_only.friction_changes_n(base, unit, [model.unit_for(d, perturbed[i]) for i in friction]) or [])
-        for i, change in changes:
-            out[(i, j)] = {**base, "force_n": base["force_n"] + change}
-    return out
+    return _output_only_plan(model, datasets, params, at, perturbed, reaches, bases)[1]()
+
+
+def _output_only_plan(
+    model: Model,
+    datasets: Sequence[Dataset],
+    params: Sequence[Param],
+    at: Mapping[str, float],
+    perturbed: Sequence[Mapping[str, float]],
+    reaches: Sequence[Sequence[int]],
+    bases: Sequence[dict[str, FloatArray] | Exception] | None,
+) -> tuple[set[tuple[int, int]], Callable[[], dict[tuple[int, int], dict[str, FloatArray]]]]:
+    """:func:`_output_only_columns` in two halves: the (column, dataset)
+    pairs it gives, and the function that computes them, which ``fd_jac``
+    calls while the other columns run."""
+    plans: list[tuple[int, dict[str, FloatArray], list[int], Callable[[], list[FloatArray]]]] = []
+    if OUTPUT_ONLY_COLUMNS and bases is not None:
+        for j, (d, base) in enumerate(zip(datasets, bases)):
+            if isinstance(base, Exception) or any(c not in base for c in output_only.CHANNELS):
+                continue
+            reached = [i for i, r in enumerate(reaches) if j in r]
+            shape = [i for i in reached if output_only.is_shape(params[i].name)] if output_only.applies(model.effects, d) else []
+            friction = [i for i in reached if output_only.is_friction(params[i].name)] if output_only.friction_applies(model.effects, d) else []
+            if not shape and not friction:
+                continue
+            unit = model.unit_for(d, at)
+            if shape:
+                dampers = [model.unit_for(d, perturbed[i]).damper for i in shape]
+                area = unit.piston_area_m2
+                if output_only.cannot_cavitate(d, [unit.damper, *dampers], base, area, unit.vapour_pressure_pa):
+                    damper_columns = output_only.damper_columns(base, unit.damper, area)
+                    if damper_columns is not None:
+                        plans.append((j, base, shape, functools.partial(damper_columns, dampers)))
+            if friction:
+                friction_columns = output_only.friction_columns(base, unit)
+                if friction_columns is not None:
+                    plans.append((j, base, friction, functools.partial(friction_columns, [model.unit_for(d, perturbed[i]) for i in friction])))
+
+    def outputs() -> dict[tuple[int, int], dict[str, FloatArray]]:
+        return {(i, j): {**base, "force_n": base["force_n"] + change} for j, base, columns, changes in plans for i, change in zip(columns, changes())}
+
+    return {(i, j) for j, _, columns, _ in plans for i in columns}, outputs
+
+
+def _beside(background: Callable[[], T], here: Callable[[], U]) -> tuple[T, U]:
+    """``background()`` in a thread of its own while ``here()`` runs in this
+    one; both results, or the first exception (``here``'s if both raise),
+    once both have ended."""
+    box: dict[str, Any] = {}
+
+    def work() -> None:
+        try:
+            box["value"] = background()
+        except BaseException as e:  # re-raised in the caller's thread
+            box["error"] = e
+
+    thread = threading.Thread(target=work, name="hpctl-jacobian-runs", daemon=True)
+    thread.start()
+    try:
+        mine = here()
+    finally:
+        thread.join()
+    if "error" in box:
+        raise box["error"]
+    return box["value"], mine
 
 
 def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:

@@ -33,7 +33,7 @@ columns against full runs on every record type.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -159,6 +159,16 @@ def force_changes_n(d: Dataset, base: Mapping[str, FloatArray], damper: Damper, 
     (made with ``damper``) when its damper is each of ``dampers``, N; None
     where some sample's damper force is not the curve's at its flow in
     either state of valve 5 (:data:`MATCH_RTOL`)."""
+    changes = damper_columns(base, damper, area_m2)
+    return None if changes is None else changes(dampers)
+
+
+def damper_columns(base: Mapping[str, FloatArray], damper: Damper, area_m2: float) -> Callable[[Sequence[Damper]], list[FloatArray]] | None:
+    """:func:`force_changes_n` in two halves: here whether the base run's
+    damper force is its curve's (None where not), and the function that
+    gives the changes for a sequence of dampers. The Jacobian knows from the
+    first which columns need no run, and computes the second while the
+    others run (:func:`hpctl.identify.fit.fit`'s ``fd_jac``)."""
     q = np.asarray(base["flow_damper_m3_s"], float)
     seen = np.asarray(base["damper_force_n"], float)
     scale = MATCH_RTOL * area_m2 * np.maximum(np.abs(np.asarray(base["p_gas_true_pa"], float)), 1.0) + MATCH_RTOL * np.abs(seen)
@@ -180,17 +190,21 @@ def force_changes_n(d: Dataset, base: Mapping[str, FloatArray], damper: Damper, 
     compression = q >= 0.0
     where = {"on_compression": closed & compression, "on_rebound": closed & ~compression,
              "off_compression": ~closed & compression, "off_rebound": ~closed & ~compression}
-    out = []
-    for other in dampers:
-        change = np.zeros_like(q)
-        curve: DamperDict | None = None
-        for branch, mask in where.items():
-            if getattr(other, branch) == getattr(damper, branch) or not mask.any():
-                continue
-            curve = other.to_dict() if curve is None else curve
-            change[mask] = area_m2 * (_core.damper_pressure_drop_pa(curve, q[mask], 0.0 if branch.startswith("on_") else 1.0) - before[mask])
-        out.append(change)
-    return out
+
+    def changes(dampers: Sequence[Damper]) -> list[FloatArray]:
+        out = []
+        for other in dampers:
+            change = np.zeros_like(q)
+            curve: DamperDict | None = None
+            for branch, mask in where.items():
+                if getattr(other, branch) == getattr(damper, branch) or not mask.any():
+                    continue
+                curve = other.to_dict() if curve is None else curve
+                change[mask] = area_m2 * (_core.damper_pressure_drop_pa(curve, q[mask], 0.0 if branch.startswith("on_") else 1.0) - before[mask])
+            out.append(change)
+        return out
+
+    return changes
 
 
 def friction_changes_n(base: Mapping[str, FloatArray], unit: Unit, units: Sequence[Unit]) -> list[FloatArray] | None:
@@ -199,9 +213,19 @@ def friction_changes_n(base: Mapping[str, FloatArray], unit: Unit, units: Sequen
     run's own velocities (hp-core's ``Friction::force_n``,
     ``_core.friction_force_n``); None where the run's friction force is not
     ``unit``'s at them."""
+    changes = friction_columns(base, unit)
+    return None if changes is None else changes(units)
+
+
+def friction_columns(base: Mapping[str, FloatArray], unit: Unit) -> Callable[[Sequence[Unit]], list[FloatArray]] | None:
+    """:func:`friction_changes_n` in two halves, as :func:`damper_columns`."""
     v = np.asarray(base["vel_m_s"], float)
     before = _core.friction_force_n(unit.to_dict(), v)
     seen = np.asarray(base["friction_force_n"], float)
     if not np.all(np.abs(before - seen) <= MATCH_RTOL * np.maximum(np.abs(seen), 1.0)):
         return None
-    return [_core.friction_force_n(other.to_dict(), v) - before for other in units]
+
+    def changes(units: Sequence[Unit]) -> list[FloatArray]:
+        return [_core.friction_force_n(other.to_dict(), v) - before for other in units]
+
+    return changes
