@@ -234,3 +234,32 @@ def test_bad_inputs_are_refused_naming_them(datasets: list[Dataset]) -> None:
         _core.friction_force_n(unit, "fast")  # type: ignore[arg-type]
     with pytest.raises(ParameterError, match=r"vel_m_s\[0\] = inf"):
         _core.friction_force_n(unit, [float("inf")])
+
+
+def test_the_runs_beside_the_columns_from_outputs_end_before_either_raises() -> None:
+    # fd_jac runs the other columns in a thread while it computes these:
+    # both results, or an exception in the caller's thread only once both
+    # halves have ended (the runs' own, or the caller's half's).
+    import threading
+
+    assert fit_module._beside(lambda: 1, lambda: 2) == (1, 2)
+
+    def runs_fail() -> int:
+        raise ValueError("the runs failed")
+
+    with pytest.raises(ValueError, match="the runs failed"):
+        fit_module._beside(runs_fail, lambda: 2)
+    began, ended = threading.Event(), threading.Event()
+
+    def slow_runs() -> int:
+        began.wait(5.0)
+        ended.set()
+        return 1
+
+    def here_fails() -> int:
+        began.set()
+        raise KeyError("here")
+
+    with pytest.raises(KeyError, match="here"):
+        fit_module._beside(slow_runs, here_fails)
+    assert ended.is_set()
