@@ -944,21 +944,6 @@ def rss_at(datasets: Sequence[Dataset], effects: Sequence[str], initial: Mapping
 OUTPUT_ONLY_COLUMNS = True
 
 
-def _output_only_columns(
-    model: Model,
-    datasets: Sequence[Dataset],
-    params: Sequence[Param],
-    at: Mapping[str, float],
-    perturbed: Sequence[Mapping[str, float]],
-    reaches: Sequence[Sequence[int]],
-    bases: Sequence[dict[str, FloatArray] | Exception] | None,
-) -> dict[tuple[int, int], dict[str, FloatArray]]:
-    """The perturbed runs the finite-difference Jacobian need not make, by
-    (column, dataset): each the base run at ``at`` with the force the
-    perturbed damper or friction gives (:mod:`hpctl.identify.output_only`)."""
-    return _output_only_plan(model, datasets, params, at, perturbed, reaches, bases)[1]()
-
-
 def _output_only_plan(
     model: Model,
     datasets: Sequence[Dataset],
@@ -968,9 +953,11 @@ def _output_only_plan(
     reaches: Sequence[Sequence[int]],
     bases: Sequence[dict[str, FloatArray] | Exception] | None,
 ) -> tuple[set[tuple[int, int]], Callable[[], dict[tuple[int, int], dict[str, FloatArray]]]]:
-    """:func:`_output_only_columns` in two halves: the (column, dataset)
-    pairs it gives, and the function that computes them, which ``fd_jac``
-    calls while the other columns run."""
+    """The perturbed runs the finite-difference Jacobian need not make: the
+    (column, dataset) pairs, and the function that gives each such run, the
+    base run at ``at`` with the force the perturbed damper or friction gives
+    (:mod:`hpctl.identify.output_only`), which ``fd_jac`` calls while the
+    other columns run."""
     plans: list[tuple[int, dict[str, FloatArray], list[int], Callable[[], list[FloatArray]]]] = []
     if OUTPUT_ONLY_COLUMNS and bases is not None:
         for j, (d, base) in enumerate(zip(datasets, bases)):
