@@ -315,8 +315,6 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         from hpctl.identify.damper_start import prefetch_static
         from hpctl.identify.dataset import carry_input_noise, measured_datasets
         from hpctl.identify.fit import at_own_noise, fit, model_for
-        from hpctl.identify.profile import profile_interval
-        from hpctl.report import calibration as report
 
         effects = parse_model(model)
         budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
@@ -334,6 +332,12 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
             # the fit takes back what the workers have not begun when it
             # asks (this process then has nothing else to do).
             prefetch_static(measured, fitted_model.params, fitted_model.effects, workers, take_back=True)
+        # What the fit does not need, imported once the workers have their
+        # starts (matplotlib's pyplot behind the report: 0.3 s of one core
+        # while the workers' were idle).
+        from hpctl.identify.profile import profile_interval
+        from hpctl.report import calibration as report
+
         datasets = carry_input_noise(measured)
         with output_dir(out_dir, "fit", force=force, protect=("fit.json", "fit.md")) as out:
             with status(rep, f"fitting the {'flexible ' if flexible else ''}model to {len(datasets)} record(s)"):
