@@ -1092,10 +1092,11 @@ def _prepare_input_draws(datasets: Sequence[Dataset]) -> None:
     thread of their own while the fit runs, for
     :func:`_input_noise_residuals` to find kept. Their preparation (the
     drawn inputs' corners and rates: about 1 s of Python on the bundled
-    campaign) then runs while this process waits for its static damper
-    start or the model's runs, which hold no GIL. Only where every draw
-    fits in what :func:`~hpctl.identify.dataset._drawn_drive` keeps (else
-    the first would be dropped for the last before they are asked for)."""
+    campaign at stop 58, less since corners are projections) then runs
+    while this process waits for the model's runs, which hold no GIL.
+    Only where every draw fits in what
+    :func:`~hpctl.identify.dataset._drawn_drive` keeps (else the first
+    would be dropped for the last before they are asked for)."""
     if INPUT_NOISE_DRAWS * sum(drawn_drive_bytes(len(d.times_s)) for d in datasets) > DRAWN_DRIVES_KEPT_BYTES:
         return
     key = _records_key(datasets)
