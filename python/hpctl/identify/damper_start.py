@@ -262,6 +262,7 @@ def _forget(key: tuple[object, ...], pending: Future[dict[str, float]]) -> None:
     with _cache_lock:
         if key in _cache and _cache[key][1] is pending:
             del _cache[key]
+            _take_backs.pop(key, None)
 
 
 def prefetch_static(datasets: Sequence[Dataset], params: Sequence[Param], effects: Sequence[str], pool: Executor, take_back: bool = False) -> None:

@@ -17,6 +17,7 @@ import math
 import threading
 from array import array
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, TypeVar
 
@@ -990,24 +991,11 @@ def _output_only_plan(
 def _beside(background: Callable[[], T], here: Callable[[], U]) -> tuple[T, U]:
     """``background()`` in a thread of its own while ``here()`` runs in this
     one; both results, or the first exception (``here``'s if both raise),
-    once both have ended."""
-    box: dict[str, Any] = {}
-
-    def work() -> None:
-        try:
-            box["value"] = background()
-        except BaseException as e:  # re-raised in the caller's thread
-            box["error"] = e
-
-    thread = threading.Thread(target=work, name="hpctl-jacobian-runs", daemon=True)
-    thread.start()
-    try:
+    once both have ended (leaving the executor waits for ``background``)."""
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hpctl-jacobian-runs") as pool:
+        runs = pool.submit(background)
         mine = here()
-    finally:
-        thread.join()
-    if "error" in box:
-        raise box["error"]
-    return box["value"], mine
+        return runs.result(), mine
 
 
 def damper_branches(datasets: Sequence[Dataset]) -> tuple[str, ...]:

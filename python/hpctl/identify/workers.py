@@ -39,6 +39,8 @@ from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import IO, Any, ParamSpec, TypeVar
 
+from hpctl.identify import STATIC_STARTS
+
 P = ParamSpec("P")
 T = TypeVar("T")
 
@@ -194,8 +196,6 @@ def static_pool(workers: int | None = None, later: Sequence[str] = ()) -> Worker
     SciPy and hpctl's identification (the command line's flexible fit: the
     workers' imports, 0.45 s of CPU each, then run while the caller's own
     leave a core idle; stop 63)."""
-    from hpctl.identify import STATIC_STARTS
-
     n = min(len(STATIC_STARTS), os.cpu_count() or 1) if workers is None else workers
     return WorkerPool(n, preload=("hpctl.identify.damper_static",), later=later)
 
