@@ -187,17 +187,22 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
 
 #: The static fit on SDOF steps alone, against the foreign rig's true
 #: damper and friction force over the steps' samples, pooled over the
-#: branches, in each sample's noise (the acceleration's and the
-#: pressure's): measured 0.25-3.55 over 47 draws (no effect, friction, a
-#: sensor offset; seeds 1-14, 23, 37, 59, 97, 345813898, 425861063), where
-#: the samples themselves read 1.8-5.1 and the nominal curve 2.8-34. The
-#: samples are that far off because their noise is not all of their error
-#: (the foreign rig's line, sensors and oil add to it), so no bound in
-#: their noise holds for the curve; what is asserted is that it follows
-#: the truth more closely than the samples it was fitted to (the five
-#: draws above 2.5 at 0.64-0.82 of their distance) and than the nominal
-#: curve. A first ceiling of 2.5, set from 17 draws, failed on 5 of 30
-#: later ones (seeds 23, 37, 59, 97).
+#: branches, in the errors :func:`damper_start._strut_force` gives the
+#: samples (the body's acceleration's: its displacement's noise and the
+#: clock's jitter at its speed; the pressure's). Measured over 52 draws
+#: each without an effect, with friction and with a sensor offset (seeds
+#: 1-45, 23, 37, 59, 97, 345813898, 425861063, 541218712): the curve
+#: 0.10-2.52, the samples 0.35-5.6 and at least 1.51 x the curve's, the
+#: nominal curve 0.35-43 and at least 2.58 x the curve's. The samples are
+#: off by more than their errors where the acceleration is taken across
+#: the step's corners or the strut's reversal (damper_start's comment on
+#: SDOF_ACCEL_WINDOW), so no bound in their errors holds for the curve;
+#: what is asserted is that it follows the truth more closely than the
+#: samples it was fitted to and than the nominal curve. Until stop 64 the
+#: errors left the clock's jitter out (at 0.4 m/s, 70 us is 28 um of the
+#: body's displacement against 2.5 um of noise): CI's draw
+#: FOREIGN_RIG_SEED=541218712 read the samples 6.35 x their errors off
+#: and the curve fitted to them 6.56 (now 1.78 and 0.64).
 
 
 @pytest.mark.parametrize(("effect", "effects"), [(None, ()), ("friction", ("friction",)), ("sensor_offset", ("sensor_offset",))])
@@ -209,16 +214,20 @@ def test_the_static_fit_reads_the_damper_from_an_sdof_bodys_motion(effect: str |
     # curve fitted to them (with the Coulomb friction where the model has
     # it) follows the foreign rig's true force (its own damper and
     # friction formulas) more closely than those samples do, the noise
-    # averaged out, and than the nominal curve (measured 1.9-40 x more
-    # closely; the comment above the test has the numbers. At 1.9, CI's draw
-    # FOREIGN_RIG_SEED=425861063 without an effect, the foreign damper was
-    # near the nominal one: 2.81 x the noise off against the static 1.48).
+    # averaged out, and than the nominal curve (the comment above the test
+    # has the numbers).
     g = generate(effect, seed, tests=[t for t in extra_tests()["sdof_all"] if "_hard_" in t.name])
     datasets = prepare([read_record(p) for p in g.records])
     assert {d.record.kind for d in datasets} == {"sdof"}
     model = model_for(datasets, ("heat_transfer", "real_gas", *effects), flexible=True)
     values = damper_start.fit_static_damper(datasets, model.params, model.effects)
     context = f"FOREIGN_RIG_SEED={seed} ({effect}): "
+    # A pressure transducer's offset is in every sample (the force is the
+    # body's less the measured gas's), and nothing of an SDOF record tells
+    # it from the damper's force (the static fit takes a force transducer's
+    # offset only): samples and curves are held to what the samples read
+    # without noise.
+    pressure_offset_pa = g.truth["hpctl_params"].get("sensor_pressure_offset_pa", 0.0) if effect == "sensor_offset" else 0.0
     off: dict[str, list[np.ndarray]] = {"nominal": [], "static": [], "samples": []}
     for branch in model.damper_branches:
         s = damper_start._branch_samples(datasets, branch)
@@ -229,7 +238,7 @@ def test_the_static_fit_reads_the_damper_from_an_sdof_bodys_motion(effect: str |
             continue
         assert not s.transducer.any(), context + "the force comes from the body, not a transducer"
         assert {p.name for p in model.params if p.name.startswith(f"damper_{branch}_")} <= set(values), context + branch
-        true = _true_force_n(effect, seed, branch, s.q_m3_s, s.area_m2)
+        true = _true_force_n(effect, seed, branch, s.q_m3_s, s.area_m2) - s.area_m2 * pressure_offset_pa
         for name, force in _curve_forces_n(datasets, values, branch, s).items():
             off[name].append((force - true) / s.sigma_n)
         off["samples"].append((s.force_n - true) / s.sigma_n)
