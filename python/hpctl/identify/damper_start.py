@@ -200,8 +200,7 @@ def _second_derivative(x: FloatArray, var_x: FloatArray, dt: float, window: int,
     """Savitzky-Golay second derivative of ``x`` and its error per sample,
     from the samples' independent errors of variance ``var_x``: the centred
     window's weights, also within half a window of the ends (where the
-    filter fits the end window instead; an SDOF record's ends are at rest,
-    their samples left out as slow)."""
+    filter fits the end window instead: an approximation there)."""
     c2 = savgol_coeffs(window, order, deriv=2, delta=dt) ** 2
     var = np.convolve(np.pad(var_x, window // 2, mode="edge"), c2[::-1], "valid")
     return np.asarray(savgol_filter(x, window, order, deriv=2, delta=dt)), np.sqrt(var)
