@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.signal import savgol_coeffs
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from foreign_rig import extra_tests, generate, sweep_tests
 from foreign_rig.damper import Damper as ForeignDamper
@@ -366,7 +366,8 @@ def test_the_bodys_acceleration_error_is_its_spread_over_noise_and_clock_jitter(
     for window, order in ((damper_start.SDOF_ACCEL_WINDOW, damper_start.SDOF_ACCEL_ORDER),
                           (damper_start.SDOF_ACCEL_SHORT_WINDOW, damper_start.SDOF_ACCEL_SHORT_ORDER)):
         _, error = damper_start._second_derivative(x[0], sigma_x**2 + (speed * jitter_s) ** 2, dt, window, order)
-        spread = np.std([damper_start._second_derivative(xi, np.zeros(len(t)), dt, window, order)[0] for xi in x], axis=0)
+        # The estimate is the filter's second derivative: all draws at once.
+        spread = np.std(savgol_filter(x, window, order, deriv=2, delta=dt, axis=1), axis=0)
         inner = slice(window, len(t) - window)
         ratio = spread[inner] / error[inner]
         # 4,000 draws read a standard deviation within about 1.1 % (3.3 % at
