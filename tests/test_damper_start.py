@@ -19,7 +19,6 @@ from scipy.signal import savgol_coeffs, savgol_filter
 from foreign_rig import extra_tests, generate, sweep_tests
 from foreign_rig.damper import Damper as ForeignDamper
 from foreign_rig.draw import draw_case
-from foreign_rig.unit import Friction as ForeignFriction
 from hpctl import _core
 from hpctl._coretypes import UnitDict
 from hpctl._effect_params import Friction
@@ -89,15 +88,8 @@ def _true_force_n(effect: str | None, seed: int, branch: str, q_m3_s: np.ndarray
     f = unit.effects.friction
     if f is not None:
         assert f.pressure_coefficient == 0.0  # the foreign rig's friction case draws none
-        force = force + _true_friction_n(f, q_m3_s / area_m2)
+        force = force + f.force_n(q_m3_s / area_m2)
     return np.asarray(force)
-
-
-def _true_friction_n(f: ForeignFriction, v: np.ndarray, viscous: bool = True) -> np.ndarray:
-    """The foreign rig's friction at speeds ``v`` (its formula, written
-    out), with its viscous part or without."""
-    stribeck = f.coulomb_n + (f.coulomb_n * f.static_ratio - f.coulomb_n) * np.exp(-((v / f.stribeck_velocity_m_s) ** 2))
-    return np.asarray(stribeck * np.tanh(v / f.smoothing_velocity_m_s) + (f.viscous_n_s_per_m * v if viscous else 0.0))
 
 
 def _static_unit(values: dict[str, float]) -> UnitDict:
@@ -171,7 +163,7 @@ def test_the_static_fit_follows_the_foreign_rigs_damper(effect: str | None, effe
         assert {"friction_coulomb_n", "friction_stribeck_ratio", "friction_stribeck_velocity_m_s", "friction_smoothing_velocity_m_s"} <= set(values)
         v = np.linspace(1e-5, 0.05, 5000)
         peak = float(np.max(_core.friction_force_n(_static_unit(values), v)))
-        true_peak = float(np.max(_true_friction_n(draw_case(effect, seed).unit.effects.friction, v, viscous=False)))
+        true_peak = float(np.max(draw_case(effect, seed).unit.effects.friction.force_n(v, viscous=False)))
         assert PEAK_BAND[0] <= peak / true_peak <= PEAK_BAND[1], context + f"largest friction {peak:.0f} N against the truth's {true_peak:.0f} N"
     else:
         assert "friction_coulomb_n" not in values, context

@@ -26,6 +26,7 @@ import pytest
 from click.testing import CliRunner
 
 from foreign_rig import generate, sweep_tests
+from foreign_rig.draw import draw_case
 from hpctl.cli import main as cli_main
 from hpctl.data.records import read_record
 from hpctl.identify.diagnose import NOISE_CEILING, Diagnosis, diagnose, summary
@@ -242,12 +243,27 @@ def test_flexible_fit_determines_the_breakaway_friction(seed: int) -> None:
     r = fit(prepare([read_record(p) for p in g.records]), ("heat_transfer", "real_gas", "friction"), flexible=True, max_nfev=MAX_NFEV_FLEXIBLE)
     (d,) = [d for d in derived(r) if d.name == "friction_breakaway_n"]
     truth = g.truth["hpctl_params"]["friction_coulomb_n"] * g.truth["foreign_params"]["friction_static_ratio"]
-    context = (f"seed={seed} breakaway {d.value:.1f} +- {d.stderr:.2g} truth {truth:.1f}; coulomb {r.values['friction_coulomb_n']:.1f} "
+    largest = draw_case("friction", seed).unit.effects.friction.peak_n()
+    context = (f"seed={seed} breakaway {d.value:.1f} +- {d.stderr:.2g} truth {truth:.1f} (largest force {largest:.1f}); coulomb {r.values['friction_coulomb_n']:.1f} "
                f"+- {r.stderr['friction_coulomb_n']:.2g} truth {g.truth['hpctl_params']['friction_coulomb_n']:.1f}; "
                f"correlation {d.factor_correlation:+.2f}; {r.message}")
     # The Coulomb force's own error is never offered as one to stand behind.
     assert d.confounded and d.damper_shape, context
-    if abs(d.value / truth - 1.0) <= 0.10 or abs(d.value - truth) <= 3.0 * d.stderr:
+    # Where the truth's Stribeck velocity is within a few smoothing
+    # velocities its curve never rises to F_c r: its largest force, which
+    # the records show, is lower, and a fit may find either. On
+    # FOREIGN_RIG_SEED=1681428444 (stop 65: Stribeck velocity 1.2 times the
+    # smoothing) the curve rises to F_c = 988 N and never to F_c r = 1,220:
+    # the first fit read F_c r = 1,029 (its own peak hidden too), the
+    # restart, 1.6 lower in cost, 975 +- 12 (its Stribeck velocity 48 mm/s);
+    # on seed 20 (1.8 times) the fit read F_c r within 1 % of the truth's
+    # 562 N, whose largest force is 424. On 64 draws (seeds 1-20, 40 random,
+    # and 109, 118, 2122707468, 1681428444; scripts/foreign_coverage.py) the
+    # truth's largest force was under 0.9 F_c r on 12; the fitted F_c r was
+    # within 10 % or three errors of F_c r or of the largest force on all
+    # but 845385664, 977426417 and 109, whose held rises below are 0.04,
+    # 5.1 and 7.9.
+    if any(abs(d.value / t - 1.0) <= 0.10 or abs(d.value - t) <= 3.0 * d.stderr for t in (truth, largest)):
         return
     # Else the records must not tell the two apart: the model with the
     # truth's Coulomb force and ratio held (the rest fitted again, warm)

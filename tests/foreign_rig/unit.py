@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from .damper import DamperPack, Orifice, default_pack
 
 G_M_S2 = 9.80665
@@ -27,6 +29,20 @@ class Friction:
     stribeck_velocity_m_s: float = 0.01
     smoothing_velocity_m_s: float = 1e-3
     pressure_coefficient: float = 0.0
+
+    def force_n(self, v: np.ndarray, viscous: bool = True) -> np.ndarray:
+        """The force at speeds ``v`` at the static pressure (the formula
+        above; the model's right-hand side writes it out for scalars), with
+        its viscous part or without."""
+        stribeck = self.coulomb_n * (1.0 + (self.static_ratio - 1.0) * np.exp(-((v / self.stribeck_velocity_m_s) ** 2)))
+        return np.asarray(stribeck * np.tanh(v / self.smoothing_velocity_m_s) + (self.viscous_n_s_per_m * v if viscous else 0.0))
+
+    def peak_n(self) -> float:
+        """The largest force without the viscous part, N: the breakaway
+        force the records can show (``F_s`` only where the Stribeck peak
+        lies well above the smoothing), on a grid of speeds 0.1 % apart
+        (the peak's own error under 1e-6 of it)."""
+        return float(np.max(self.force_n(np.geomspace(1e-6, 1.0, 14000), viscous=False)))
 
 
 @dataclass(frozen=True)

@@ -530,7 +530,13 @@ class Derived:
 #: breakaway force within 3 % on 19 and the smoothing exact, and fitted
 #: the curves better than the true split did (RMS 1.2-2.9 N against
 #: 2.3-56 N). With noise (docs/foreign-rig.md, stop 35) F_c read 60 % low
-#: to 22 % high, the breakaway force within 10 % on 19 of 20.
+#: to 22 % high, the breakaway force within 10 % on 19 of 20. Where a
+#: seal's Stribeck velocity is within a few smoothing velocities its curve
+#: never reaches F_c r, and the records show only its largest force: a
+#: fit may find either (the foreign rig's draw 1681428444, stop 65: 975 +-
+#: 12 N for F_c r = 1,220 N, largest force 988 N). As the curve's largest
+#: force the derived value read 61 N low to 10 N high on 64 draws (median
+#: 16 N low, 33 within two errors against 50 for F_c r): kept as F_c r.
 DERIVED: tuple[Derived, ...] = (
     Derived("friction_breakaway_n", "breakaway (static) seal friction: the Coulomb force times the Stribeck ratio",
             ("friction_coulomb_n", "friction_stribeck_ratio"), confounded_by_damper_shape=True),
