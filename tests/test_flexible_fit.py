@@ -457,9 +457,10 @@ def coverage_runs() -> tuple[int, list[coverage.Run]]:
 # 100 runs inside 2 sigma) until the fit carried the input displacement's
 # noise into the covariance and stopped the smoothing from shrinking the
 # excitation (94 and 94 of 100 since: docs/foreign-rig.md). Measured on
-# more draws at stop 64, tau_s is still about 16 % overconfident (271 of
-# 300 inside, z sd 1.12-1.19; a 40-run window failed this test's criteria
-# once in 122): docs/foreign-rig.md says what was ruled out.
+# more draws at stop 64, tau_s read 16 % overconfident (271 of 300
+# inside, z sd 1.12-1.19; a 40-run window failed this test's criteria
+# once in 122); at stop 65 sets of fresh noise read z sd 0.95-1.18 by
+# set, about 8-10 % overall: docs/foreign-rig.md says what was ruled out.
 @pytest.mark.parametrize("name", ["tau_s", "friction_coulomb_n", "friction_viscous_n_s_per_m", "charge_scale", "damper_gain"])
 def test_standard_errors_cover_the_truth_in_randomised_runs(coverage_runs: tuple[int, list[coverage.Run]], name: str) -> None:
     # 40 virtual-rig runs (truth drawn from the registry's random ranges,
