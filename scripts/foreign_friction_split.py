@@ -9,11 +9,17 @@ at the truth. Multi-start least squares on the curves alone: what the
 model's shapes let the split be (docs/foreign-rig.md, stop 35).
 
     python scripts/foreign_friction_split.py --seeds 1 4 5 10 14 16 19 20
-    python scripts/foreign_friction_split.py --orifice transition --seeds 1 2 4 5 8 10 14
+    python scripts/foreign_friction_split.py --family transition --seeds 1 2 4 5 8 10 14
+    python scripts/foreign_friction_split.py --family hpctl --seeds 3 5 10 14
 
-``--orifice transition`` replaces the damper family's orifice by a laminar
-one turning turbulent above a fitted pressure (valve 6's law in hp-core,
-``foreign_damper_family._curve_transition``; stop 66: no better split).
+``--family``: ``parallel`` (the default, stop 35's table) is the bleed
+beside a turbulent orifice; ``transition`` the bleed beside an orifice
+laminar below a fitted pressure and turbulent above it (valve 6's law in
+hp-core, ``foreign_damper_family._curve_transition``); ``hpctl`` the
+flexible model's own damper parameters for valve 5 open
+(``hpctl.model.effects.DAMPER_SHAPE``: a bleed in series with the orifice
+and a share of it beside, the knee, two stages), evaluated by hp-core's
+curve on the draw's record template, without their priors (stop 66).
 
 Run from the repository root (``tests/`` holds the foreign rig). Prints per
 seed the RMS error of the best fit, N, its Coulomb force, breakaway force
@@ -26,6 +32,7 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -35,9 +42,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from foreign_damper_family import _curve, _curve_transition  # noqa: E402
+from foreign_rig import generate  # noqa: E402
 from foreign_rig.damper import Damper  # noqa: E402
 from foreign_rig.draw import draw_case  # noqa: E402
 from foreign_rig.programs import SWEEP_FREQUENCIES_HZ  # noqa: E402
+from hpctl import _core  # noqa: E402
+from hpctl.identify.dataset import prepare  # noqa: E402
+from hpctl.identify.fit import model_for  # noqa: E402
 
 AMPLITUDE_M = 0.06
 #: The damper-curve parameters' bounds (logs but the knee): as foreign_damper_family.
@@ -61,7 +72,10 @@ def sweep_speeds() -> np.ndarray:
     return v[v > 1e-6]
 
 
-def fit_split(seed: int, transition: bool = False) -> str:
+def fit_split(seed: int, family: str = "parallel") -> str:
+    if family == "hpctl":
+        return fit_split_hpctl(seed)
+    transition = family == "transition"
     case = draw_case("friction", seed)
     unit, f = case.unit, case.unit.effects.friction
     assert f is not None
@@ -110,15 +124,74 @@ def fit_split(seed: int, transition: bool = False) -> str:
             f"{rms_held:.2f}")
 
 
+def fit_split_hpctl(seed: int) -> str:
+    """:func:`fit_split` with the flexible model's damper parameters of the
+    valve-5-open branches on the draw's record template (hp-core's curve)."""
+    case = draw_case("friction", seed)
+    f = case.unit.effects.friction
+    assert f is not None
+    damper, v = Damper(case.unit.damper), sweep_speeds()
+    area = case.unit.piston_area_m2
+    target = np.concatenate([np.array([s * damper.drop(s * area * x, 1.0) * area for x in v]) for s in (1.0, -1.0)])
+    target += np.tile(friction(v, f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m), 2)
+    datasets = prepare(generate("friction", seed).read())
+    model = model_for(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True)
+    shape = [p for p in model.params if p.name.startswith("damper_off_")]
+    values = {p.name: p.initial for p in model.params}
+    area_model = datasets[0].base.piston_area_m2
+    q = np.concatenate([area_model * v, -area_model * v])
+
+    def force(x: np.ndarray, fc: float, ratio: float, vs: float, ve: float, c: float) -> np.ndarray:
+        unit = model.unit_for(datasets[0], {**values, **{p.name: p.from_x(float(xi)) for p, xi in zip(shape, x)}})
+        drop = np.abs(np.asarray(_core.damper_pressure_drop_pa(unit.damper.to_dict(), q, 1.0)))
+        return np.asarray(drop * area_model + np.tile(friction(v, fc, ratio, vs, ve, c), 2))
+
+    lo = [p.x_bounds()[0] for p in shape]
+    hi = [p.x_bounds()[1] for p in shape]
+
+    def solve(fun: Callable[[np.ndarray], np.ndarray], p0: np.ndarray, lo_: list[float], hi_: list[float]) -> OptimizeResult | None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                return least_squares(fun, np.clip(p0, np.add(lo_, 1e-9), np.subtract(hi_, 1e-9)), bounds=(lo_, hi_), max_nfev=2000, x_scale="jac")
+            except ValueError:  # hp-core refused a curve (a second stage out of its range)
+                return None
+
+    truth = (f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m)
+    x0 = np.array([p.to_x(p.initial) for p in shape])
+    held = None
+    for start in (x0, x0 + 0.5, x0 - 0.5):
+        sol = solve(lambda x: force(x, *truth) - target, start, lo, hi)
+        if sol is not None and (held is None or sol.cost < held.cost):
+            held = sol
+    if held is None:
+        return f"{seed} | no fit"
+    best = None
+    for share in (0.5, 1.0, 1.5):
+        p0 = np.concatenate([[f.coulomb_n * share, 1.2, np.log(0.01), np.log(1e-3), 500.0], held.x])
+        sol = solve(lambda p: force(p[5:], p[0], p[1], np.exp(p[2]), np.exp(p[3]), p[4]) - target, p0, FRICTION_LO + lo, FRICTION_HI + hi)
+        if sol is not None and (best is None or sol.cost < best.cost):
+            best = sol
+    if best is None:
+        return f"{seed} | no fit"
+    p = best.x
+    rms, rms_held = np.sqrt(2.0 * best.cost / best.fun.size), np.sqrt(2.0 * held.cost / held.fun.size)
+    fs_true = f.coulomb_n * f.static_ratio
+    return (f"{seed} | {rms:.2f} | {p[0]:.0f} / {f.coulomb_n:.0f} ({p[0] / f.coulomb_n - 1:+.1%}) | "
+            f"{p[0] * p[1]:.0f} / {fs_true:.0f} ({p[0] * p[1] / fs_true - 1:+.1%}) | "
+            f"{np.exp(p[2]) * 1e3:.1f} / {f.stribeck_velocity_m_s * 1e3:.1f} | {np.exp(p[3]) * 1e3:.2f} / {f.smoothing_velocity_m_s * 1e3:.2f} | "
+            f"{rms_held:.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[14])
-    ap.add_argument("--orifice", choices=("series", "transition"), default="series",
-                    help="the damper family's orifice: R q + K q^2 beside a bleed (hp-core's), or laminar-turbulent")
+    ap.add_argument("--family", choices=("parallel", "transition", "hpctl"), default="parallel",
+                    help="the damper family (above)")
     a = ap.parse_args()
     print("seed | RMS N | Coulomb fit / truth | breakaway fit / truth | Stribeck velocity mm/s | smoothing mm/s | RMS N, friction at the truth")
     for seed in a.seeds:
-        print(fit_split(seed, a.orifice == "transition"), flush=True)
+        print(fit_split(seed, a.family), flush=True)
 
 
 if __name__ == "__main__":
