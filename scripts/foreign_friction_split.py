@@ -57,7 +57,7 @@ CURVE_HI = [np.inf] * 4 + [2.0] + [np.inf] * 2
 #: Friction's bounds: hpctl's fit ranges (Coulomb, ratio, log Stribeck velocity, log smoothing, viscous).
 FRICTION_LO = [0.0, 1.0, np.log(1e-3), np.log(1e-4), 0.0]
 FRICTION_HI = [5000.0, 3.0, np.log(0.1), np.log(2e-2), 20000.0]
-#: The transition pressure's bounds (log Pa) and starts, ``--orifice transition``.
+#: The transition pressure's bounds (log Pa) and starts, ``--family transition``.
 TRANSITION_LO, TRANSITION_HI = np.log(1e2), np.log(1e8)
 TRANSITION_STARTS_PA = (1e4, 1e6)
 
