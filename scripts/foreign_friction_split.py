@@ -11,6 +11,7 @@ model's shapes let the split be (docs/foreign-rig.md, stop 35).
     python scripts/foreign_friction_split.py --seeds 1 4 5 10 14 16 19 20
     python scripts/foreign_friction_split.py --family transition --seeds 1 2 4 5 8 10 14
     python scripts/foreign_friction_split.py --family hpctl --seeds 3 5 10 14
+    python scripts/foreign_friction_split.py --family hpctl --max-speed 0.1 --seeds 1 2 3 5 8 10 14
 
 ``--family``: ``parallel`` (the default, stop 35's table) is the bleed
 beside a turbulent orifice; ``transition`` the bleed beside an orifice
@@ -67,19 +68,21 @@ def friction(v: np.ndarray, fc: float, ratio: float, vs: float, ve: float, c: fl
     return np.asarray(fc * (1.0 + (ratio - 1.0) * np.exp(-((v / vs) ** 2))) * np.tanh(v / ve) + c * v)
 
 
-def sweep_speeds() -> np.ndarray:
+def sweep_speeds(max_speed_m_s: float = np.inf) -> np.ndarray:
+    """The sweep's speeds (each sine's half cycle evenly in time), those
+    below ``max_speed_m_s`` only."""
     v = np.concatenate([AMPLITUDE_M * 2 * np.pi * f * np.abs(np.sin(np.linspace(0.0, np.pi, 200))) for f in SWEEP_FREQUENCIES_HZ])
-    return v[v > 1e-6]
+    return v[(v > 1e-6) & (v < max_speed_m_s)]
 
 
-def fit_split(seed: int, family: str = "parallel") -> str:
+def fit_split(seed: int, family: str = "parallel", max_speed_m_s: float = np.inf) -> str:
     if family == "hpctl":
-        return fit_split_hpctl(seed)
+        return fit_split_hpctl(seed, max_speed_m_s)
     transition = family == "transition"
     case = draw_case("friction", seed)
     unit, f = case.unit, case.unit.effects.friction
     assert f is not None
-    damper, area, v = Damper(unit.damper), unit.piston_area_m2, sweep_speeds()
+    damper, area, v = Damper(unit.damper), unit.piston_area_m2, sweep_speeds(max_speed_m_s)
     true_f = friction(v, f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m)
     target = [np.array([s * damper.drop(s * area * x, 1.0) * area for x in v]) + true_f for s in (1.0, -1.0)]
 
@@ -124,13 +127,13 @@ def fit_split(seed: int, family: str = "parallel") -> str:
             f"{rms_held:.2f}")
 
 
-def fit_split_hpctl(seed: int) -> str:
+def fit_split_hpctl(seed: int, max_speed_m_s: float = np.inf) -> str:
     """:func:`fit_split` with the flexible model's damper parameters of the
     valve-5-open branches on the draw's record template (hp-core's curve)."""
     case = draw_case("friction", seed)
     f = case.unit.effects.friction
     assert f is not None
-    damper, v = Damper(case.unit.damper), sweep_speeds()
+    damper, v = Damper(case.unit.damper), sweep_speeds(max_speed_m_s)
     area = case.unit.piston_area_m2
     target = np.concatenate([np.array([s * damper.drop(s * area * x, 1.0) * area for x in v]) for s in (1.0, -1.0)])
     target += np.tile(friction(v, f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m), 2)
@@ -188,10 +191,12 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, nargs="+", default=[14])
     ap.add_argument("--family", choices=("parallel", "transition", "hpctl"), default="parallel",
                     help="the damper family (above)")
+    ap.add_argument("--max-speed", type=float, default=np.inf, metavar="M_S",
+                    help="only the sweep's speeds below this, m/s (stop 66: below 0.1 m/s hpctl's family follows the foreign damper)")
     a = ap.parse_args()
     print("seed | RMS N | Coulomb fit / truth | breakaway fit / truth | Stribeck velocity mm/s | smoothing mm/s | RMS N, friction at the truth")
     for seed in a.seeds:
-        print(fit_split(seed, a.family), flush=True)
+        print(fit_split(seed, a.family, a.max_speed), flush=True)
 
 
 if __name__ == "__main__":
