@@ -33,8 +33,9 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
@@ -47,6 +48,7 @@ from foreign_rig import generate  # noqa: E402
 from foreign_rig.damper import Damper  # noqa: E402
 from foreign_rig.draw import draw_case  # noqa: E402
 from foreign_rig.programs import SWEEP_FREQUENCIES_HZ  # noqa: E402
+from foreign_rig.unit import Friction as ForeignFriction  # noqa: E402
 from hpctl import _core  # noqa: E402
 from hpctl.identify.dataset import prepare  # noqa: E402
 from hpctl.identify.fit import model_for  # noqa: E402
@@ -75,16 +77,47 @@ def sweep_speeds(max_speed_m_s: float = np.inf) -> np.ndarray:
     return v[(v > 1e-6) & (v < max_speed_m_s)]
 
 
+def truth_curves(seed: int, max_speed_m_s: float) -> tuple[ForeignFriction, np.ndarray, float, list[np.ndarray]]:
+    """The draw's friction, the speeds, its piston area and the true force
+    beyond the gas (damper with valve 5 open plus friction, magnitudes) in
+    compression and in rebound."""
+    case = draw_case("friction", seed)
+    f = case.unit.effects.friction
+    assert f is not None
+    damper, area, v = Damper(case.unit.damper), case.unit.piston_area_m2, sweep_speeds(max_speed_m_s)
+    true_f = friction(v, f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m)
+    return f, v, area, [np.array([s * damper.drop(s * area * x, 1.0) * area for x in v]) + true_f for s in (1.0, -1.0)]
+
+
+def solve(fun: Callable[[np.ndarray], np.ndarray], p0: Sequence[float], lo: Sequence[float], hi: Sequence[float],
+          max_nfev: int = 3000, **kw: Any) -> OptimizeResult | None:
+    """Bounded least squares, None where the model refused the parameters."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return least_squares(fun, p0, bounds=(lo, hi), max_nfev=max_nfev, **kw)
+        except ValueError:  # hp-core refuses a curve out of its range (a second stage)
+            return None
+
+
+def row(seed: int, f: ForeignFriction, best: OptimizeResult, held: OptimizeResult | None) -> str:
+    """The printed line: ``best.x`` starts with the friction (Coulomb,
+    ratio, log Stribeck velocity, log smoothing, viscous)."""
+    p = best.x
+    rms = np.sqrt(2.0 * best.cost / best.fun.size)
+    rms_held = np.sqrt(2.0 * held.cost / held.fun.size) if held is not None else float("nan")
+    fs_true = f.coulomb_n * f.static_ratio
+    return (f"{seed} | {rms:.2f} | {p[0]:.0f} / {f.coulomb_n:.0f} ({p[0] / f.coulomb_n - 1:+.1%}) | "
+            f"{p[0] * p[1]:.0f} / {fs_true:.0f} ({p[0] * p[1] / fs_true - 1:+.1%}) | "
+            f"{np.exp(p[2]) * 1e3:.1f} / {f.stribeck_velocity_m_s * 1e3:.1f} | {np.exp(p[3]) * 1e3:.2f} / {f.smoothing_velocity_m_s * 1e3:.2f} | "
+            f"{rms_held:.2f}")
+
+
 def fit_split(seed: int, family: str = "parallel", max_speed_m_s: float = np.inf) -> str:
     if family == "hpctl":
         return fit_split_hpctl(seed, max_speed_m_s)
     transition = family == "transition"
-    case = draw_case("friction", seed)
-    unit, f = case.unit, case.unit.effects.friction
-    assert f is not None
-    damper, area, v = Damper(unit.damper), unit.piston_area_m2, sweep_speeds(max_speed_m_s)
-    true_f = friction(v, f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m)
-    target = [np.array([s * damper.drop(s * area * x, 1.0) * area for x in v]) + true_f for s in (1.0, -1.0)]
+    f, v, area, target = truth_curves(seed, max_speed_m_s)
 
     n = 8 if transition else 7
     lo_curve = CURVE_LO + [TRANSITION_LO] if transition else CURVE_LO
@@ -97,14 +130,6 @@ def fit_split(seed: int, family: str = "parallel", max_speed_m_s: float = np.inf
         fp = friction(v, p[0], p[1], np.exp(p[2]), np.exp(p[3]), p[4])
         return np.concatenate([curve(p[5 + n * i:5 + n * (i + 1)]) * area + fp - target[i] for i in range(2)])
 
-    def solve(fun: object, p0: list[float], lo: list[float], hi: list[float]) -> OptimizeResult | None:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                return least_squares(fun, p0, bounds=(lo, hi), max_nfev=3000)
-            except ValueError:
-                return None
-
     best = None
     for share in (0.5, 1.0, 1.5):
         for pb0 in (1e6, 3e6):
@@ -116,27 +141,16 @@ def fit_split(seed: int, family: str = "parallel", max_speed_m_s: float = np.inf
                     best = sol
     if best is None:
         return f"{seed} | no fit"
-    p = best.x
     truth = [f.coulomb_n, f.static_ratio, np.log(f.stribeck_velocity_m_s), np.log(f.smoothing_velocity_m_s), f.viscous_n_s_per_m]
-    held = solve(lambda c: residual(np.concatenate([truth, c])), list(p[5:]), lo_curve * 2, hi_curve * 2)
-    rms = np.sqrt(2.0 * best.cost / best.fun.size)
-    rms_held = np.sqrt(2.0 * held.cost / held.fun.size) if held is not None else float("nan")
-    return (f"{seed} | {rms:.2f} | {p[0]:.0f} / {f.coulomb_n:.0f} ({p[0] / f.coulomb_n - 1:+.1%}) | "
-            f"{p[0] * p[1]:.0f} / {f.coulomb_n * f.static_ratio:.0f} ({p[0] * p[1] / (f.coulomb_n * f.static_ratio) - 1:+.1%}) | "
-            f"{np.exp(p[2]) * 1e3:.1f} / {f.stribeck_velocity_m_s * 1e3:.1f} | {np.exp(p[3]) * 1e3:.2f} / {f.smoothing_velocity_m_s * 1e3:.2f} | "
-            f"{rms_held:.2f}")
+    held = solve(lambda c: residual(np.concatenate([truth, c])), list(best.x[5:]), lo_curve * 2, hi_curve * 2)
+    return row(seed, f, best, held)
 
 
 def fit_split_hpctl(seed: int, max_speed_m_s: float = np.inf) -> str:
     """:func:`fit_split` with the flexible model's damper parameters of the
     valve-5-open branches on the draw's record template (hp-core's curve)."""
-    case = draw_case("friction", seed)
-    f = case.unit.effects.friction
-    assert f is not None
-    damper, v = Damper(case.unit.damper), sweep_speeds(max_speed_m_s)
-    area = case.unit.piston_area_m2
-    target = np.concatenate([np.array([s * damper.drop(s * area * x, 1.0) * area for x in v]) for s in (1.0, -1.0)])
-    target += np.tile(friction(v, f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m), 2)
+    f, v, _, targets = truth_curves(seed, max_speed_m_s)
+    target = np.concatenate(targets)
     datasets = prepare(generate("friction", seed).read())
     model = model_for(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True)
     shape = [p for p in model.params if p.name.startswith("damper_off_")]
@@ -152,19 +166,15 @@ def fit_split_hpctl(seed: int, max_speed_m_s: float = np.inf) -> str:
     lo = [p.x_bounds()[0] for p in shape]
     hi = [p.x_bounds()[1] for p in shape]
 
-    def solve(fun: Callable[[np.ndarray], np.ndarray], p0: np.ndarray, lo_: list[float], hi_: list[float]) -> OptimizeResult | None:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                return least_squares(fun, np.clip(p0, np.add(lo_, 1e-9), np.subtract(hi_, 1e-9)), bounds=(lo_, hi_), max_nfev=2000, x_scale="jac")
-            except ValueError:  # hp-core refused a curve (a second stage out of its range)
-                return None
+    def inside(fun: Callable[[np.ndarray], np.ndarray], p0: np.ndarray, lo_: list[float], hi_: list[float]) -> OptimizeResult | None:
+        # Starts off the bounds (hp-core's knee and share sit on theirs).
+        return solve(fun, np.clip(p0, np.add(lo_, 1e-9), np.subtract(hi_, 1e-9)), lo_, hi_, max_nfev=2000, x_scale="jac")
 
     truth = (f.coulomb_n, f.static_ratio, f.stribeck_velocity_m_s, f.smoothing_velocity_m_s, f.viscous_n_s_per_m)
     x0 = np.array([p.to_x(p.initial) for p in shape])
     held = None
     for start in (x0, x0 + 0.5, x0 - 0.5):
-        sol = solve(lambda x: force(x, *truth) - target, start, lo, hi)
+        sol = inside(lambda x: force(x, *truth) - target, start, lo, hi)
         if sol is not None and (held is None or sol.cost < held.cost):
             held = sol
     if held is None:
@@ -172,18 +182,12 @@ def fit_split_hpctl(seed: int, max_speed_m_s: float = np.inf) -> str:
     best = None
     for share in (0.5, 1.0, 1.5):
         p0 = np.concatenate([[f.coulomb_n * share, 1.2, np.log(0.01), np.log(1e-3), 500.0], held.x])
-        sol = solve(lambda p: force(p[5:], p[0], p[1], np.exp(p[2]), np.exp(p[3]), p[4]) - target, p0, FRICTION_LO + lo, FRICTION_HI + hi)
+        sol = inside(lambda p: force(p[5:], p[0], p[1], np.exp(p[2]), np.exp(p[3]), p[4]) - target, p0, FRICTION_LO + lo, FRICTION_HI + hi)
         if sol is not None and (best is None or sol.cost < best.cost):
             best = sol
     if best is None:
         return f"{seed} | no fit"
-    p = best.x
-    rms, rms_held = np.sqrt(2.0 * best.cost / best.fun.size), np.sqrt(2.0 * held.cost / held.fun.size)
-    fs_true = f.coulomb_n * f.static_ratio
-    return (f"{seed} | {rms:.2f} | {p[0]:.0f} / {f.coulomb_n:.0f} ({p[0] / f.coulomb_n - 1:+.1%}) | "
-            f"{p[0] * p[1]:.0f} / {fs_true:.0f} ({p[0] * p[1] / fs_true - 1:+.1%}) | "
-            f"{np.exp(p[2]) * 1e3:.1f} / {f.stribeck_velocity_m_s * 1e3:.1f} | {np.exp(p[3]) * 1e3:.2f} / {f.smoothing_velocity_m_s * 1e3:.2f} | "
-            f"{rms_held:.2f}")
+    return row(seed, f, best, held)
 
 
 def main() -> None:
