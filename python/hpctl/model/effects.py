@@ -536,8 +536,8 @@ class Derived:
 #: within 7 % on six of seven, F_c r within 2 %: the trade comes from the
 #: family's misfit of the foreign blow-off region, 0.1-1 m/s, which the
 #: Coulomb force, constant at speed, takes part of (stop 66). With noise
-#: (docs/foreign-rig.md, stop 35) F_c read 60 % low to 22 % high, the breakaway force within 10 % on 19 of 20. Where a
-#: seal's Stribeck velocity is within a few smoothing velocities its curve
+#: (docs/foreign-rig.md, stop 35) F_c read 60 % low to 22 % high, the
+#: breakaway force within 10 % on 19 of 20. Where a seal's Stribeck velocity is within a few smoothing velocities its curve
 #: never reaches F_c r, and the records show only its largest force: a
 #: fit may find either (the foreign rig's draw 1681428444, stop 65: 975 +-
 #: 12 N for F_c r = 1,220 N, largest force 988 N). As the curve's largest
