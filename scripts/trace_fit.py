@@ -41,16 +41,18 @@ def main() -> None:
     datasets = prepare(_records(tuple(args.records)))
     names = [p.name for p in fit_module.model_for(datasets, effects, flexible=args.flexible).params]
     trace: list[tuple[float, float, np.ndarray]] = []
-    solver = getattr(fit_module, "least_squares")  # SciPy's, as the fit imported it
+    solver = getattr(fit_module, "least_squares")  # hpctl's trust region, as the fit imported it
     t0 = time.perf_counter()
 
-    def traced(fun: Any, x0: Any, **kw: Any) -> Any:
-        # The callback sees each accepted iterate; its residuals are cached
-        # by the fit, so asking for them again runs nothing.
-        def record(x: np.ndarray) -> None:
+    def traced(fun: Any, x0: Any, jac: Any, *args: Any, **kw: Any) -> Any:
+        # The trust region asks for the Jacobian at each iterate it accepts
+        # (and at the start), right after the residuals there, which the
+        # fit has cached: asking for them again runs nothing.
+        def jac_traced(x: np.ndarray) -> Any:
             r = fun(x)
             trace.append((time.perf_counter() - t0, float(r @ r), np.array(x)))
-        return solver(fun, x0, **{**kw, "callback": record})
+            return jac(x)
+        return solver(fun, x0, jac_traced, *args, **kw)
 
     setattr(fit_module, "least_squares", traced)
     result = fit_module.fit(datasets, effects, flexible=args.flexible, max_nfev=MAX_NFEV_FLEXIBLE if args.flexible else MAX_NFEV)

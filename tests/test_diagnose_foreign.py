@@ -223,6 +223,33 @@ def test_flexible_diagnosis_names_oil_compliance_on_damper_off_sines(seed: int) 
     assert abs(est - true) <= max(2 * err, 0.1 * true), f"bulk modulus {est} +- {err} vs {true}; {context}"
 
 
+def test_slow_sines_alone_identify_the_damper_beside_the_friction(seed: int) -> None:
+    # The sweep's three slow sines only (0.01-0.1 Hz, up to 38 mm/s, valve 5
+    # open): what a friction measurement runs. Their speeds never reach the
+    # 50 mm/s that used to decide whether the damper's characteristic is
+    # fitted, yet the foreign damper makes hundreds of newtons there: held
+    # at the template's, it left the difference to the friction and the
+    # breakaway force read 2-25 % low by 7-30 of its errors on seeds 1-5, 8,
+    # 10, 14 (stop 67); fitted, within 2.5 errors on all eight.
+    from hpctl.identify import MAX_NFEV_FLEXIBLE
+    from hpctl.identify.dataset import prepare, uses_damper
+    from hpctl.identify.derived import derived
+    from hpctl.identify.fit import fit
+
+    g = generate("friction", seed, tests=[t for t in sweep_tests() if t.name in ("sine_0.01hz", "sine_0.03hz", "sine_0.1hz")])
+    datasets = prepare([read_record(p) for p in g.records])
+    assert uses_damper(datasets), f"seed={seed}"
+    r = fit(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True, max_nfev=MAX_NFEV_FLEXIBLE)
+    assert r.model.fit_damper and any(name.startswith("damper_off_") for name in r.values), f"seed={seed}"
+    (d,) = [d for d in derived(r) if d.name == "friction_breakaway_n"]
+    truth = g.truth["hpctl_params"]["friction_coulomb_n"] * g.truth["foreign_params"]["friction_static_ratio"]
+    largest = draw_case("friction", seed).unit.effects.friction.peak_n()
+    context = f"seed={seed} breakaway {d.value:.1f} +- {d.stderr:.2g} truth {truth:.1f} (largest force {largest:.1f}); {r.message}"
+    # As the whole sweep's test below: within 10 % or three errors of F_c r
+    # or of the largest force the truth's curve reaches.
+    assert any(abs(d.value / t - 1.0) <= 0.10 or abs(d.value - t) <= 3.0 * d.stderr for t in (truth, largest)), context
+
+
 def test_flexible_fit_determines_the_breakaway_friction(seed: int) -> None:
     # Seal friction's kinetic (Coulomb) level acts where the damper's force
     # is comparable or several times larger, and the flexible fit tells it
