@@ -358,6 +358,8 @@ def test_fit_cli_reports_the_breakaway_force_and_warns_when_its_factors_trade(tm
     assert w["details"]["params"] == d["factors"] and w["details"]["correlation"] == pytest.approx(d["factor_correlation"])
     assert abs(d["factor_correlation"]) >= 0.95 and w["details"]["damper_shape"] is True and d["confounded"] is True
     assert "friction_breakaway_n = " in w["message"] and "correlation is" in w["message"] and "damper" in w["message"]
+    # Its error is not offered as one beyond the model's shapes either (stop 67).
+    assert "rests on the damper's shapes and priors" in w["message"]
     assert "| `friction_breakaway_n` |" in (out / "fit.md").read_text()
 
 

@@ -73,7 +73,8 @@ class Code(StrEnum):
     #: Two fitted parameters the records tell apart only through the
     #: shapes the model assumes (their estimates' correlation near +-1):
     #: their own errors understate what the records leave open; a quantity
-    #: derived from both (their product) is what the records determine.
+    #: derived from both (their product) is what the records determine
+    #: best, its error resting on the damper's shapes and priors too.
     CONFOUNDED = "confounded"
     #: A fitted parameter whose standard error (a linearisation at the
     #: optimum) is known to understate what the records leave open: its

@@ -229,7 +229,9 @@ def _confounded_caveats(result: FitResult) -> list[Caveat]:
         out.append(Caveat(
             Code.CONFOUNDED,
             f"{a} and {b} are told apart only by the shapes the model assumes ({d.reason}): their own values can be off by more "
-            f"than their standard errors; what the records determine is their product, {d.name} = {d.value:.5g} +- {d.stderr:.2g}",
+            f"than their standard errors; what the records determine best is their product, {d.name} = {d.value:.5g} +- {d.stderr:.2g}, "
+            "though its error too rests on the damper's shapes and priors (on the foreign rig it read 3-5 % low, one to three errors, on "
+            "small frictions over a five-sine sweep, and up to 15 % low, 4.5 errors, on slow sines alone: docs/foreign-rig.md, stop 67)",
             {"params": list(d.factors), "correlation": d.factor_correlation, "damper_shape": d.damper_shape, "derived": d.name,
              "value": d.value, "stderr": d.stderr},
         ))
