@@ -76,6 +76,10 @@ class Code(StrEnum):
     #: derived from both (their product) is what the records determine
     #: best, its error resting on the damper's shapes and priors too.
     CONFOUNDED = "confounded"
+    #: The identified damper characteristic makes a force at no flow, as
+    #: seal friction does and a hydraulic damper does not: the records do
+    #: not tell them apart (:mod:`hpctl.identify.no_flow`).
+    DAMPER_FORCE_AT_NO_FLOW = "damper_force_at_no_flow"
     #: A fitted parameter whose standard error (a linearisation at the
     #: optimum) is known to understate what the records leave open: its
     #: profile interval (``hpctl fit --profile``) is the honest band.

@@ -79,7 +79,8 @@ def _fit_caveats(result: FitResult, budget: int, profiled: Sequence[str] = ()) -
                 if "maximum number of function evaluations" in result.message else "")
         out.append(Caveat(Code.NOT_CONVERGED, f"the optimiser stopped without converging: {result.message}{more}",
                           {"message": result.message, "max_evaluations": budget}))
-    out += _bound_caveats(result) + _confounded_caveats(result) + _profile_band_caveats(result, profiled) + _place_caveats(result)
+    out += _bound_caveats(result) + _confounded_caveats(result) + _no_flow_caveats(result) + _profile_band_caveats(result, profiled)
+    out += _place_caveats(result)
     out += _noise_caveats(result)
     analysis = diagnose.analyse(result)
     if analysis.structured:
@@ -213,6 +214,27 @@ def _profile_band_caveats(result: FitResult, profiled: Sequence[str] = ()) -> li
         f"records leave open ({p.profile_band}); its profile interval is the honest band: hpctl fit ... --profile {p.name}",
         {"param": p.name, "value": result.values[p.name], "stderr": result.stderr[p.name]},
     ) for p in bent]
+
+
+def _no_flow_caveats(result: FitResult) -> list[Caveat]:
+    """An identified damper characteristic that makes a force at no flow
+    (:func:`hpctl.identify.no_flow.force_at_no_flow`): seal friction, or
+    what stands in for it, inside the damper."""
+    from hpctl.identify.no_flow import NO_FLOW_SPEED_M_S, force_at_no_flow
+
+    found = force_at_no_flow(result)
+    if not found:
+        return []
+    where = ", ".join(f"{f.branch} {f.force_n:.0f} N (the template's {f.template_n:.0f} N)" for f in found)
+    return [Caveat(
+        Code.DAMPER_FORCE_AT_NO_FLOW,
+        f"the fitted damper makes a force at no flow, {where} at {1e3 * NO_FLOW_SPEED_M_S:g} mm/s, more than "
+        f"{found[0].noise_n:.3g} N of force noise explains: a hydraulic damper does not; seal friction does, in both directions (a "
+        "load cell's offset looks like one in one), and these records do not tell it from the damper; with friction in the model "
+        "(--model ...,friction) the two are split by the shapes the model assumes",
+        {"branches": [f.branch for f in found], "force_n": [f.force_n for f in found], "template_n": [f.template_n for f in found],
+         "speed_m_s": NO_FLOW_SPEED_M_S, "noise_n": found[0].noise_n},
+    )]
 
 
 def _confounded_caveats(result: FitResult) -> list[Caveat]:
@@ -505,7 +527,8 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
             "stopped, no lower than at its optimum, and the gains from it may be that much smaller",
             {"message": diag.initial.message, "fit": "declared"},
         ))
-    out += _bound_caveats(diag.final) + _confounded_caveats(diag.final) + _profile_band_caveats(diag.final) + _place_caveats(diag.final)
+    out += _bound_caveats(diag.final) + _confounded_caveats(diag.final) + _no_flow_caveats(diag.final) + _profile_band_caveats(diag.final)
+    out += _place_caveats(diag.final)
     out += _noise_caveats(diag.final)
     j = diag.judgement
     if j is not None and j.structure_remains:
