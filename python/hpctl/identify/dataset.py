@@ -460,8 +460,8 @@ def uses_damper(datasets: Sequence[Dataset]) -> bool:
     mm/s, valve 5 open), where the foreign rig's damper made 716 N against
     22 N of noise (the seed's 362 N): the friction took the difference (a
     viscous term of 14.7 kN s/m for 0.8) and the breakaway force read 2-25 %
-    low by 7-30 of its errors on eight draws; fitted, within 2.5 errors
-    (docs/foreign-rig.md, stop 67)."""
+    low by 7-30 of its errors on eight draws; fitted, 15 % low to 2 % high
+    over six noise draws of each (docs/foreign-rig.md, stop 67)."""
     return damper_moves_fast(datasets) or any(_damper_force_shows(d) for d in datasets)
 
 
