@@ -104,8 +104,8 @@ def main() -> None:
         v = r.values
         line = (f"seed {seed} ({', '.join(d.name for d in datasets)}): damper {'fitted' if r.model.fit_damper else 'held'} "
                 f"(the force shows it: {uses_damper(datasets)}), RMS / noise {r.rms_ratio:.3f}")
-        for d in r.datasets:
-            if "force_n" in d.targets and not isinstance(sim := r.sims[r.datasets.index(d)], Exception):
+        for d, sim in zip(r.datasets, r.sims):
+            if "force_n" in d.targets and not isinstance(sim, Exception):
                 line += f"; {d.name} force residual {float(np.sqrt(np.mean((sim['force_n'] - d.targets['force_n']) ** 2))):.3g} N RMS"
         print(line)
         breakaway = next((x for x in derived(r) if x.name == "friction_breakaway_n"), None)

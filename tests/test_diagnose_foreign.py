@@ -325,9 +325,9 @@ def test_a_damper_fitted_without_friction_says_when_it_took_the_seals(seed: int,
         if effect is None:
             assert not warned, context
             continue
-        f = draw_case("friction", seed).unit.effects.friction
-        seal = float(f.force_n(np.array([NO_FLOW_SPEED_M_S]))[0])
-        if seal <= 2.0 * NO_FLOW_NOISES * draw_case("friction", seed).data_system.force.sigma:
+        case = draw_case("friction", seed)
+        seal = float(case.unit.effects.friction.force_n(np.array([NO_FLOW_SPEED_M_S]))[0])
+        if seal <= 2.0 * NO_FLOW_NOISES * case.data_system.force.sigma:
             continue
         assert warned or structured, context
         for w in warned:

@@ -15,7 +15,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hpctl import _core
 from hpctl.identify.dataset import (
     DAMPER_MEASURABLE_NOISES,
     DAMPER_WORKING_SPEED_M_S,
@@ -41,8 +40,7 @@ def template_force_n(d: Dataset) -> float:
     """The template's damper force at the record's 95th-percentile speed
     with valve 5 open (the sweep's state), from hp-core's curve."""
     v95 = float(np.percentile(np.abs(d.strut_vel_m_s), 95))
-    area = d.base.piston_area_m2
-    return float(_core.damper_pressure_drop_pa(d.base.damper.to_dict(), [v95 * area], 1.0)[0]) * area
+    return float(d.base.damper.force_n([v95], d.base.piston_area_m2, damper_on=False)[0])
 
 
 def test_a_slow_sine_whose_force_shows_the_damper_identifies_it() -> None:

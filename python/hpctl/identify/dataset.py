@@ -3,6 +3,7 @@ the measured channels it is compared with, their noise levels and weights."""
 
 from __future__ import annotations
 
+import math
 import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
@@ -11,7 +12,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hpctl import _core
 from hpctl.data.records import LOGGED_SWITCH_LEAD, RigRecord
 from hpctl.errors import HpctlError, RecordError
 from hpctl.identify.corners import clock_jitter, corners, join_residual
@@ -447,7 +447,7 @@ def damper_moves_fast(datasets: Sequence[Dataset]) -> bool:
     """Whether the strut moves fast enough somewhere (95th-percentile speed
     above :data:`DAMPER_WORKING_SPEED_M_S`) for the damper's flow to do
     work at speed: what oil compliance needs to show."""
-    return any(np.percentile(np.abs(d.strut_vel_m_s), 95) > DAMPER_WORKING_SPEED_M_S for d in datasets)
+    return any(_speed_95(d) > DAMPER_WORKING_SPEED_M_S for d in datasets)
 
 
 def uses_damper(datasets: Sequence[Dataset]) -> bool:
@@ -462,19 +462,25 @@ def uses_damper(datasets: Sequence[Dataset]) -> bool:
     viscous term of 14.7 kN s/m for 0.8) and the breakaway force read 2-25 %
     low by 7-30 of its errors on eight draws; fitted, 15 % low to 2 % high
     over six noise draws of each (docs/foreign-rig.md, stop 67)."""
-    return damper_moves_fast(datasets) or any(_damper_force_shows(d) for d in datasets)
+    return any(_damper_shows(d) for d in datasets)
 
 
-def _damper_force_shows(d: Dataset) -> bool:
-    """:func:`uses_damper`'s test on one slow record."""
-    if "force_n" not in d.targets or not np.isfinite(d.sigma.get("force_n", np.nan)):
+def _speed_95(d: Dataset) -> float:
+    """The strut's 95th-percentile speed in ``d``, m/s."""
+    return float(np.percentile(np.abs(d.strut_vel_m_s), 95))
+
+
+def _damper_shows(d: Dataset) -> bool:
+    """:func:`uses_damper`'s test on one record."""
+    v95 = _speed_95(d)
+    if v95 > DAMPER_WORKING_SPEED_M_S:
+        return True
+    sigma = d.sigma.get("force_n", math.nan)
+    if "force_n" not in d.targets or not math.isfinite(sigma):
         return False
-    area = d.base.piston_area_m2
-    q = np.array([1.0, -1.0]) * float(np.percentile(np.abs(d.strut_vel_m_s), 95)) * area
-    damper = d.base.damper.to_dict()
-    force = max(float(np.max(np.abs(_core.damper_pressure_drop_pa(damper, q, 0.0 if on else 1.0)))) * area
-                for on in {bool(x) for x in np.unique(d.damper_on)})
-    return force > DAMPER_MEASURABLE_NOISES * d.sigma["force_n"]
+    damper, area = d.base.damper, d.base.piston_area_m2
+    force = max(float(np.max(np.abs(damper.force_n([v95, -v95], area, on)))) for on in set(d.damper_on.tolist()))
+    return force > DAMPER_MEASURABLE_NOISES * sigma
 
 
 def traits(datasets: Sequence[Dataset]) -> RecordTraits:

@@ -23,9 +23,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
-from hpctl import _core
 from hpctl.identify.fit import FitResult
 
 #: The strut speed at which a fitted damper's force is compared with the
@@ -68,14 +65,11 @@ def force_at_no_flow(result: FitResult) -> list[NoFlowForce]:
     noise = min(noises)
     d = result.datasets[0]
     fitted = model.unit_for(d, result.values)
-    area = fitted.piston_area_m2
-    curves = (fitted.damper.to_dict(), d.base.damper.to_dict())
     out = []
     for branch in model.damper_branches:
         state, direction = branch.split("_")
-        q = np.array([(1.0 if direction == "compression" else -1.0) * NO_FLOW_SPEED_M_S * area])
-        bypass = 0.0 if state == "on" else 1.0
-        force, template = (abs(float(_core.damper_pressure_drop_pa(c, q, bypass)[0])) * area for c in curves)
+        v = [(1.0 if direction == "compression" else -1.0) * NO_FLOW_SPEED_M_S]
+        force, template = (abs(float(c.force_n(v, fitted.piston_area_m2, state == "on")[0])) for c in (fitted.damper, d.base.damper))
         if force - template > NO_FLOW_NOISES * noise:
             out.append(NoFlowForce(branch, force, template, noise))
     return out

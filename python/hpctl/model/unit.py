@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
@@ -92,6 +92,14 @@ class Damper:
     def to_dict(self) -> DamperDict:
         """The plain-dict form the Rust core reads."""
         return cast(DamperDict, plain(self))
+
+    def force_n(self, vel_m_s: Sequence[float], piston_area_m2: float, damper_on: bool) -> np.ndarray:
+        """The force at strut speeds ``vel_m_s`` (positive in compression)
+        on a piston of ``piston_area_m2``, valve 5 closed (``damper_on``) or
+        open: hp-core's pressure drop at the flow ``v A``, times ``A``."""
+        area = float(piston_area_m2)
+        q = np.asarray(vel_m_s, dtype=float) * area
+        return np.asarray(_core.damper_pressure_drop_pa(self.to_dict(), q, 0.0 if damper_on else 1.0)) * area
 
 
 # The effects' parameter classes, generated from the core's tables
