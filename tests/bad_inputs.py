@@ -106,6 +106,9 @@ ROWS: tuple[Row, ...] = (
         "Sampled.time_s = ['a']: expected a one-dimensional array or sequence of real numbers"),
     Row("hpctl.run_many([], threads=-1)", "raises ParameterError", "threads = -1: expected an integer from 0 (all"),
     Row('unit.replace(colour="red")', "raises ParameterError", "Unit has no field colour"),
+    Row("unit.damper.force_n([math.nan], unit.piston_area_m2, True)", "raises ParameterError", "vel_m_s = [nan]: expected finite strut speeds, m/s"),
+    Row("unit.damper.force_n([0.01], -1.0, True)", "raises ParameterError", "piston_area_m2 = -1.0: expected a positive area, m^2"),
+    Row('unit.damper.force_n([0.01], unit.piston_area_m2, "yes")', "raises ParameterError", "damper_on = 'yes': expected a bool"),
 )
 
 

@@ -97,9 +97,13 @@ class Damper:
         """The force at strut speeds ``vel_m_s`` (positive in compression)
         on a piston of ``piston_area_m2``, valve 5 closed (``damper_on``) or
         open: hp-core's pressure drop at the flow ``v A``, times ``A``."""
-        area = float(piston_area_m2)
-        q = np.asarray(vel_m_s, dtype=float) * area
-        return np.asarray(_core.damper_pressure_drop_pa(self.to_dict(), q, 0.0 if damper_on else 1.0)) * area
+        area = check_number(piston_area_m2, "piston_area_m2")
+        if not area > 0.0:
+            raise bad_argument("piston_area_m2", piston_area_m2, "a positive area, m^2")
+        v = np.asarray(vel_m_s, dtype=float)
+        if not np.all(np.isfinite(v)):
+            raise bad_argument("vel_m_s", vel_m_s, "finite strut speeds, m/s")
+        return np.asarray(_core.damper_pressure_drop_pa(self.to_dict(), v * area, 0.0 if _flag(damper_on, "damper_on") else 1.0)) * area
 
 
 # The effects' parameter classes, generated from the core's tables
