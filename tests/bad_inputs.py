@@ -73,7 +73,8 @@ ROWS: tuple[Row, ...] = (
     Row("hpctl fit NO_STATIC --out OUT", "exit 2", "[static]: missing table"),
     Row("hpctl fit TORN --out OUT", "exit 2", "torn.csv: does not match the csv_sha256 in torn.toml"),
     Row("hpctl fit RECORD --profile friction_coulomb_n --out OUT", "exit 2",
-        "--profile = 'friction_coulomb_n': expected a parameter the model fits (tau_s, charge_scale, damper_gain)"),
+        "--profile = 'friction_coulomb_n': expected a parameter the model fits or a quantity derived from them "
+        "(tau_s, charge_scale, damper_gain)"),
     Row("hpctl fit RECORD --max-evaluations 0 --out OUT", "exit 2", "Invalid value for '--max-evaluations': 0 is not in the range 1<=x<=100000."),
     # Output folders.
     Row("hpctl simulate --test sdof-step --duration-s 1 --out USER_OUT", "exit 2",

@@ -397,6 +397,8 @@ def test_fit_cli_reports_the_breakaway_force_and_warns_when_its_factors_trade(tm
     assert "friction_breakaway_n = " in w["message"] and "correlation is" in w["message"] and "damper" in w["message"]
     # Its error is not offered as one beyond the model's shapes either (stop 67).
     assert "rests on the damper's shapes and priors" in w["message"]
+    # ... and the command that gives its honest band (not asked for here).
+    assert "--profile friction_breakaway_n" in w["message"]
     assert "| `friction_breakaway_n` |" in (out / "fit.md").read_text()
 
 

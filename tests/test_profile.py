@@ -28,8 +28,19 @@ from hpctl.cli import main as cli_main
 from hpctl.errors import ParameterError
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import FitResult, _to_values, fit, residual_vector, simulate_all, standard_errors, values_from_x
-from hpctl.identify.profile import RISE_TOLERANCE, ProfileInterval, ProfilePoint, cost, held_rise, profile_interval, profile_point
+from hpctl.identify.derived import derived
+from hpctl.identify.fit import FitResult, Tie, _to_values, fit, residual_vector, simulate_all, standard_errors, values_from_x
+from hpctl.identify.profile import (
+    RISE_TOLERANCE,
+    ProfileInterval,
+    ProfilePoint,
+    cost,
+    held_rise,
+    profile_interval,
+    profile_point,
+    profiled_names,
+)
+from hpctl.model.effects import Param
 from hpctl.model.unit import Unit
 from hpctl.report.calibration import LINEAR_ERRORS
 
@@ -51,8 +62,15 @@ def friction_fit(seed: int) -> tuple[FitResult, dict[str, float]]:
 
 
 def curvature_errors(result: FitResult, h: float = 1e-3) -> dict[str, float]:
-    """The standard errors the cost's curvature alone gives: sqrt of the
-    diagonal of (J'J + P'P)^-1, J the residuals' central differences in
+    """The standard errors the cost's curvature alone gives
+    (:func:`curvature_covariance`'s diagonal)."""
+    params, cov = curvature_covariance(result, h)
+    return standard_errors(params, cov)
+
+
+def curvature_covariance(result: FitResult, h: float = 1e-3) -> tuple[list[Param], np.ndarray]:
+    """The parameters the cost's curvature is taken in and its covariance
+    (in their values): (J'J + P'P)^-1, J the residuals' central differences in
     the fit's coordinates (steps of ``h``, every run replaying the adaptive
     steps of the run at the estimate, so that a column is the model's
     sensitivity and not the step selection's) and P the priors' rows. A
@@ -69,7 +87,7 @@ def curvature_errors(result: FitResult, h: float = 1e-3) -> dict[str, float]:
     r = [residual_vector(result.datasets, sims) for sims in runs]
     j = np.column_stack([(r[2 * i] - r[2 * i + 1]) / (2.0 * h) for i in range(len(x0))])
     prior = np.diag([0.0 if p.prior_sigma is None else 1.0 / p.prior_sigma for p in params])
-    return standard_errors(params, _to_values(params, x0, np.linalg.inv(j.T @ j + prior.T @ prior)))
+    return params, _to_values(params, x0, np.linalg.inv(j.T @ j + prior.T @ prior))
 
 
 @pytest.fixture(scope="module")
@@ -249,3 +267,126 @@ def test_a_point_the_model_cannot_run_at_ends_its_side_and_is_a_warning(friction
     assert len(iv.failed) == 1 and "upper limit is not known" in iv.failed[0] and "made to fail" in iv.failed[0]
     assert not iv.covers(math.nan) and iv.to_json()["failed"] == list(iv.failed)
     assert [c.code for c in _profile_caveats([iv])] == ["case_failed"]
+
+
+# The derived breakaway force F_c r (hpctl.model.effects.DERIVED), held by
+# a Tie: the flexible friction's Stribeck ratio is fitted, the Coulomb
+# force follows. hp-core's rig with a Stribeck peak the force reaches (its
+# velocity above the smoothing's: else F_c r is hidden under the smoothing
+# and the product is not what the records show), the damper the unit's.
+FLEXIBLE = {"flexible": True, "fit_damper": False}
+BREAKAWAY = "friction_breakaway_n"
+
+
+@pytest.fixture(scope="module")
+def stribeck_fit(seed: int) -> tuple[FitResult, float]:
+    rng = np.random.default_rng(seed)
+    values = virtual_rig.effect_values(["friction"], rng)
+    values.update(friction_stribeck_ratio=float(rng.uniform(1.2, 1.5)), friction_stribeck_velocity_m_s=float(rng.uniform(5e-3, 2e-2)))
+    truth = virtual_rig.truth_unit(["friction"], values, template=Unit.seed())
+    records = virtual_rig.make_records(truth, tests=virtual_rig.tests_for(["friction"]), seed=int(rng.integers(2**31)))
+    result = fit(prepare(records), EFFECTS, input_noise=False, **FLEXIBLE)  # type: ignore[arg-type]
+    return result, values["friction_coulomb_n"] * values["friction_stribeck_ratio"]
+
+
+def _tied(result: FitResult, product: float) -> FitResult:
+    return fit(result.datasets, EFFECTS, initial=result.values, tie=Tie("friction_coulomb_n", product, ("friction_stribeck_ratio",)),
+               input_noise=False, errors=False, place_switches=False, max_nfev=300, **FLEXIBLE)  # type: ignore[arg-type]
+
+
+def test_a_tied_product_holds_and_its_factor_follows(stribeck_fit: tuple[FitResult, float], seed: int) -> None:
+    result, _ = stribeck_fit
+    v = result.values
+    estimate = v["friction_coulomb_n"] * v["friction_stribeck_ratio"]
+    at = _tied(result, estimate)
+    assert "friction_coulomb_n" not in {p.name for p in at.model.params} and "friction_coulomb_n" not in at.stderr
+    assert at.values["friction_coulomb_n"] * at.values["friction_stribeck_ratio"] == pytest.approx(estimate, rel=1e-12)
+    # At the estimate the optimum is on the tie: no rise (to the refit's
+    # tolerance); three errors out, about nine.
+    rise = cost(at, at.values) - cost(result, result.values)
+    assert abs(rise) <= RISE_TOLERANCE * 4.0, f"seed={seed}: {rise}"
+    se = next(d.stderr for d in derived(result) if d.name == BREAKAWAY)
+    out = _tied(result, estimate + 3.0 * se)
+    assert cost(out, out.values) - cost(result, result.values) > 4.0, f"seed={seed}"
+
+
+@pytest.mark.parametrize("tie, expected", [
+    (Tie("friction_nope_n", 300.0, ("friction_stribeck_ratio",)), "tie"),
+    (Tie("friction_coulomb_n", 300.0, ()), "tie"),
+    (Tie("friction_coulomb_n", 300.0, ("friction_coulomb_n",)), "tie"),
+    (Tie("friction_stribeck_ratio", 300.0, ("friction_coulomb_n",)), "tie"),  # it has a prior
+    (Tie("friction_coulomb_n", 300.0, ("friction_viscous_n_s_per_m",)), "tie"),  # a divisor that can be zero
+    (Tie("friction_coulomb_n", math.nan, ("friction_stribeck_ratio",)), "tie.product"),
+    (Tie("friction_coulomb_n", -1.0, ("friction_stribeck_ratio",)), "tie.product"),
+    (Tie("friction_coulomb_n", 1e5, ("friction_stribeck_ratio",)), "tie.product"),
+])
+def test_a_tie_the_model_cannot_hold_is_refused(stribeck_fit: tuple[FitResult, float], tie: Tie, expected: str) -> None:
+    result, _ = stribeck_fit
+    with pytest.raises(ParameterError) as e:
+        fit(result.datasets, EFFECTS, tie=tie, **FLEXIBLE)  # type: ignore[arg-type]
+    assert isinstance(e.value, ValueError) and e.value.parameter == expected  # type: ignore[attr-defined]
+    with pytest.raises(ParameterError):
+        fit(result.datasets, EFFECTS, fixed={"friction_coulomb_n": 300.0}, tie=Tie("friction_coulomb_n", 300.0, ("friction_stribeck_ratio",)),
+            **FLEXIBLE)  # type: ignore[arg-type]
+
+
+def test_where_the_cost_is_a_parabola_the_breakaway_forces_profile_is_the_delta_methods(stribeck_fit: tuple[FitResult, float],
+                                                                                        seed: int) -> None:
+    # The analytic limit for a product: the interval is the estimate +- 2
+    # errors carried from the cost's own curvature through the product
+    # (var F_c r = g' C g, g = (r, F_c)), and each limit is where a tied
+    # fit of this test's own rises by 4.
+    result, truth = stribeck_fit
+    params, cov = curvature_covariance(result)
+    names = [p.name for p in params]
+    i, j = names.index("friction_coulomb_n"), names.index("friction_stribeck_ratio")
+    v = result.values
+    g = np.array([v["friction_stribeck_ratio"], v["friction_coulomb_n"]])
+    se = math.sqrt(float(g @ cov[np.ix_([i, j], [i, j])] @ g))
+    estimate = v["friction_coulomb_n"] * v["friction_stribeck_ratio"]
+    iv = profile_interval(result, BREAKAWAY)
+    context = f"seed={seed} {iv.describe()} curvature's error {se:.6g} truth {truth:.6g} points={[(q.value, q.rise) for q in iv.points]}"
+    assert iv.lower is not None and iv.upper is not None, context
+    assert iv.estimate == pytest.approx(estimate, rel=1e-12) and iv.lower < estimate < iv.upper, context
+    for limit in (iv.lower, iv.upper):
+        assert abs(abs(limit - estimate) / (2.0 * se) - 1.0) < 0.15, context
+        held = _tied(result, limit)
+        assert abs(cost(held, held.values) - cost(result, result.values) - 4.0) < 2 * RISE_TOLERANCE * 4.0, context
+    assert iv.better_found is None, context
+    # The truth is where the records put it: inside the chi-square(1)
+    # 0.999 quantile (a false alarm in one run of a thousand).
+    assert profile_point(result, BREAKAWAY, truth).rise < 10.83, context
+
+
+def test_only_a_model_with_both_factors_profiles_the_breakaway_force(stribeck_fit: tuple[FitResult, float],
+                                                                      friction_fit: tuple[FitResult, dict[str, float]]) -> None:
+    assert BREAKAWAY in profiled_names(stribeck_fit[0].model)
+    plain = friction_fit[0]  # the fixed friction law: no Stribeck ratio fitted
+    assert BREAKAWAY not in profiled_names(plain.model) and "friction_coulomb_n" in profiled_names(plain.model)
+    with pytest.raises(ParameterError) as e:
+        profile_interval(plain, BREAKAWAY)
+    assert e.value.parameter == "name" and "friction_coulomb_n" in str(e.value)  # type: ignore[attr-defined]
+    with pytest.raises(ParameterError) as e:
+        profile_point(stribeck_fit[0], BREAKAWAY, math.nan)
+    assert e.value.parameter == "value"  # type: ignore[attr-defined]
+
+
+def test_hpctl_fit_profiles_the_breakaway_force(tmp_path: Path, seed: int) -> None:
+    runner = CliRunner()
+    rig = tmp_path / "rig"
+    r = runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
+    assert r.exit_code == 0, r.output
+    plain = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", BREAKAWAY, "--out", str(tmp_path / "bad")])
+    assert plain.exit_code != 0 and BREAKAWAY in plain.output and not (tmp_path / "bad").exists()
+    out = tmp_path / "fit"
+    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--flexible", "--profile", BREAKAWAY, "--out", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "fit.json").read_text())
+    [iv] = doc["profile_intervals"]
+    [breakaway] = [d for d in doc["derived"] if d["name"] == BREAKAWAY]
+    assert iv["name"] == BREAKAWAY and iv["estimate"] == breakaway["value"] and iv["lower"] < breakaway["value"] < iv["upper"]
+    assert len(iv["points"]) >= 2
+    # Asked for, the confounded warning no longer points to it.
+    [confounded] = [w for w in doc["warnings"] if w["code"] == "confounded"]
+    assert "--profile" not in confounded["message"]
+    assert BREAKAWAY in (out / "fit.md").read_text().split("## Profile-likelihood intervals")[1]

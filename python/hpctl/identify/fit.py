@@ -68,6 +68,23 @@ T = TypeVar("T")
 U = TypeVar("U")
 
 
+@dataclass(frozen=True)
+class Tie:
+    """A product of the model's parameters held at a value, the others
+    fitted: ``name`` is not fitted but follows them, ``name = product /
+    (the others' product)`` (a profile of a derived quantity,
+    :func:`hpctl.identify.profile.profile_interval`). ``name`` has no prior
+    (the optimiser's prior rows are the fitted parameters')."""
+
+    name: str
+    product: float
+    others: tuple[str, ...]
+
+    def value(self, values: Mapping[str, float]) -> float:
+        """``name``'s value with the others at ``values``."""
+        return self.product / math.prod(values[o] for o in self.others)
+
+
 @dataclass
 class Model:
     """A model structure: the effects it has and the parameters it fits."""
@@ -92,19 +109,31 @@ class Model:
     #: (a profile of the cost along one of them,
     #: :mod:`hpctl.identify.profile`); left out of :attr:`params`.
     fixed: Mapping[str, float] = field(default_factory=dict)
+    #: A product of parameters held (:class:`Tie`): its ``name`` left out
+    #: of :attr:`params`, following the others.
+    tie: Tie | None = None
 
     @property
     def params(self) -> list[Param]:
+        return [p for p in self.all_params if p.name not in self.fixed and (self.tie is None or p.name != self.tie.name)]
+
+    @property
+    def all_params(self) -> list[Param]:
+        """The model's parameters, those held (:attr:`fixed`, :attr:`tie`) included."""
         ps = model_params(self.effects) + [CHARGE]
         if self.flexible:
             ps += flexible_params(self.effects, self.damper_branches if self.fit_damper else (), self.valve6)
         elif self.fit_damper:
             ps.append(DAMPER_GAIN)
-        return [p for p in ps if p.name not in self.fixed]
+        return ps
 
     def with_fixed(self, values: Mapping[str, float]) -> dict[str, float]:
-        """``values`` with the :attr:`fixed` ones added."""
-        return {**self.fixed, **values}
+        """``values`` with the :attr:`fixed` ones added, and the
+        :attr:`tie`'s parameter where there is one."""
+        out = {**self.fixed, **values}
+        if self.tie is not None:
+            out[self.tie.name] = self.tie.value(out)
+        return out
 
     def unit_for(self, d: Dataset, values: Mapping[str, float]) -> Unit:
         values = {**self.held, **self.with_fixed(values)}
@@ -412,6 +441,7 @@ def fit(
     input_noise: bool = True,
     held: Mapping[str, float] | None = None,
     fixed: Mapping[str, float] | None = None,
+    tie: Tie | None = None,
     stop: Callable[[Mapping[str, float], float], bool] | None = None,
     ftol: float = 1e-8,
     jacobian: str = "finite_difference",
@@ -440,6 +470,10 @@ def fit(
     fitted (:attr:`Model.fixed`; a profile of the cost,
     :func:`hpctl.identify.profile.profile_interval`). The result's values
     include them, its errors do not.
+
+    ``tie``: a product of parameters held at a value (:class:`Tie`; a
+    profile of a derived quantity), the parameter it names following the
+    others; in the result's values, not in its errors.
 
     ``stop``: asked after every iteration of the optimiser with the values
     there and their residual sum of squares (noise units, priors left out,
@@ -498,7 +532,8 @@ def fit(
     with one_blas_thread():  # see hpctl.identify.blas
         try:
             run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
-                                    held=held, fixed=fixed, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors, place_switches=place_switches)
+                                    held=held, fixed=fixed, tie=tie, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors,
+                                    place_switches=place_switches)
             result = run(initial=initial)
             if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
                 return result
@@ -522,7 +557,7 @@ def fit(
 
 def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
          fold: int | None, flexible: bool, input_noise: bool, held: Mapping[str, float] | None, fixed: Mapping[str, float] | None,
-         stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool) -> FitResult:
+         tie: Tie | None, stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool) -> FitResult:
     """:func:`fit` without the Stribeck restart. Every argument is given:
     the defaults are :func:`fit`'s alone."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
@@ -543,6 +578,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             if p.name in fixed and not p.lower <= fixed[p.name] <= p.upper:  # also refuses NaN
                 raise bad_argument(f"fixed[{p.name!r}]", fixed[p.name], f"a value in its fit range [{p.lower:g}, {p.upper:g}]")
         model.fixed = dict(fixed)
+    if tie is not None:
+        model.tie = _checked_tie(model, tie)
     params = model.params
     # Priors (regularisation toward the nominal values) as extra residual
     # rows, so that the Jacobian and the covariance include them.
@@ -767,8 +804,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             at = values_from_x(params, x)
             known = all(d.switch_leads.size for d in datasets if switch_samples(d).size)
             placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:] if known else ROUND_SPANS)
-            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, fixed=fixed, stop=stop, ftol=ftol,
-                         jacobian=jacobian, place_switches=False)
+            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, fixed=fixed, tie=tie, stop=stop,
+                         ftol=ftol, jacobian=jacobian, place_switches=False)
             # The places found at the optimum of the midway model shift the
             # optimum, which shifts the places: a switch whose segment tells
             # its place weakly (a closing with little flow) moved from 0.65
@@ -873,7 +910,7 @@ def prior_cost(model: Model, values: Mapping[str, float]) -> float:
     """The priors' part of the fit's cost at ``values``: the squares of the
     prior rows of ``model``'s parameters, the held-fixed ones included."""
     out = 0.0
-    for p in [*model.params, *(p for p in replace(model, fixed={}).params if p.name in model.fixed)]:
+    for p in model.all_params:
         if p.prior_sigma is not None and p.name in values:
             out += ((p.to_x(values[p.name]) - p.to_x(p.typical)) / p.prior_sigma) ** 2
     return out
@@ -1029,6 +1066,26 @@ def reach(params: Sequence[Param], datasets: Sequence[Dataset]) -> list[tuple[in
 def opens_valve6(datasets: Sequence[Dataset]) -> bool:
     """Whether any record has valve 6 open (the soft spring) at some time."""
     return any(bool((~np.asarray(d.spring_hard, bool)).any()) for d in datasets)
+
+
+def _checked_tie(model: Model, tie: Tie) -> Tie:
+    """``tie`` if ``model`` can hold it: its parameter one of the model's,
+    without a prior, not fixed; the others the model's, their ranges
+    positive; its product finite and within the product of their fit
+    ranges."""
+    known = {p.name: p for p in model.all_params}
+    names = [tie.name, *tie.others]
+    if not tie.others or len(set(names)) != len(names) or any(n not in known for n in names):
+        raise bad_argument("tie", names, f"distinct parameters of the model ({', '.join(known)}), at least two")
+    if tie.name in model.fixed or known[tie.name].prior_sigma is not None:
+        raise bad_argument("tie", tie.name, "a parameter that is neither fixed nor has a prior (the others' may)")
+    if any(known[n].lower <= 0.0 for n in tie.others):
+        raise bad_argument("tie", list(tie.others), "parameters whose fit ranges exclude zero (the tied one is divided by them)")
+    lo = math.prod(known[n].lower for n in names)
+    hi = math.prod(known[n].upper for n in names)
+    if not lo <= tie.product <= hi:  # also refuses NaN
+        raise bad_argument("tie.product", tie.product, f"a product of {' x '.join(names)} in [{lo:g}, {hi:g}]")
+    return tie
 
 
 def _raise_failed(datasets: Sequence[Dataset], sims: Sequence[dict[str, FloatArray] | Exception]) -> None:

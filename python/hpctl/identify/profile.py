@@ -12,6 +12,14 @@ damper priors' by 3.0 (its orifice multipliers pulled from 6 to 21-27 x
 nominal). A point costs a fit, so the interval is asked for
 (``hpctl fit --profile``), not part of every fit.
 
+A quantity derived from fitted parameters (:data:`hpctl.model.effects.DERIVED`,
+the breakaway friction force ``F_c r``) is profiled the same way: held at
+a value by one factor following the others (:class:`hpctl.identify.fit.Tie`),
+everything else fitted again. Its error through the covariance (the delta
+method) takes the valley as straight; where it bends the profile says
+how far the records let the product go (slow sines alone, stop 68:
+docs/foreign-rig.md).
+
 The cost is the fit's own (residuals in noise units plus its priors), the
 noise taken as known: the interval is where the cost has risen by
 ``sigmas**2`` over the optimum (the likelihood-ratio test; for a model
@@ -29,8 +37,9 @@ from dataclasses import dataclass
 from typing import TypedDict
 
 from hpctl.errors import HpctlError, bad_argument
-from hpctl.identify.fit import FitResult, fit, prior_cost
-from hpctl.model.effects import Param
+from hpctl.identify.derived import derived
+from hpctl.identify.fit import FitResult, Model, Tie, fit, prior_cost
+from hpctl.model.effects import DERIVED, Param
 
 #: Points fitted per side at most.
 MAX_FITS_PER_SIDE = 6
@@ -140,34 +149,63 @@ def cost(result: FitResult, values: Mapping[str, float]) -> float:
     return result.rss + prior_cost(result.model, values)
 
 
-def _param(result: FitResult, name: str) -> Param:
+def profiled_names(model: Model) -> list[str]:
+    """What :func:`profile_interval` can hold of a fit of ``model``: its
+    fitted parameters and the derived products of them (:data:`DERIVED`)."""
+    fitted = [p.name for p in model.params]
+    return fitted + [d.name for d in DERIVED if all(f in fitted for f in d.factors)]
+
+
+def _held(result: FitResult, name: str) -> tuple[Param, float, float]:
+    """The quantity ``name`` a profile holds, as a :class:`Param` (its
+    range and coordinate), its estimate and its standard error: a fitted
+    parameter, or a derived product of them, whose range is the product of
+    its factors' and whose coordinate is linear."""
     params = {p.name: p for p in result.model.params}
-    if name not in params:
-        raise bad_argument("name", name, f"a parameter the model fitted ({', '.join(params)})")
-    return params[name]
+    if name in params:
+        return params[name], result.values[name], result.stderr.get(name, math.nan)
+    d = next((x for x in derived(result) if x.name == name), None)
+    if d is None:
+        raise bad_argument("name", name, f"a parameter the model fitted or a quantity derived from them ({', '.join(profiled_names(result.model))})")
+    lo, hi = math.prod(params[f].lower for f in d.factors), math.prod(params[f].upper for f in d.factors)
+    return Param(name, lo, hi, d.value, d.value, (lo, hi)), d.value, d.stderr
 
 
-def _refit(result: FitResult, values: Mapping[str, float], start: Mapping[str, float]) -> FitResult:
-    """``result``'s model fitted again with ``values`` held, from ``start``."""
+def _tie(result: FitResult, name: str, value: float) -> Tie:
+    """A derived product ``name`` held at ``value``: its first factor
+    without a prior follows the others (the breakaway force: the Coulomb
+    force, the Stribeck ratio fitted with its prior)."""
+    factors = next(d.factors for d in DERIVED if d.name == name)
+    params = {p.name: p for p in result.model.params}
+    follows = next(f for f in factors if params[f].prior_sigma is None)
+    return Tie(follows, value, tuple(f for f in factors if f != follows))
+
+
+def _refit(result: FitResult, values: Mapping[str, float], start: Mapping[str, float], tie: Tie | None = None) -> FitResult:
+    """``result``'s model fitted again with ``values`` (and ``tie``) held, from ``start``."""
     m = result.model
     return fit(result.datasets, m.effects, initial=start, fit_damper=m.fit_damper, flexible=m.flexible, held=m.held or None,
-               fixed={**m.fixed, **values}, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
+               fixed={**m.fixed, **values}, tie=tie, input_noise=False, errors=False, place_switches=False, max_nfev=POINT_MAX_NFEV)
 
 
 def _point(result: FitResult, name: str, value: float, start: Mapping[str, float], base: float) -> ProfilePoint:
-    r = _refit(result, {name: value}, start)
+    if any(p.name == name for p in result.model.params):
+        r = _refit(result, {name: value}, start)
+    else:
+        r = _refit(result, {}, start, _tie(result, name, value))
     return ProfilePoint(value, cost(r, r.values) - base, r.values, r.success)
 
 
 def profile_point(result: FitResult, name: str, value: float) -> ProfilePoint:
-    """One point of the profile of ``name``: the model fitted again with
+    """One point of the profile of ``name`` (a fitted parameter or a
+    derived product, :func:`profiled_names`): the model fitted again with
     it held at ``value`` (the others warm from ``result``), and the rise
     of the fit's cost over ``result``'s. ``value`` lies inside the
     ``sigmas`` profile-likelihood interval when the rise is below
     ``sigmas**2`` (one fit instead of the interval's several: to ask
     whether a value, a specification or a rig's truth, is consistent with
     the records)."""
-    p = _param(result, name)
+    p, _, _ = _held(result, name)
     if not (math.isfinite(value) and p.lower <= value <= p.upper):
         raise bad_argument("value", value, f"a value of {name} inside its fit range [{p.lower:g}, {p.upper:g}]")
     return _point(result, name, value, result.values, cost(result, result.values))
@@ -196,8 +234,9 @@ def held_rise(result: FitResult, values: Mapping[str, float]) -> float:
 
 
 def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> ProfileInterval:
-    """The ``sigmas`` profile-likelihood interval of the parameter ``name``
-    of the fitted ``result`` (a fit with its errors: they set the first
+    """The ``sigmas`` profile-likelihood interval of ``name``, a parameter
+    of the fitted ``result`` or a quantity derived from them
+    (:func:`profiled_names`; a fit with its errors: they set the first
     step). Each point fits the model again with ``name`` held, warm from
     the point before on its side, on ``result``'s datasets (its valve
     switches where it placed them), without the input noise.
@@ -209,8 +248,7 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
     ``sigmas**2``, at most :data:`MAX_FITS_PER_SIDE` fits."""
     if not (math.isfinite(sigmas) and 0.0 < sigmas <= 10.0):
         raise bad_argument("sigmas", sigmas, "a number of standard errors in (0, 10]")
-    p = _param(result, name)
-    est, se = result.values[name], result.stderr.get(name, math.nan)
+    p, est, se = _held(result, name)
     if not (math.isfinite(se) and se > 0.0):
         raise bad_argument("result", f"{name} +- {se}", "a fit with a finite, positive standard error for the parameter")
     x_est = p.to_x(est)
