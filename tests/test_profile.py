@@ -390,3 +390,44 @@ def test_hpctl_fit_profiles_the_breakaway_force(tmp_path: Path, seed: int) -> No
     [confounded] = [w for w in doc["warnings"] if w["code"] == "confounded"]
     assert "--profile" not in confounded["message"]
     assert BREAKAWAY in (out / "fit.md").read_text().split("## Profile-likelihood intervals")[1]
+
+
+def test_a_fit_stopped_short_is_fitted_again_from_the_profiles_lower_point(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                             seed: int) -> None:
+    # A fit stopped after one evaluation with tau_s three times its optimum
+    # (what a side valley of the cost leaves too): its profile finds the
+    # cost lower than at its estimate, and the fit from that point ends
+    # lower still, near the converged fit. A converged fit's profile finds
+    # no such point, and nothing is fitted again.
+    from hpctl.identify.fit import objective
+    from hpctl.identify.profile import refit_from_better
+
+    result, _ = friction_fit
+    assert refit_from_better(result, [profile_interval(result, "tau_s")], 60) is None
+    short = fit(result.datasets, EFFECTS, initial={**result.values, "tau_s": 3.0 * result.values["tau_s"]}, input_noise=False, max_nfev=1)
+    iv = profile_interval(short, "tau_s")
+    assert iv.better_found is not None, f"seed={seed} {iv.describe()}"
+    restart = refit_from_better(short, [iv], 60)
+    assert restart is not None and restart.name == "tau_s" and restart.start == iv.better_found
+    assert restart.before == objective(short) and restart.after == objective(restart.result) < restart.before + iv.better_found.rise
+    context = f"seed={seed}: {restart.result.values['tau_s']} vs {result.values['tau_s']} +- {result.stderr['tau_s']}"
+    assert abs(restart.result.values["tau_s"] - result.values["tau_s"]) < 0.1 * result.stderr["tau_s"], context
+
+
+def test_hpctl_fit_says_when_a_profile_found_a_lower_valley_and_reports_the_fit_from_there(tmp_path: Path, seed: int) -> None:
+    runner = CliRunner()
+    rig = tmp_path / "rig"
+    r = runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "fit"
+    # One evaluation: the estimate is the start, and the profile's own
+    # fits (300 evaluations each) find lower.
+    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--max-evaluations", "1", "--profile", "tau_s", "--out", str(out),
+                                 "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "fit.json").read_text())
+    [valley] = [w for w in doc["warnings"] if w["code"] == "not_converged" and "side valley" in w["message"]]
+    d = valley["details"]
+    assert d["param"] == "tau_s" and d["rise"] < 0.0 and d["cost_after"] < d["cost_before"]
+    [iv] = doc["profile_intervals"]
+    assert iv["name"] == "tau_s" and iv["estimate"] == doc["params"]["tau_s"]

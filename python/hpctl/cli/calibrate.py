@@ -28,7 +28,7 @@ from hpctl.sim import checks
 if TYPE_CHECKING:
     from hpctl.identify import diagnose
     from hpctl.identify.fit import AtBound, FitResult
-    from hpctl.identify.profile import ProfileInterval
+    from hpctl.identify.profile import ProfileInterval, Restart
     from hpctl.identify.workers import WorkerPool
 
 
@@ -139,6 +139,22 @@ def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
                 {"param": iv.name, "value": b.value, "rise": b.rise},
             ))
     return out
+
+
+def _restart_caveat(restart: Restart) -> Caveat:
+    """A fit started again from a profile point below its estimate
+    (:func:`hpctl.identify.profile.refit_from_better`): what is reported is
+    the fit from there; the first had stopped in a side valley, which a fit
+    without profiles would not have seen."""
+    p = restart.start
+    return Caveat(
+        Code.NOT_CONVERGED,
+        f"the fit had stopped in a side valley of its cost: the profile of {restart.name} found the cost {-p.rise:.3g} lower at "
+        f"{p.value:.6g}, and the fit started again from there ended {restart.before - restart.after:.3g} lower (cost "
+        f"{restart.before:.6g} -> {restart.after:.6g}); these values, errors and profiles are that fit's. The cost has more than "
+        "one valley here: a fit without --profile may stop in another",
+        {"param": restart.name, "value": p.value, "rise": p.rise, "cost_before": restart.before, "cost_after": restart.after},
+    )
 
 
 def _bound_caveats(result: FitResult) -> list[Caveat]:
@@ -348,7 +364,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         from hpctl.identify.damper_start import prefetch_static
         from hpctl.identify.dataset import carry_input_noise, measured_datasets
         from hpctl.identify.fit import at_own_noise, fit, model_for
-        from hpctl.identify.profile import profile_interval, profiled_names
+        from hpctl.identify.profile import profile_interval, profiled_names, refit_from_better
 
         effects = parse_model(model)
         budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
@@ -384,7 +400,23 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
                 # optimum (the report's are the fitted model's, above).
                 with status(rep, f"profile of {name}"):
                     profiles.append(profile_interval(fitted, name))
-            caveats = _record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + _profile_caveats(profiles)
+            restarted: list[Caveat] = []
+            if any(iv.better_found is not None for iv in profiles):
+                with status(rep, "fitting again from a profile's point below the estimate"):
+                    restart = refit_from_better(fitted, profiles, budget)
+                if restart is not None:
+                    # The estimate was a side valley's: everything from the
+                    # fit from there, its profiles again (once: a profile of
+                    # that fit finding lower still is its warning).
+                    fitted = restart.result
+                    result = at_own_noise(fitted)
+                    profiles = []
+                    for name in profiled:
+                        with status(rep, f"profile of {name}, again"):
+                            profiles.append(profile_interval(fitted, name))
+                    restarted = [_restart_caveat(restart)]
+            caveats = (_record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + restarted
+                       + _profile_caveats(profiles))
             report.fit_report(result, out, caveats, profiles, workers)
             document = with_warnings(report.fit_summary(result, profiles), caveats)
             out.write_json("fit.json", document)
