@@ -25,7 +25,7 @@ import pytest
 from click.testing import CliRunner
 
 from hpctl.cli import main as cli_main
-from hpctl.errors import ParameterError
+from hpctl.errors import ParameterError, bad_argument
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.derived import derived
@@ -431,3 +431,33 @@ def test_hpctl_fit_says_when_a_profile_found_a_lower_valley_and_reports_the_fit_
     assert d["param"] == "tau_s" and d["rise"] < 0.0 and d["cost_after"] < d["cost_before"]
     [iv] = doc["profile_intervals"]
     assert iv["name"] == "tau_s" and iv["estimate"] == doc["params"]["tau_s"]
+
+
+def test_hpctl_fit_keeps_the_fit_when_a_profile_cannot_be_had(tmp_path: Path, seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A profile refused after the fit (here: made to, as a fit whose error
+    # for the quantity is not finite refuses it) is a warning; the fit's
+    # files are written and the other profiles kept.
+    from hpctl.identify import profile
+
+    real = profile.profile_interval
+
+    def refusing(result: FitResult, name: str, **kw: float) -> ProfileInterval:
+        if name == "tau_s":
+            raise bad_argument("result", "tau_s +- inf", "a fit with a finite, positive standard error for the parameter")
+        return real(result, name, **kw)
+
+    monkeypatch.setattr(profile, "profile_interval", refusing)
+    runner = CliRunner()
+    rig = tmp_path / "rig"
+    assert runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"]).exit_code == 0
+    out = tmp_path / "fit"
+    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "tau_s", "--profile", "charge_scale", "--out", str(out),
+                                 "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "fit.json").read_text())
+    assert [iv["name"] for iv in doc["profile_intervals"]] == ["charge_scale"] and "tau_s" in doc["params"]
+    [failed] = [w for w in doc["warnings"] if w["code"] == "case_failed"]
+    assert failed["details"]["param"] == "tau_s" and "could not be had" in failed["message"] and "finite" in failed["message"]
+    strict = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "tau_s", "--out", str(tmp_path / "strict"),
+                                      "--strict", "-q"])
+    assert strict.exit_code == 3 and (tmp_path / "strict" / "fit.json").exists()

@@ -18,7 +18,7 @@ from hpctl.cli._ui import FiniteFloat, Reporter, errors, finish, force_option, o
 from hpctl.data import DEMO_DIR
 from hpctl.data.output import reading
 from hpctl.data.records import RigRecord, read_record, record_paths, write_record
-from hpctl.errors import ParameterError, bad_argument
+from hpctl.errors import HpctlError, ParameterError, bad_argument
 from hpctl.identify import MAX_NFEV, MAX_NFEV_FLEXIBLE, MAX_NFEV_LIMIT, virtual_rig
 from hpctl.model.effects import LIBRARY, MODELS, parse_model
 from hpctl.sim import checks
@@ -139,6 +139,22 @@ def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
                 {"param": iv.name, "value": b.value, "rise": b.rise},
             ))
     return out
+
+
+def _profiles(rep: Reporter, fitted: FitResult, names: Sequence[str], again: str = "") -> tuple[list[ProfileInterval], list[Caveat]]:
+    """The profile intervals of ``names``, and a warning for each that could
+    not be had (a fit whose error for it is not finite gives no first
+    step): the fit is reported either way, never lost to its profile."""
+    from hpctl.identify.profile import profile_interval
+
+    out, failed = [], []
+    for name in names:
+        with status(rep, f"profile of {name}{again}"):
+            try:
+                out.append(profile_interval(fitted, name))
+            except HpctlError as e:
+                failed.append(Caveat(Code.CASE_FAILED, f"the profile of {name} could not be had: {e}", {"param": name}))
+    return out, failed
 
 
 def _restart_caveat(restart: Restart) -> Caveat:
@@ -364,7 +380,7 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
         from hpctl.identify.damper_start import prefetch_static
         from hpctl.identify.dataset import carry_input_noise, measured_datasets
         from hpctl.identify.fit import at_own_noise, fit, model_for
-        from hpctl.identify.profile import profile_interval, profiled_names, refit_from_better
+        from hpctl.identify.profile import profiled_names, refit_from_better
 
         effects = parse_model(model)
         budget = max_evaluations or (MAX_NFEV_FLEXIBLE if flexible else MAX_NFEV)
@@ -394,12 +410,9 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
                 # input's noise carried through it, not the template's).
                 fitted = fit(datasets, effects, flexible=flexible, max_nfev=budget)
                 result = at_own_noise(fitted)
-            profiles: list[ProfileInterval] = []
-            for name in profiled:
-                # In the fit's own weights, where its estimate is the
-                # optimum (the report's are the fitted model's, above).
-                with status(rep, f"profile of {name}"):
-                    profiles.append(profile_interval(fitted, name))
+            # In the fit's own weights, where its estimate is the optimum
+            # (the report's are the fitted model's, above).
+            profiles, unprofiled = _profiles(rep, fitted, profiled)
             restarted: list[Caveat] = []
             if any(iv.better_found is not None for iv in profiles):
                 with status(rep, "fitting again from a profile's point below the estimate"):
@@ -410,13 +423,10 @@ def fit_cmd(records: tuple[Path, ...], model: str, out_dir: Path, force: bool, s
                     # that fit finding lower still is its warning).
                     fitted = restart.result
                     result = at_own_noise(fitted)
-                    profiles = []
-                    for name in profiled:
-                        with status(rep, f"profile of {name}, again"):
-                            profiles.append(profile_interval(fitted, name))
+                    profiles, unprofiled = _profiles(rep, fitted, profiled, " again")
                     restarted = [_restart_caveat(restart)]
             caveats = (_record_caveats(recs, _model_gas(result)) + _fit_caveats(result, budget, profiled) + restarted
-                       + _profile_caveats(profiles))
+                       + _profile_caveats(profiles) + unprofiled)
             report.fit_report(result, out, caveats, profiles, workers)
             document = with_warnings(report.fit_summary(result, profiles), caveats)
             out.write_json("fit.json", document)
