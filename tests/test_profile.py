@@ -471,3 +471,30 @@ def test_hpctl_fit_keeps_the_fit_when_a_profile_cannot_be_had(tmp_path: Path, se
     strict = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "tau_s", "--out", str(tmp_path / "strict"),
                                       "--strict", "-q"])
     assert strict.exit_code == 3 and (tmp_path / "strict" / "fit.json").exists()
+
+
+def test_a_profile_point_stopped_on_its_budget_goes_on_once_from_where_it_stopped(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    # Two evaluations a fit: the point's first fit stops short, the second
+    # starts where it stopped and ends no higher; a point that converges
+    # is one fit.
+    from hpctl.identify import profile
+
+    result, _ = friction_fit
+    calls: list[FitResult] = []
+    real = profile.fit
+
+    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        calls.append(real(*args, **kwargs))
+        return calls[-1]
+
+    monkeypatch.setattr(profile, "fit", counted)
+    held = result.values["tau_s"] * 1.2
+    assert profile_point(result, "tau_s", held).converged and len(calls) == 1
+    calls.clear()
+    monkeypatch.setattr(profile, "POINT_MAX_NFEV", 2)
+    short = profile_point(result, "tau_s", held)
+    first, second = calls
+    assert not first.success and second.model.fixed["tau_s"] == held
+    assert second.values != first.values and cost(second, second.values) <= cost(first, first.values)
+    assert short.rise == cost(second, second.values) - cost(result, result.values) and short.converged == second.success
