@@ -35,6 +35,15 @@ same run); and how far the records' drives could be decimated (the
 criterion is in :data:`DECIMATION_TOL`). The load average (``uptime``) is
 printed with every time: the machine is shared.
 
+Every timed row is also given as a multiple of a machine baseline measured
+in the same run, before and after the rows (:func:`machine_baseline`): the
+bundled campaign's five records run once at the flexible model's start,
+and a QR of a Jacobian the size of the campaign's (57,255 x 35), the two
+kinds of work a fit is made of. The targets are seconds on the issue's
+machine; the ratios say what a time on another machine would be there
+(stop 68: the targets were met on one 2-core Xeon and missed on an AMD
+EPYC by 10 %).
+
     python scripts/bench_diagnose.py [--only decimation,campaign,heat,fit,breakdown,parallel] [--timeout-s 1800] [--json out/bench-diagnose/result.json]
     python scripts/bench_diagnose.py --flexible [--only campaign,fit,breakdown] [--screening-jacobian broyden]
     python scripts/bench_diagnose.py --only steps
@@ -244,6 +253,39 @@ def phase_counters() -> Iterator[Phases]:
     finally:
         for r in reversed(restore):
             r()
+
+
+def machine_baseline(campaign: Path, repeats: int = 10) -> dict[str, Any]:
+    """Fixed work timed in this process, the median of ``repeats``: one run
+    of the campaign's records at the flexible model's start (hp-core in
+    Rust, its threads: what a fit's Jacobians and evaluations are) and a QR
+    of a 57,255 x 35 matrix (LAPACK on one thread: what the trust region
+    does with them)."""
+    import numpy as np
+
+    import hpctl.identify.fit as ft
+    from hpctl.data.records import read_record
+    from hpctl.identify.blas import one_blas_thread
+    from hpctl.identify.dataset import prepare
+    from hpctl.model.effects import parse_model
+
+    datasets = prepare([read_record(p) for p in sorted(campaign.glob("*.toml"))])
+    m = ft.model_for(datasets, parse_model("seed"), flexible=True)
+    values = ft.values_from_x(m.params, ft._start_x(m.params, {}))
+    a = np.asfortranarray(np.random.default_rng(0).standard_normal((57255, 35)))
+
+    def median_s(work: Callable[[], object]) -> float:
+        work()  # warm: the gas table, the pages
+        took = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            work()
+            took.append(time.perf_counter() - t0)
+        return float(np.median(took))
+
+    with one_blas_thread():
+        qr_s = median_s(lambda: np.linalg.qr(a, mode="r"))
+    return {"runs_s": median_s(lambda: ft.simulate_all(m, datasets, [values])), "qr_s": qr_s, "load": uptime()}
 
 
 def breakdown(campaign: Path, flexible: bool, screening_jacobian: str | None) -> dict[str, Any]:
@@ -459,12 +501,26 @@ def main() -> int:
     model = ["--model", "seed"] + (["--flexible"] if a.flexible else [])
     tag = "-flexible" if a.flexible else ""
     rows = []
+    timings = only & {"campaign", "heat", "fit"}
+    baselines = [machine_baseline(campaign)] if timings else []
     if "campaign" in only:
         rows.append(timed(hpctl + ["diagnose", str(campaign), *model, "--json", "--force", "--out", str(out / f"campaign{tag}")], f"campaign{tag}", a.timeout_s))
     if heat is not None and "heat" in only:
         rows.append(timed(hpctl + ["diagnose", str(heat), *model, "--json", "--force", "--out", str(out / f"heat{tag}")], f"heat{tag}", a.timeout_s))
     if "fit" in only:
         rows.append(timed(hpctl + ["fit", str(campaign), *model, "--json", "-q", "--force", "--out", str(out / f"fit{tag}")], f"fit{tag}", a.timeout_s))
+    if timings:
+        baselines.append(machine_baseline(campaign))
+        runs_s = sum(b["runs_s"] for b in baselines) / len(baselines)
+        qr_s = sum(b["qr_s"] for b in baselines) / len(baselines)
+        runs = ", ".join(f"{1e3 * b['runs_s']:.1f}" for b in baselines)
+        qrs = ", ".join(f"{1e3 * b['qr_s']:.1f}" for b in baselines)
+        loads = "; ".join(str(b["load"]) for b in baselines)
+        print(f"machine baseline (before, after): the campaign's records run once {runs} ms, a 57,255 x 35 QR {qrs} ms (load {loads})")
+        for r in rows:
+            if r.get("wall_s") is not None:
+                r["x_runs_baseline"], r["x_qr_baseline"] = r["wall_s"] / runs_s, r["wall_s"] / qr_s
+                print(f"  {r['label']:16} {r['wall_s']:.1f} s = {r['x_runs_baseline']:.0f} x the records' run, {r['x_qr_baseline']:.0f} x the QR")
     for r in rows:
         if "error" in r:
             print(f"  {r['label']}: {r['error']}")
@@ -472,7 +528,7 @@ def main() -> int:
             print(f"  {r['label']}: {r['verdict']} found={r['found']} rms/noise {r.get('rms_ratio_before')} -> {r.get('rms_ratio_after')}")
         elif "rms_ratio" in r:
             print(f"  {r['label']}: rms/noise {r['rms_ratio']:.3g}")
-    result: dict[str, Any] = {"timings": rows, "foreign_rig_version": code_version(), "cores": os.cpu_count()}
+    result: dict[str, Any] = {"timings": rows, "machine_baseline": baselines, "foreign_rig_version": code_version(), "cores": os.cpu_count()}
     if "parallel" in only:
         result["parallel"] = parallel_ratio(campaign)
     if "decimation" in only:
