@@ -498,3 +498,45 @@ def test_a_profile_point_stopped_on_its_budget_goes_on_once_from_where_it_stoppe
     assert not first.success and second.model.fixed["tau_s"] == held
     assert second.values != first.values and cost(second, second.values) <= cost(first, first.values)
     assert short.rise == cost(second, second.values) - cost(result, result.values) and short.converged == second.success
+
+
+def test_a_fit_again_that_fails_leaves_the_first_fit_reported(tmp_path: Path, seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    from hpctl.errors import SimulationError
+    from hpctl.identify import profile
+
+    def failing(*args: object, **kwargs: object) -> None:
+        raise SimulationError("record sine_1hz: the model cannot be simulated on it: (made to fail)")
+
+    monkeypatch.setattr(profile, "refit_from_better", failing)
+    runner = CliRunner()
+    rig = tmp_path / "rig"
+    assert runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"]).exit_code == 0
+    out = tmp_path / "fit"
+    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--max-evaluations", "1", "--profile", "tau_s", "--out", str(out),
+                                 "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "fit.json").read_text())
+    codes = [w["code"] for w in doc["warnings"]]
+    assert "case_failed" in codes and any("made to fail" in w["message"] for w in doc["warnings"])
+    assert not any("side valley" in w["message"] for w in doc["warnings"])
+    [iv] = doc["profile_intervals"]
+    assert iv["better_found"] and iv["estimate"] == doc["params"]["tau_s"]
+
+
+def test_a_derived_product_whose_factors_all_have_priors_is_refused(stribeck_fit: tuple[FitResult, float],
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    # The optimiser's prior rows are the fitted parameters': the factor that
+    # follows the others must have none (no derived quantity today is such).
+    from hpctl.identify import derived as derived_module
+    from hpctl.identify import profile
+    from hpctl.model.effects import DERIVED, Derived
+
+    both = Derived("friction_peak_product", "a product of two shape parameters", ("friction_stribeck_ratio", "friction_stribeck_velocity_m_s"))
+    monkeypatch.setattr(profile, "DERIVED", (*DERIVED, both))
+    monkeypatch.setattr(derived_module, "DERIVED", (*DERIVED, both))
+    result, _ = stribeck_fit
+    assert "friction_peak_product" in profiled_names(result.model)
+    v = result.values
+    with pytest.raises(ParameterError) as e:
+        profile_point(result, "friction_peak_product", v["friction_stribeck_ratio"] * v["friction_stribeck_velocity_m_s"])
+    assert e.value.parameter == "name" and "all have one" in str(e.value)  # type: ignore[attr-defined]

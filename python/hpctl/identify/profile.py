@@ -177,7 +177,9 @@ def _tie(result: FitResult, name: str, value: float) -> Tie:
     force, the Stribeck ratio fitted with its prior)."""
     factors = next(d.factors for d in DERIVED if d.name == name)
     params = {p.name: p for p in result.model.params}
-    follows = next(f for f in factors if params[f].prior_sigma is None)
+    follows = next((f for f in factors if params[f].prior_sigma is None), None)
+    if follows is None:  # the optimiser's prior rows are the fitted parameters': one must be free of one
+        raise bad_argument("name", name, f"a derived quantity with a factor without a prior ({', '.join(factors)} all have one)")
     return Tie(follows, value, tuple(f for f in factors if f != follows))
 
 
