@@ -19,6 +19,7 @@ import math
 import os
 import secrets
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -50,6 +51,25 @@ EFFECTS = ("heat_transfer", "real_gas", "friction")
 @pytest.fixture(scope="module")
 def seed() -> int:
     return int(os.environ.get("HPCTL_TEST_SEED", secrets.randbelow(2**31)))
+
+
+@pytest.fixture(scope="module")
+def friction_rig(seed: int, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A random friction draw of ``hpctl rig``, once for the module's
+    command-line tests."""
+    rig = tmp_path_factory.mktemp("profile") / "rig"
+    r = CliRunner().invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
+    assert r.exit_code == 0, r.output
+    return rig
+
+
+def fit_json(rig: Path, out: Path, *args: str) -> dict[str, Any]:
+    """``hpctl fit RIG --model EFFECTS ARGS --out OUT --json``, which must
+    succeed: its fit.json."""
+    r = CliRunner().invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), *args, "--out", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    doc: dict[str, Any] = json.loads((out / "fit.json").read_text())
+    return doc
 
 
 @pytest.fixture(scope="module")
@@ -224,18 +244,13 @@ def test_a_profile_point_below_the_optimum_or_stopped_short_is_a_warning() -> No
     assert fine.covers(1e9) and not fine.covers(1.7) and "fit range's end" in fine.describe()
 
 
-def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fitting(tmp_path: Path, seed: int) -> None:
-    runner = CliRunner()
-    rig = tmp_path / "rig"
-    r = runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
-    assert r.exit_code == 0, r.output
-    bad = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "friction_nope_n", "--out", str(tmp_path / "bad")])
+def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fitting(tmp_path: Path, friction_rig: Path) -> None:
+    bad = CliRunner().invoke(cli_main, ["fit", str(friction_rig), "--model", ",".join(EFFECTS), "--profile", "friction_nope_n", "--out",
+                                        str(tmp_path / "bad")])
     assert bad.exit_code != 0 and "--profile" in bad.output and "friction_nope_n" in bad.output
     assert not (tmp_path / "bad").exists()
     out = tmp_path / "fit"
-    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "friction_coulomb_n", "--out", str(out), "--json"])
-    assert r.exit_code == 0, r.output
-    doc = json.loads((out / "fit.json").read_text())
+    doc = fit_json(friction_rig, out, "--profile", "friction_coulomb_n")
     [iv] = doc["profile_intervals"]
     assert iv["name"] == "friction_coulomb_n" and iv["lower"] < doc["params"]["friction_coulomb_n"] < iv["upper"]
     assert len(iv["points"]) >= 2 and not iv["better_found"]
@@ -381,17 +396,12 @@ def test_only_a_model_with_both_factors_profiles_the_breakaway_force(stribeck_fi
     assert e.value.parameter == "value"  # type: ignore[attr-defined]
 
 
-def test_hpctl_fit_profiles_the_breakaway_force(tmp_path: Path, seed: int) -> None:
-    runner = CliRunner()
-    rig = tmp_path / "rig"
-    r = runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
-    assert r.exit_code == 0, r.output
-    plain = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", BREAKAWAY, "--out", str(tmp_path / "bad")])
+def test_hpctl_fit_profiles_the_breakaway_force(tmp_path: Path, friction_rig: Path) -> None:
+    plain = CliRunner().invoke(cli_main, ["fit", str(friction_rig), "--model", ",".join(EFFECTS), "--profile", BREAKAWAY, "--out",
+                                          str(tmp_path / "bad")])
     assert plain.exit_code != 0 and BREAKAWAY in plain.output and not (tmp_path / "bad").exists()
     out = tmp_path / "fit"
-    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--flexible", "--profile", BREAKAWAY, "--out", str(out), "--json"])
-    assert r.exit_code == 0, r.output
-    doc = json.loads((out / "fit.json").read_text())
+    doc = fit_json(friction_rig, out, "--flexible", "--profile", BREAKAWAY)
     [iv] = doc["profile_intervals"]
     [breakaway] = [d for d in doc["derived"] if d["name"] == BREAKAWAY]
     assert iv["name"] == BREAKAWAY and iv["estimate"] == breakaway["value"] and iv["lower"] < breakaway["value"] < iv["upper"]
@@ -424,18 +434,10 @@ def test_a_fit_stopped_short_is_fitted_again_from_the_profiles_lower_point(frict
     assert abs(restart.result.values["tau_s"] - result.values["tau_s"]) < 0.1 * result.stderr["tau_s"], context
 
 
-def test_hpctl_fit_says_when_a_profile_found_a_lower_valley_and_reports_the_fit_from_there(tmp_path: Path, seed: int) -> None:
-    runner = CliRunner()
-    rig = tmp_path / "rig"
-    r = runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"])
-    assert r.exit_code == 0, r.output
-    out = tmp_path / "fit"
+def test_hpctl_fit_says_when_a_profile_found_a_lower_valley_and_reports_the_fit_from_there(tmp_path: Path, friction_rig: Path) -> None:
     # One evaluation: the estimate is the start, and the profile's own
     # fits (300 evaluations each) find lower.
-    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--max-evaluations", "1", "--profile", "tau_s", "--out", str(out),
-                                 "--json"])
-    assert r.exit_code == 0, r.output
-    doc = json.loads((out / "fit.json").read_text())
+    doc = fit_json(friction_rig, tmp_path / "fit", "--max-evaluations", "1", "--profile", "tau_s")
     [valley] = [w for w in doc["warnings"] if w["code"] == "not_converged" and "side valley" in w["message"]]
     d = valley["details"]
     assert d["param"] == "tau_s" and d["rise"] < 0.0 and d["cost_after"] < d["cost_before"]
@@ -443,7 +445,7 @@ def test_hpctl_fit_says_when_a_profile_found_a_lower_valley_and_reports_the_fit_
     assert iv["name"] == "tau_s" and iv["estimate"] == doc["params"]["tau_s"]
 
 
-def test_hpctl_fit_keeps_the_fit_when_a_profile_cannot_be_had(tmp_path: Path, seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_hpctl_fit_keeps_the_fit_when_a_profile_cannot_be_had(tmp_path: Path, friction_rig: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # A profile refused after the fit (here: made to, as a fit whose error
     # for the quantity is not finite refuses it) is a warning; the fit's
     # files are written and the other profiles kept.
@@ -457,19 +459,12 @@ def test_hpctl_fit_keeps_the_fit_when_a_profile_cannot_be_had(tmp_path: Path, se
         return real(result, name, **kw)
 
     monkeypatch.setattr(profile, "profile_interval", refusing)
-    runner = CliRunner()
-    rig = tmp_path / "rig"
-    assert runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"]).exit_code == 0
-    out = tmp_path / "fit"
-    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "tau_s", "--profile", "charge_scale", "--out", str(out),
-                                 "--json"])
-    assert r.exit_code == 0, r.output
-    doc = json.loads((out / "fit.json").read_text())
+    doc = fit_json(friction_rig, tmp_path / "fit", "--profile", "tau_s", "--profile", "charge_scale")
     assert [iv["name"] for iv in doc["profile_intervals"]] == ["charge_scale"] and "tau_s" in doc["params"]
     [failed] = [w for w in doc["warnings"] if w["code"] == "case_failed"]
     assert failed["details"]["param"] == "tau_s" and "could not be had" in failed["message"] and "finite" in failed["message"]
-    strict = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--profile", "tau_s", "--out", str(tmp_path / "strict"),
-                                      "--strict", "-q"])
+    strict = CliRunner().invoke(cli_main, ["fit", str(friction_rig), "--model", ",".join(EFFECTS), "--profile", "tau_s", "--out",
+                                           str(tmp_path / "strict"), "--strict", "-q"])
     assert strict.exit_code == 3 and (tmp_path / "strict" / "fit.json").exists()
 
 
@@ -500,7 +495,7 @@ def test_a_profile_point_stopped_on_its_budget_goes_on_once_from_where_it_stoppe
     assert short.rise == cost(second, second.values) - cost(result, result.values) and short.converged == second.success
 
 
-def test_a_fit_again_that_fails_leaves_the_first_fit_reported(tmp_path: Path, seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_fit_again_that_fails_leaves_the_first_fit_reported(tmp_path: Path, friction_rig: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from hpctl.errors import SimulationError
     from hpctl.identify import profile
 
@@ -508,14 +503,7 @@ def test_a_fit_again_that_fails_leaves_the_first_fit_reported(tmp_path: Path, se
         raise SimulationError("record sine_1hz: the model cannot be simulated on it: (made to fail)")
 
     monkeypatch.setattr(profile, "refit_from_better", failing)
-    runner = CliRunner()
-    rig = tmp_path / "rig"
-    assert runner.invoke(cli_main, ["rig", "--out", str(rig), "--effect", "friction", "--random", "--seed", str(seed % 1000), "-q"]).exit_code == 0
-    out = tmp_path / "fit"
-    r = runner.invoke(cli_main, ["fit", str(rig), "--model", ",".join(EFFECTS), "--max-evaluations", "1", "--profile", "tau_s", "--out", str(out),
-                                 "--json"])
-    assert r.exit_code == 0, r.output
-    doc = json.loads((out / "fit.json").read_text())
+    doc = fit_json(friction_rig, tmp_path / "fit", "--max-evaluations", "1", "--profile", "tau_s")
     codes = [w["code"] for w in doc["warnings"]]
     assert "case_failed" in codes and any("made to fail" in w["message"] for w in doc["warnings"])
     assert not any("side valley" in w["message"] for w in doc["warnings"])
