@@ -360,7 +360,8 @@ MODEL_HELP = f"Model: {', '.join(MODELS)}, or effects separated by commas (from:
 @click.option("--quiet", "-q", is_flag=True)
 @click.option("--profile", "profiled", multiple=True, metavar="PARAM",
               help="Also a 2-sigma profile-likelihood interval of this fitted parameter or derived quantity (repeatable; "
-                   "friction_breakaway_n with friction): it is held on either side, the others fitted again; a fit per point.")
+                   "friction_breakaway_n with --flexible and friction): it is held on either side, the others fitted again; a fit per point; "
+                   "where one finds the cost lower than at the estimate, the fit starts again from there.")
 @click.option("--max-evaluations", "max_evaluations", type=click.IntRange(1, MAX_NFEV_LIMIT), default=None,
               help=f"The optimiser's budget of cost evaluations [default: {MAX_NFEV}, {MAX_NFEV_FLEXIBLE} with --flexible]; "
                    "a fit that stops on it is a warning (not converged).")

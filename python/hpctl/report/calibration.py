@@ -224,9 +224,10 @@ def profile_section(profiles: Sequence[ProfileInterval]) -> list[str]:
     if not profiles:
         return []
     lines = ["## Profile-likelihood intervals", "",
-             "Each parameter held at values on either side, every other parameter fitted again: the interval is where the cost "
-             "(residuals in noise units and the priors) rises by sigmas^2 over the optimum. Wider than the linear one where the "
-             "parameter trades with others along a bending valley.", "",
+             "Each parameter (or quantity derived from them, its first factor without a prior following the others) held at values "
+             "on either side, every other parameter fitted again: the interval is where the cost (residuals in noise units and the "
+             "priors) rises by sigmas^2 over the optimum. Wider than the linear one where the parameter trades with others along a "
+             "bending valley.", "",
              "| parameter | estimate | linear interval | profile interval | fits |", "|---|---|---|---|---|"]
     for iv in profiles:
         lo = f"{iv.lower:.5g}" if iv.lower is not None else "fit range's end"
