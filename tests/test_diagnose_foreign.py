@@ -295,6 +295,38 @@ def test_slow_sines_alone_identify_the_damper_beside_the_friction(seed: int) -> 
     r = fit(datasets, ("heat_transfer", "real_gas", "friction"), flexible=True, max_nfev=MAX_NFEV_FLEXIBLE)
     assert r.model.fit_damper and any(name.startswith("damper_off_") for name in r.values), f"seed={seed}"
     check_breakaway(r, g, seed)
+    check_breakaway_profile(r, g, seed)
+
+
+def check_breakaway_profile(r: Any, g: Any, seed: int) -> None:
+    """The breakaway force's profile on foreign data (stop 68: on 24 slow-sine
+    fits it held the truth in 19 where the estimate +- 2 errors held 13; not
+    asserted per draw, printed): an interval about the estimate unless it
+    found the cost lower elsewhere (which it says); and the product held at
+    the truth's by the tie costs what the two factors held there cost (the
+    tied fit started where that one ended ends no higher). A profile point
+    itself is a local fit, from two starts: it can end above the lowest
+    Stribeck ratio's (FOREIGN_RIG_SEED=1599396050: 2.23 at the truth's
+    product where both factors held at the truth's rose 1.66), which would
+    make the interval narrower than the cost's."""
+    from hpctl.identify.derived import derived
+    from hpctl.identify.fit import Tie
+    from hpctl.identify.profile import _refit, cost, profile_interval
+
+    (d,) = [d for d in derived(r) if d.name == "friction_breakaway_n"]
+    truth = g.truth["hpctl_params"]["friction_coulomb_n"] * g.truth["foreign_params"]["friction_static_ratio"]
+    iv = profile_interval(r, "friction_breakaway_n")
+    context = f"seed={seed} {iv.describe()} truth {truth:.1f}: {'held' if iv.covers(truth) else 'missed'} (linear +- {2 * d.stderr:.3g})"
+    print(context)
+    if iv.better_found is None:
+        assert (iv.lower is None or iv.lower < d.value) and (iv.upper is None or d.value < iv.upper), context
+    both = {"friction_coulomb_n": g.truth["hpctl_params"]["friction_coulomb_n"],
+            "friction_stribeck_ratio": g.truth["foreign_params"]["friction_static_ratio"]}
+    held = _refit(r, both, {**r.values, **both})
+    tied = _refit(r, {}, held.values, Tie("friction_coulomb_n", truth, ("friction_stribeck_ratio",)))
+    # (F_c = B / r reproduces the held Coulomb force to its last bits; the
+    # optimiser takes no step that raises the cost.)
+    assert cost(tied, tied.values) <= cost(held, held.values) + 1e-6, context
 
 
 def test_a_damper_fitted_without_friction_says_when_it_took_the_seals(seed: int, tmp_path: Path) -> None:

@@ -528,3 +528,36 @@ def test_a_derived_product_whose_factors_all_have_priors_is_refused(stribeck_fit
     with pytest.raises(ParameterError) as e:
         profile_point(result, "friction_peak_product", v["friction_stribeck_ratio"] * v["friction_stribeck_velocity_m_s"])
     assert e.value.parameter == "name" and "all have one" in str(e.value)  # type: ignore[attr-defined]
+
+
+def test_a_derived_products_point_is_the_lower_of_its_two_starts(stribeck_fit: tuple[FitResult, float], monkeypatch: pytest.MonkeyPatch) -> None:
+    # The product reached by the Coulomb force (the start as it is) and by
+    # the Stribeck ratio (the Coulomb force kept): two fits, the lower end
+    # kept; a fitted parameter's point is one fit. Where the ratio would
+    # leave its range [1, 3], the second start is not made.
+    from hpctl.identify import profile
+    from hpctl.identify.profile import _other_start
+
+    result, _ = stribeck_fit
+    v = result.values
+    estimate = v["friction_coulomb_n"] * v["friction_stribeck_ratio"]
+    tie = Tie("friction_coulomb_n", 1.05 * estimate, ("friction_stribeck_ratio",))
+    other = _other_start(result, tie, v)
+    assert other is not None and other["friction_coulomb_n"] == v["friction_coulomb_n"]
+    assert other["friction_stribeck_ratio"] == pytest.approx(1.05 * v["friction_stribeck_ratio"], rel=1e-12)
+    assert _other_start(result, Tie("friction_coulomb_n", 3.5 * v["friction_coulomb_n"], ("friction_stribeck_ratio",)), v) is None
+    assert _other_start(result, Tie("friction_coulomb_n", 0.9 * v["friction_coulomb_n"], ("friction_stribeck_ratio",)), v) is None
+    ends: list[FitResult] = []
+    real = profile._settled
+
+    def recorded(*args, **kwargs):  # type: ignore[no-untyped-def]
+        ends.append(real(*args, **kwargs))
+        return ends[-1]
+
+    monkeypatch.setattr(profile, "_settled", recorded)
+    point = profile_point(result, BREAKAWAY, 1.05 * estimate)
+    assert len(ends) == 2 and ends[1].values["friction_stribeck_ratio"] != ends[0].values["friction_stribeck_ratio"]
+    assert point.rise == min(cost(e, e.values) for e in ends) - cost(result, result.values)
+    ends.clear()
+    profile_point(result, "tau_s", 1.1 * v["tau_s"])
+    assert len(ends) == 1
