@@ -63,6 +63,20 @@ def friction_rig(seed: int, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return rig
 
 
+def recorded(monkeypatch: pytest.MonkeyPatch, module: Any, name: str) -> list[FitResult]:
+    """``module.name`` (a function returning a fit) replaced for the test by
+    one that also appends each fit it returns to the list returned here."""
+    real = getattr(module, name)
+    out: list[FitResult] = []
+
+    def recording(*args: Any, **kwargs: Any) -> FitResult:
+        out.append(real(*args, **kwargs))
+        return out[-1]
+
+    monkeypatch.setattr(module, name, recording)
+    return out
+
+
 def fit_json(rig: Path, out: Path, *args: str) -> dict[str, Any]:
     """``hpctl fit RIG --model EFFECTS ARGS --out OUT --json``, which must
     succeed: its fit.json."""
@@ -476,14 +490,7 @@ def test_a_profile_point_stopped_on_its_budget_goes_on_once_from_where_it_stoppe
     from hpctl.identify import profile
 
     result, _ = friction_fit
-    calls: list[FitResult] = []
-    real = profile.fit
-
-    def counted(*args, **kwargs):  # type: ignore[no-untyped-def]
-        calls.append(real(*args, **kwargs))
-        return calls[-1]
-
-    monkeypatch.setattr(profile, "fit", counted)
+    calls = recorded(monkeypatch, profile, "fit")
     held = result.values["tau_s"] * 1.2
     assert profile_point(result, "tau_s", held).converged and len(calls) == 1
     calls.clear()
@@ -547,14 +554,7 @@ def test_a_derived_products_point_is_the_lower_of_its_two_starts(stribeck_fit: t
     assert other["friction_stribeck_ratio"] == pytest.approx(1.05 * v["friction_stribeck_ratio"], rel=1e-12)
     assert _other_start(result, Tie("friction_coulomb_n", 3.5 * v["friction_coulomb_n"], ("friction_stribeck_ratio",)), v) is None
     assert _other_start(result, Tie("friction_coulomb_n", 0.9 * v["friction_coulomb_n"], ("friction_stribeck_ratio",)), v) is None
-    ends: list[FitResult] = []
-    real = profile._settled
-
-    def recorded(*args, **kwargs):  # type: ignore[no-untyped-def]
-        ends.append(real(*args, **kwargs))
-        return ends[-1]
-
-    monkeypatch.setattr(profile, "_settled", recorded)
+    ends = recorded(monkeypatch, profile, "_settled")
     point = profile_point(result, BREAKAWAY, 1.05 * estimate)
     assert len(ends) == 2 and ends[1].values["friction_stribeck_ratio"] != ends[0].values["friction_stribeck_ratio"]
     assert point.rise == min(cost(e, e.values) for e in ends) - cost(result, result.values)
