@@ -255,12 +255,12 @@ def phase_counters() -> Iterator[Phases]:
             r()
 
 
-def machine_baseline(campaign: Path, repeats: int = 10) -> dict[str, Any]:
-    """Fixed work timed in this process, the median of ``repeats``: one run
-    of the campaign's records at the flexible model's start (hp-core in
-    Rust, its threads: what a fit's Jacobians and evaluations are) and a QR
-    of a 57,255 x 35 matrix (LAPACK on one thread: what the trust region
-    does with them)."""
+def machine_baseline(campaign: Path, repeats: int = 10) -> Callable[[], dict[str, Any]]:
+    """Fixed work, prepared once, and a function that times it in this
+    process, the median of ``repeats``: one run of the campaign's records at
+    the flexible model's start (hp-core in Rust, its threads: what a fit's
+    Jacobians and evaluations are) and a QR of a 57,255 x 35 matrix (LAPACK
+    on one thread: what the trust region does with them)."""
     import numpy as np
 
     import hpctl.identify.fit as ft
@@ -283,9 +283,12 @@ def machine_baseline(campaign: Path, repeats: int = 10) -> dict[str, Any]:
             took.append(time.perf_counter() - t0)
         return float(np.median(took))
 
-    with one_blas_thread():
-        qr_s = median_s(lambda: np.linalg.qr(a, mode="r"))
-    return {"runs_s": median_s(lambda: ft.simulate_all(m, datasets, [values])), "qr_s": qr_s, "load": uptime()}
+    def measure() -> dict[str, Any]:
+        with one_blas_thread():
+            qr_s = median_s(lambda: np.linalg.qr(a, mode="r"))
+        return {"runs_s": median_s(lambda: ft.simulate_all(m, datasets, [values])), "qr_s": qr_s, "load": uptime()}
+
+    return measure
 
 
 def breakdown(campaign: Path, flexible: bool, screening_jacobian: str | None) -> dict[str, Any]:
@@ -502,15 +505,16 @@ def main() -> int:
     tag = "-flexible" if a.flexible else ""
     rows = []
     timings = only & {"campaign", "heat", "fit"}
-    baselines = [machine_baseline(campaign)] if timings else []
+    baseline = machine_baseline(campaign) if timings else None
+    baselines = [baseline()] if baseline is not None else []
     if "campaign" in only:
         rows.append(timed(hpctl + ["diagnose", str(campaign), *model, "--json", "--force", "--out", str(out / f"campaign{tag}")], f"campaign{tag}", a.timeout_s))
     if heat is not None and "heat" in only:
         rows.append(timed(hpctl + ["diagnose", str(heat), *model, "--json", "--force", "--out", str(out / f"heat{tag}")], f"heat{tag}", a.timeout_s))
     if "fit" in only:
         rows.append(timed(hpctl + ["fit", str(campaign), *model, "--json", "-q", "--force", "--out", str(out / f"fit{tag}")], f"fit{tag}", a.timeout_s))
-    if timings:
-        baselines.append(machine_baseline(campaign))
+    if baseline is not None:
+        baselines.append(baseline())
         runs_s = sum(b["runs_s"] for b in baselines) / len(baselines)
         qr_s = sum(b["qr_s"] for b in baselines) / len(baselines)
         runs = ", ".join(f"{1e3 * b['runs_s']:.1f}" for b in baselines)
