@@ -418,8 +418,17 @@ def test_hpctl_fit_profiles_the_breakaway_force(tmp_path: Path, friction_rig: Pa
     doc = fit_json(friction_rig, out, "--flexible", "--profile", BREAKAWAY)
     [iv] = doc["profile_intervals"]
     [breakaway] = [d for d in doc["derived"] if d["name"] == BREAKAWAY]
-    assert iv["name"] == BREAKAWAY and iv["estimate"] == breakaway["value"] and iv["lower"] < breakaway["value"] < iv["upper"]
-    assert len(iv["points"]) >= 2
+    assert iv["name"] == BREAKAWAY and iv["estimate"] == breakaway["value"] and len(iv["points"]) >= 2
+    # A side is a limit about the estimate, or None where no point on it
+    # rose to the target: the records do not bound the product there (rig
+    # seed 23: its Stribeck peak can hide under the smoothing, and the
+    # cost stayed within 1 of the estimate's up to 922 N for 739 N).
+    value = breakaway["value"]
+    for limit, side in ((iv["lower"], -1.0), (iv["upper"], 1.0)):
+        if limit is not None:
+            assert (limit - value) * side > 0.0, iv
+        else:
+            assert iv["failed"] or all(q["rise"] < 4.0 for q in iv["points"] if (q["value"] - value) * side > 0.0), iv
     # Asked for, the confounded warning no longer points to it.
     [confounded] = [w for w in doc["warnings"] if w["code"] == "confounded"]
     assert "--profile" not in confounded["message"]
