@@ -250,12 +250,50 @@ def test_a_profile_point_below_the_optimum_or_stopped_short_is_a_warning() -> No
     assert "WARNING" in at.describe()
     caveats = _profile_caveats([at])
     assert [c.code for c in caveats] == ["not_converged"] and "2.2" in caveats[0].message
-    fine = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, None, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, -0.1, {})))
-    assert fine.better_found is None and not _profile_caveats([fine])
+    fine = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, None, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, -0.1, {})), upper_open="range_end")
+    assert fine.better_found is None and [c.code for c in _profile_caveats([fine])] == ["profile_open"]
     short = ProfileInterval("tau_s", 2.0, 0.1, 2.0, 1.8, 2.2, (ProfilePoint(1.8, 4.0, {}), ProfilePoint(2.2, 4.1, {}, converged=False)))
     assert short.unconverged == (short.points[1],) and "too narrow" in short.describe()
     assert [c.code for c in _profile_caveats([short])] == ["not_converged"] and short.to_json()["points"][1]["converged"] is False
     assert fine.covers(1e9) and not fine.covers(1.7) and "fit range's end" in fine.describe()
+
+
+def test_a_side_the_records_do_not_bound_is_open_and_says_why(friction_fit: tuple[FitResult, dict[str, float]],
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    # A cost that never rises to the target (flat at 1 beside the
+    # estimate: the records say nothing of the parameter there). With two
+    # fits a side the search ends 4 errors out, inside the fit range: the
+    # limit is None because it was not reached, not because the range
+    # ended (rig seed 23's breakaway force: flat to 922 N for 739 N, its
+    # range's end 15,000 N). With more fits than doublings to the range's
+    # end the search reaches it: open to the range's end.
+    from hpctl.cli.calibrate import _profile_caveats
+    from hpctl.identify import profile
+    from hpctl.report.calibration import profile_section
+
+    result, _ = friction_fit
+    name = "friction_coulomb_n"
+    [p] = [q for q in result.model.params if q.name == name]
+    est, se = result.values[name], result.stderr[name]
+    assert p.lower < est - 4.0 * se and est + 4.0 * se < p.upper and not p.log  # the searches below stay inside the range
+    monkeypatch.setattr(profile, "_point", lambda r, n, value, start, base: ProfilePoint(value, 0.0 if value == est else 1.0, start))
+    monkeypatch.setattr(profile, "MAX_FITS_PER_SIDE", 2)
+    short = profile_interval(result, name)
+    assert (short.lower, short.upper, short.lower_open, short.upper_open) == (None, None, "not_reached", "not_reached")
+    assert [q.value for q in short.points] == pytest.approx([est - 4.0 * se, est - 2.0 * se, est + 2.0 * se, est + 4.0 * se])
+    assert short.to_json()["lower_open"] == "not_reached" and short.farthest(1.0) == short.points[-1]
+    assert f"(open: rise 1 at {est + 4.0 * se:.6g}, the last of 2 fits)" in short.describe() and "range's end" not in short.describe()
+    caveats = _profile_caveats([short])
+    assert [(c.code, c.details["side"], c.details["reason"]) for c in caveats] == [("profile_open", "lower", "not_reached"),
+                                                                                  ("profile_open", "upper", "not_reached")]
+    assert caveats[1].details["value"] == pytest.approx(est + 4.0 * se) and "do not bound it on its upper side" in caveats[1].message
+    assert "(open: rise 1 at" in "".join(profile_section([short]))
+    monkeypatch.setattr(profile, "MAX_FITS_PER_SIDE", 64)
+    wide = profile_interval(result, name)
+    assert (wide.lower_open, wide.upper_open) == ("range_end", "range_end")
+    assert (wide.points[0].value, wide.points[-1].value) == (p.lower, p.upper)
+    assert f"(open: rise 1 at {p.upper:.6g}, the fit range's end)" in wide.describe()
+    assert [c.details["reason"] for c in _profile_caveats([wide])] == ["range_end", "range_end"]
 
 
 def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fitting(tmp_path: Path, friction_rig: Path) -> None:
@@ -292,7 +330,7 @@ def test_a_point_the_model_cannot_run_at_ends_its_side_and_is_a_warning(friction
 
     monkeypatch.setattr(profile, "fit", failing)
     iv = profile_interval(result, "friction_coulomb_n")
-    assert iv.upper is None and iv.lower is not None and iv.lower < est
+    assert iv.upper is None and iv.upper_open == "failed" and iv.lower is not None and iv.lower < est and iv.lower_open is None
     assert len(iv.failed) == 1 and "upper limit is not known" in iv.failed[0] and "made to fail" in iv.failed[0]
     assert not iv.covers(math.nan) and iv.to_json()["failed"] == list(iv.failed)
     assert [c.code for c in _profile_caveats([iv])] == ["case_failed"]
@@ -429,6 +467,10 @@ def test_hpctl_fit_profiles_the_breakaway_force(tmp_path: Path, friction_rig: Pa
             assert (limit - value) * side > 0.0, iv
         else:
             assert iv["failed"] or all(q["rise"] < 4.0 for q in iv["points"] if (q["value"] - value) * side > 0.0), iv
+            # and says why, in a warning where the records do not bound it
+            why = iv["lower_open" if side < 0 else "upper_open"]
+            said = [w for w in doc["warnings"] if w["code"] == "profile_open" and w["details"]["side"] == ("lower" if side < 0 else "upper")]
+            assert why == "failed" and not said or why in ("range_end", "not_reached") and said[0]["details"]["reason"] == why, iv
     # Asked for, the confounded warning no longer points to it.
     [confounded] = [w for w in doc["warnings"] if w["code"] == "confounded"]
     assert "--profile" not in confounded["message"]

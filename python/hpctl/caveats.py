@@ -84,6 +84,10 @@ class Code(StrEnum):
     #: optimum) is known to understate what the records leave open: its
     #: profile interval (``hpctl fit --profile``) is the honest band.
     PROFILE_BAND = "profile_band"
+    #: A side of a profile interval the records did not bound: the cost
+    #: had not risen by sigmas^2 at the fit range's end, or at the farthest
+    #: value its points searched. The interval is open there.
+    PROFILE_OPEN = "profile_open"
     #: A wheel left the ground (its tyre force reached zero): the vehicle
     #: results there depend on the lift-off model.
     WHEEL_LIFT_OFF = "wheel_lift_off"

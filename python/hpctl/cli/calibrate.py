@@ -119,10 +119,22 @@ def _noise_caveats(result: FitResult) -> list[Caveat]:
 
 def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
     """A profile that found a lower cost than the fit's optimum, a point the
-    model could not be run at, or a point whose fit stopped short."""
+    model could not be run at, a point whose fit stopped short, or a side
+    the records did not bound."""
     out = []
     for iv in profiles:
         out += [Caveat(Code.CASE_FAILED, f"profile of {iv.name}: {f}", {"param": iv.name}) for f in iv.failed]
+        for side, direction, why in (("lower", -1.0, iv.lower_open), ("upper", 1.0, iv.upper_open)):
+            if why not in ("range_end", "not_reached") or (last := iv.farthest(direction)) is None:
+                continue
+            where = "at the end of its fit range" if why == "range_end" else "at the farthest of its points"
+            out.append(Caveat(
+                Code.PROFILE_OPEN,
+                f"profile of {iv.name}: the records do not bound it on its {side} side within the values searched (the cost rose "
+                f"{last.rise:.3g} {where}, {last.value:.6g}, against {iv.sigmas**2:g} for the {iv.sigmas:g}-sigma limit; the "
+                f"estimate {iv.estimate:.6g}): the interval is open there",
+                {"param": iv.name, "side": side, "reason": why, "value": last.value, "rise": last.rise},
+            ))
         if bad := iv.unconverged:
             out.append(Caveat(
                 Code.NOT_CONVERGED,

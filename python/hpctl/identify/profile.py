@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypedDict
+from typing import Literal, TypedDict
 
 from hpctl.errors import HpctlError, bad_argument
 from hpctl.identify.derived import derived
@@ -53,6 +53,11 @@ POINT_MAX_NFEV = 300
 #: target (``sigmas**2``).
 RISE_TOLERANCE = 0.1
 
+#: Why a side of an interval has no limit: the cost had not risen to the
+#: target at the fit range's end, or at the last of the side's
+#: :data:`MAX_FITS_PER_SIDE` points, or the model could not be run there.
+Open = Literal["range_end", "not_reached", "failed"]
+
 
 class ProfilePointJson(TypedDict):
     value: float
@@ -69,6 +74,8 @@ class ProfileIntervalJson(TypedDict):
     sigmas: float
     lower: float | None
     upper: float | None
+    lower_open: Open | None
+    upper_open: Open | None
     better_found: bool
     points: list[ProfilePointJson]
     failed: list[str]
@@ -91,9 +98,10 @@ class ProfilePoint:
 @dataclass(frozen=True)
 class ProfileInterval:
     """Where the cost rises by ``sigmas**2`` on either side of the
-    estimate. A limit is None where the parameter's fit range ends first
-    (the data do not bound it there) or where the model could not be run
-    (:attr:`failed` says so)."""
+    estimate. A limit is None where the records do not bound it within what
+    was searched, and :attr:`lower_open` / :attr:`upper_open` say why: the
+    parameter's fit range ends first, the side's points never rose to the
+    target, or the model could not be run (:attr:`failed` says where)."""
 
     name: str
     estimate: float
@@ -105,6 +113,9 @@ class ProfileInterval:
     #: Points the model could not be run at (each ended its side, whose
     #: limit is then None: not known, not unbounded).
     failed: tuple[str, ...] = ()
+    #: Why :attr:`lower` (:attr:`upper`) is None; None where it is a limit.
+    lower_open: Open | None = None
+    upper_open: Open | None = None
 
     def covers(self, value: float) -> bool:
         return (self.lower is None or self.lower <= value) and (self.upper is None or value <= self.upper)
@@ -126,12 +137,31 @@ class ProfileInterval:
 
     def to_json(self) -> ProfileIntervalJson:
         return {"name": self.name, "estimate": self.estimate, "stderr": self.stderr, "sigmas": self.sigmas,
-                "lower": self.lower, "upper": self.upper, "better_found": self.better_found is not None,
+                "lower": self.lower, "upper": self.upper, "lower_open": self.lower_open, "upper_open": self.upper_open, "better_found": self.better_found is not None,
                 "points": [ProfilePointJson(value=q.value, rise=q.rise, converged=q.converged) for q in self.points], "failed": list(self.failed)}
 
+    def farthest(self, direction: float) -> ProfilePoint | None:
+        """The point farthest from the estimate below (``direction`` < 0)
+        or above it: where an open side's search ended."""
+        return max((q for q in self.points if (q.value - self.estimate) * direction > 0), key=lambda q: abs(q.value - self.estimate),
+                   default=None)
+
+    def limit_text(self, direction: float, digits: int = 6) -> str:
+        """The lower (``direction`` < 0) or upper limit, or why there is none
+        and how far its search went."""
+        limit, why = (self.lower, self.lower_open) if direction < 0 else (self.upper, self.upper_open)
+        if limit is not None:
+            return f"{limit:.{digits}g}"
+        if why == "failed":
+            return "(not known: the model failed)"
+        last = self.farthest(direction)
+        if last is None:
+            return "(open)"
+        where = "the fit range's end" if why == "range_end" else f"the last of {MAX_FITS_PER_SIDE} fits"
+        return f"(open: rise {last.rise:.3g} at {last.value:.{digits}g}, {where})"
+
     def describe(self) -> str:
-        lo = f"{self.lower:.6g}" if self.lower is not None else "(fit range's end)"
-        hi = f"{self.upper:.6g}" if self.upper is not None else "(fit range's end)"
+        lo, hi = self.limit_text(-1.0), self.limit_text(1.0)
         text = (f"{self.name}: {self.estimate:.6g}, {self.sigmas:g}-sigma profile interval [{lo}, {hi}] "
                 f"(linear: +- {self.sigmas * self.stderr:.3g}; {len(self.points)} fits)")
         if (b := self.better_found) is not None:
@@ -301,7 +331,7 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
         points.append(pt)
         return pt
 
-    def side(direction: float) -> float | None:
+    def side(direction: float) -> tuple[float | None, Open | None]:
         end = hi_x if direction > 0 else lo_x
         x_prev, t_prev = x_est, 0.0
         x = x_est + direction * sigmas * se_x
@@ -313,13 +343,13 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
             except HpctlError as e:
                 failed.append(f"the model could not be run with {name} = {p.from_x(clipped):.6g}, so the interval's "
                               f"{'upper' if direction > 0 else 'lower'} limit is not known: {e}")
-                return None
+                return None, "failed"
             start = pt.values
             t = math.sqrt(max(pt.rise, 0.0))
             if abs(pt.rise - target) <= RISE_TOLERANCE * target:
-                return pt.value
+                return pt.value, None
             if clipped == end and pt.rise < target:
-                return None
+                return None, "range_end"
             # The secant on sqrt(rise) through the last two points (the
             # estimate's is 0); where it does not rise, twice as far.
             if t > t_prev:
@@ -333,18 +363,19 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
         above = [q for q in mine if q.rise >= target]
         below = [q for q in mine if q.rise < target]
         if not above:
-            return None
+            return None, "not_reached"
         far = min(above, key=lambda q: abs(p.to_x(q.value) - x_est))
         near = max(below, key=lambda q: abs(p.to_x(q.value) - x_est), default=None)
         if near is None:
-            return far.value
+            return far.value, None
         a, b = p.to_x(near.value), p.to_x(far.value)
         ta, tb = math.sqrt(max(near.rise, 0.0)), math.sqrt(far.rise)
-        return p.from_x(a + (sigmas - ta) * (b - a) / (tb - ta))
+        return p.from_x(a + (sigmas - ta) * (b - a) / (tb - ta)), None
 
-    lower = side(-1.0)
-    upper = side(1.0)
-    return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(points, key=lambda q: q.value)), tuple(failed))
+    lower, lower_open = side(-1.0)
+    upper, upper_open = side(1.0)
+    return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(points, key=lambda q: q.value)), tuple(failed),
+                           lower_open, upper_open)
 
 
 @dataclass(frozen=True)

@@ -230,9 +230,8 @@ def profile_section(profiles: Sequence[ProfileInterval]) -> list[str]:
              "bending valley.", "",
              "| parameter | estimate | linear interval | profile interval | fits |", "|---|---|---|---|---|"]
     for iv in profiles:
-        lo = f"{iv.lower:.5g}" if iv.lower is not None else "fit range's end"
-        hi = f"{iv.upper:.5g}" if iv.upper is not None else "fit range's end"
-        lines.append(f"| {iv.name} | {iv.estimate:.5g} | +- {iv.sigmas * iv.stderr:.3g} ({iv.sigmas:g} sigma) | [{lo}, {hi}] | {len(iv.points)} |")
+        lines.append(f"| {iv.name} | {iv.estimate:.5g} | +- {iv.sigmas * iv.stderr:.3g} ({iv.sigmas:g} sigma) | "
+                     f"[{iv.limit_text(-1.0, 5)}, {iv.limit_text(1.0, 5)}] | {len(iv.points)} |")
     return [*lines, ""]
 
 
