@@ -1068,6 +1068,13 @@ def opens_valve6(datasets: Sequence[Dataset]) -> bool:
     return any(bool((~np.asarray(d.spring_hard, bool)).any()) for d in datasets)
 
 
+def product_range(factors: Sequence[Param]) -> tuple[float, float]:
+    """The range of a product of parameters (a :class:`Tie`'s, a derived
+    quantity's): the products of their fit ranges' ends, which are its
+    ends where the ranges are positive (as a tie's divisors' must be)."""
+    return math.prod(p.lower for p in factors), math.prod(p.upper for p in factors)
+
+
 def _checked_tie(model: Model, tie: Tie) -> Tie:
     """``tie`` if ``model`` can hold it: its parameter one of the model's,
     without a prior, not fixed; the others the model's, their ranges
@@ -1081,8 +1088,7 @@ def _checked_tie(model: Model, tie: Tie) -> Tie:
         raise bad_argument("tie", tie.name, "a parameter that is neither fixed nor has a prior (the others' may)")
     if any(known[n].lower <= 0.0 for n in tie.others):
         raise bad_argument("tie", list(tie.others), "parameters whose fit ranges exclude zero (the tied one is divided by them)")
-    lo = math.prod(known[n].lower for n in names)
-    hi = math.prod(known[n].upper for n in names)
+    lo, hi = product_range([known[n] for n in names])
     if not lo <= tie.product <= hi:  # also refuses NaN
         raise bad_argument("tie.product", tie.product, f"a product of {' x '.join(names)} in [{lo:g}, {hi:g}]")
     return tie

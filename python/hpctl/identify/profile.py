@@ -38,7 +38,7 @@ from typing import Literal, TypedDict
 
 from hpctl.errors import HpctlError, bad_argument
 from hpctl.identify.derived import derived
-from hpctl.identify.fit import FitResult, Model, Tie, fit, objective, prior_cost
+from hpctl.identify.fit import FitResult, Model, Tie, fit, objective, prior_cost, product_range
 from hpctl.model.effects import DERIVED, Param
 
 #: Points fitted per side at most.
@@ -197,7 +197,7 @@ def _held(result: FitResult, name: str) -> tuple[Param, float, float]:
     d = next((x for x in derived(result) if x.name == name), None)
     if d is None:
         raise bad_argument("name", name, f"a parameter the model fitted or a quantity derived from them ({', '.join(profiled_names(result.model))})")
-    lo, hi = math.prod(params[f].lower for f in d.factors), math.prod(params[f].upper for f in d.factors)
+    lo, hi = product_range([params[f] for f in d.factors])
     return Param(name, lo, hi, d.value, d.value, (lo, hi)), d.value, d.stderr
 
 
