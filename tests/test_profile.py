@@ -44,6 +44,7 @@ from hpctl.identify.profile import (
 from hpctl.model.effects import Param
 from hpctl.model.unit import Unit
 from hpctl.report.calibration import LINEAR_ERRORS
+from in_turn import InTurn
 
 EFFECTS = ("heat_transfer", "real_gas", "friction")
 
@@ -294,6 +295,54 @@ def test_a_side_the_records_do_not_bound_is_open_and_says_why(friction_fit: tupl
     assert (wide.points[0].value, wide.points[-1].value) == (p.lower, p.upper)
     assert f"(open: rise 1 at {p.upper:.6g}, the fit range's end)" in wide.describe()
     assert [c.details["reason"] for c in _profile_caveats([wide])] == ["range_end", "range_end"]
+
+
+def test_the_sides_fitted_side_by_side_give_the_interval_fitted_in_turn(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    # Each side is a chain of fits warm from its own last point: whether
+    # the other side runs beside it changes nothing, bit for bit.
+    from hpctl.identify import profile
+
+    result, _ = friction_fit
+    beside = profile_interval(result, "tau_s")
+    monkeypatch.setattr(profile, "ThreadPoolExecutor", InTurn)
+    in_turn = profile_interval(result, "tau_s")
+    assert beside == in_turn and beside.lower is not None and beside.upper is not None
+
+
+def test_a_side_that_is_stopped_stops_the_other_after_its_fit_under_way(friction_fit: tuple[FitResult, dict[str, float]],
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    # Ctrl-C (here an exception that is not an error, as KeyboardInterrupt
+    # is not) in the upper side: the lower side, in its thread, ends after
+    # the fit it is in, not after all of its own, and the stop reaches the
+    # caller.
+    import threading
+
+    from hpctl.identify import profile
+
+    class Stop(BaseException):
+        pass
+
+    result, _ = friction_fit
+    est = result.values["tau_s"]
+    lower_fits: list[float] = []
+    first_lower = threading.Event()
+
+    def point(r: FitResult, n: str, value: float, start: Any, base: float) -> ProfilePoint:
+        if value > est:
+            first_lower.wait(10.0)
+            raise Stop()
+        lower_fits.append(value)
+        first_lower.set()
+        threading.Event().wait(0.3)  # a fit under way when the stop comes
+        return ProfilePoint(value, 0.5, start)  # never the target: six fits unless stopped
+
+    monkeypatch.setattr(profile, "_point", point)
+    with pytest.raises(Stop):
+        profile_interval(result, "tau_s")
+    # One fit, more only where this thread was slow to stop (a loaded
+    # machine); never all six.
+    assert 1 <= len(lower_fits) < profile.MAX_FITS_PER_SIDE
 
 
 def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fitting(tmp_path: Path, friction_rig: Path) -> None:

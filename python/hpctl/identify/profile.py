@@ -32,11 +32,14 @@ says the cost's shape, not the noise's.
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Literal, TypedDict
 
 from hpctl.errors import HpctlError, bad_argument
+from hpctl.identify.blas import one_blas_thread
 from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, Model, Tie, fit, objective, prior_cost, product_range
 from hpctl.model.effects import DERIVED, Param
@@ -323,27 +326,25 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
     lo_x, hi_x = p.x_bounds()
     base = cost(result, result.values)
     target = sigmas**2
-    points: list[ProfilePoint] = []
-    failed: list[str] = []
 
-    def at(x: float, start: Mapping[str, float]) -> ProfilePoint:
-        pt = _point(result, name, p.from_x(x), start, base)
-        points.append(pt)
-        return pt
-
-    def side(direction: float) -> tuple[float | None, Open | None]:
+    def side(direction: float, points: list[ProfilePoint], failed: list[str], halt: threading.Event) -> tuple[float | None, Open | None]:
+        # One side's points and failures go to its own lists: the two sides
+        # run at once (below).
         end = hi_x if direction > 0 else lo_x
         x_prev, t_prev = x_est, 0.0
         x = x_est + direction * sigmas * se_x
         start: Mapping[str, float] = result.values
         for _ in range(MAX_FITS_PER_SIDE):
+            if halt.is_set():  # the other side failed: the interval is not had
+                return None, None
             clipped = min(max(x, lo_x), hi_x)
             try:
-                pt = at(clipped, start)
+                pt = _point(result, name, p.from_x(clipped), start, base)
             except HpctlError as e:
                 failed.append(f"the model could not be run with {name} = {p.from_x(clipped):.6g}, so the interval's "
                               f"{'upper' if direction > 0 else 'lower'} limit is not known: {e}")
                 return None, "failed"
+            points.append(pt)
             start = pt.values
             t = math.sqrt(max(pt.rise, 0.0))
             if abs(pt.rise - target) <= RISE_TOLERANCE * target:
@@ -359,9 +360,8 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
             x_prev, t_prev, x = clipped, t, x_next
         # Not within the tolerance: the point nearest the target on this
         # side, between the last below and the first above it.
-        mine = [q for q in points if (p.to_x(q.value) - x_est) * direction > 0]
-        above = [q for q in mine if q.rise >= target]
-        below = [q for q in mine if q.rise < target]
+        above = [q for q in points if q.rise >= target]
+        below = [q for q in points if q.rise < target]
         if not above:
             return None, "not_reached"
         far = min(above, key=lambda q: abs(p.to_x(q.value) - x_est))
@@ -372,10 +372,26 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
         ta, tb = math.sqrt(max(near.rise, 0.0)), math.sqrt(far.rise)
         return p.from_x(a + (sigmas - ta) * (b - a) / (tb - ta)), None
 
-    lower, lower_open = side(-1.0)
-    upper, upper_open = side(1.0)
-    return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(points, key=lambda q: q.value)), tuple(failed),
-                           lower_open, upper_open)
+    # The two sides at once, the lower in a thread of its own: each is a
+    # chain of fits warm from the one before, independent of the other
+    # side, so the interval is the same either way; a fit's serial
+    # stretches (the optimiser's linear algebra, a long record run alone)
+    # leave a core idle that the other side's fit takes (BENCHMARKS.md,
+    # stop 69). BLAS on one thread for both, set here (hpctl.identify.blas).
+    lows: tuple[list[ProfilePoint], list[str]] = ([], [])
+    highs: tuple[list[ProfilePoint], list[str]] = ([], [])
+    halt = threading.Event()
+    with one_blas_thread(), ThreadPoolExecutor(max_workers=1, thread_name_prefix="hpctl-profile") as pool:
+        below_side = pool.submit(side, -1.0, *lows, halt)
+        try:
+            upper, upper_open = side(1.0, *highs, halt)
+        except BaseException:
+            # Ctrl-C or a bug: the lower side stops after its fit under way.
+            halt.set()
+            raise
+        lower, lower_open = below_side.result()
+    return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(lows[0] + highs[0], key=lambda q: q.value)),
+                           tuple(lows[1] + highs[1]), lower_open, upper_open)
 
 
 @dataclass(frozen=True)
