@@ -175,14 +175,17 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
     # _try_all starts _confirmed's finite-difference screening of the best
     # finished candidate once every screening fit has started, beside the
     # ones still running; _confirmed then takes it instead of fitting it
-    # again. Stand-in fits: friction's screening finishes at once, the
-    # leak's waits until friction's finite-difference screening has begun
-    # (a timeout there is the failure), and the sensor offset's finishes
-    # at once with a gain _accept would refuse (no speculation on it).
+    # again. Stand-in fits: the sensor offset's finishes first, with a gain
+    # _accept would weigh but a fifth of the excess explained (less than
+    # AHEAD_SHARE: no speculation on it, a fit still running may explain
+    # the rest); friction's next, with most of it; the leak's waits until
+    # friction's finite-difference screening has begun (a timeout there is
+    # the failure).
     import threading
 
     began = threading.Event()
     leak_started = threading.Event()  # so that every fit has started when the others finish
+    offset_told = threading.Event()
     calls: list[tuple[tuple[str, ...], str | None]] = []
 
     def candidate(add: tuple[str, ...], delta_bic: float, explained: float, how: str) -> Any:
@@ -203,17 +206,22 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
             return candidate(add, 20.0, 0.001, "broyden")
         assert leak_started.wait(60.0)
         if add == ("sensor_offset",):
-            return candidate(add, 30.0, 0.001, "broyden")
+            return candidate(add, 5_000.0, 0.2, "broyden")
+        assert offset_told.wait(60.0)  # the round has taken the offset's in (and not speculated on it)
         return candidate(add, 8_000.0, 0.7, "broyden")
 
+    def say(message: str) -> None:
+        if "(sensor_offset) fitted" in message:
+            offset_told.set()
+
     monkeypatch.setattr(diagnose_module, "_try", fake_try)
-    clock = diagnose_module._Clock(lambda _m: None, 1)
+    clock = diagnose_module._Clock(say, 1)
     ahead: dict[tuple[str, ...], Any] = {}
     with ThreadPoolExecutor(max_workers=4) as pool:
         ranked = diagnose_module._try_all([], None, (), [("friction",), ("sensor_offset",), ("leakage",)], clock, pool,  # type: ignore[arg-type]
                                           ahead=ahead)
-        assert [c.effect for c in ranked] == ["friction", "leakage", "sensor_offset"]
-        assert list(ahead) == [("friction",)]
+        assert [c.effect for c in ranked] == ["friction", "sensor_offset", "leakage"]
+        assert list(ahead) == [("friction",)] and 0.2 < diagnose_module.AHEAD_SHARE < 0.7
         confirmed = diagnose_module._confirmed([], None, (), ranked[0], clock, ahead)  # type: ignore[arg-type]
     assert confirmed.delta_bic == 9_000.0 and confirmed.broyden_delta_bic == 8_000.0 and not ahead
     assert calls.count((("friction",), again)) == 1 and len(calls) == 4
