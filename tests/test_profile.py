@@ -310,12 +310,13 @@ def test_the_sides_fitted_side_by_side_give_the_interval_fitted_in_turn(friction
     assert beside == in_turn and beside.lower is not None and beside.upper is not None
 
 
+@pytest.mark.parametrize("stopped", ["upper", "lower"])
 def test_a_side_that_is_stopped_stops_the_other_after_its_fit_under_way(friction_fit: tuple[FitResult, dict[str, float]],
-                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
-    # Ctrl-C (here an exception that is not an error, as KeyboardInterrupt
-    # is not) in the upper side: the lower side, in its thread, ends after
-    # the fit it is in, not after all of its own, and the stop reaches the
-    # caller.
+                                                                         monkeypatch: pytest.MonkeyPatch, stopped: str) -> None:
+    # Ctrl-C or a bug (here an exception that is not an error, as
+    # KeyboardInterrupt is not) in one side, the upper in this thread or
+    # the lower in its own: the other side ends after the fit it is in,
+    # not after all of its own, and the stop reaches the caller.
     import threading
 
     from hpctl.identify import profile
@@ -325,24 +326,24 @@ def test_a_side_that_is_stopped_stops_the_other_after_its_fit_under_way(friction
 
     result, _ = friction_fit
     est = result.values["tau_s"]
-    lower_fits: list[float] = []
-    first_lower = threading.Event()
+    other_fits: list[float] = []
+    other_began = threading.Event()
 
     def point(r: FitResult, n: str, value: float, start: Any, base: float) -> ProfilePoint:
-        if value > est:
-            first_lower.wait(10.0)
+        if (value > est) == (stopped == "upper"):
+            assert other_began.wait(10.0)
             raise Stop()
-        lower_fits.append(value)
-        first_lower.set()
+        other_fits.append(value)
+        other_began.set()
         threading.Event().wait(0.3)  # a fit under way when the stop comes
         return ProfilePoint(value, 0.5, start)  # never the target: six fits unless stopped
 
     monkeypatch.setattr(profile, "_point", point)
     with pytest.raises(Stop):
         profile_interval(result, "tau_s")
-    # One fit, more only where this thread was slow to stop (a loaded
-    # machine); never all six.
-    assert 1 <= len(lower_fits) < profile.MAX_FITS_PER_SIDE
+    # One fit, more only where the stopped side was slow to say so (a
+    # loaded machine); never all six.
+    assert 1 <= len(other_fits) < profile.MAX_FITS_PER_SIDE
 
 
 def test_hpctl_fit_reports_profile_intervals_and_refuses_a_wrong_name_before_fitting(tmp_path: Path, friction_rig: Path) -> None:

@@ -381,14 +381,18 @@ def profile_interval(result: FitResult, name: str, *, sigmas: float = 2.0) -> Pr
     lows: tuple[list[ProfilePoint], list[str]] = ([], [])
     highs: tuple[list[ProfilePoint], list[str]] = ([], [])
     halt = threading.Event()
-    with one_blas_thread(), ThreadPoolExecutor(max_workers=1, thread_name_prefix="hpctl-profile") as pool:
-        below_side = pool.submit(side, -1.0, *lows, halt)
+
+    def halting(direction: float, kept: tuple[list[ProfilePoint], list[str]]) -> tuple[float | None, Open | None]:
+        # Ctrl-C or a bug in one side: the other stops after its fit under way.
         try:
-            upper, upper_open = side(1.0, *highs, halt)
+            return side(direction, *kept, halt)
         except BaseException:
-            # Ctrl-C or a bug: the lower side stops after its fit under way.
             halt.set()
             raise
+
+    with one_blas_thread(), ThreadPoolExecutor(max_workers=1, thread_name_prefix="hpctl-profile") as pool:
+        below_side = pool.submit(halting, -1.0, lows)
+        upper, upper_open = halting(1.0, highs)
         lower, lower_open = below_side.result()
     return ProfileInterval(name, est, se, sigmas, lower, upper, tuple(sorted(lows[0] + highs[0], key=lambda q: q.value)),
                            tuple(lows[1] + highs[1]), lower_open, upper_open)
