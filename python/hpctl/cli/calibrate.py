@@ -127,12 +127,11 @@ def _profile_caveats(profiles: Sequence[ProfileInterval]) -> list[Caveat]:
         for side, direction, why in (("lower", -1.0, iv.lower_open), ("upper", 1.0, iv.upper_open)):
             if why not in ("range_end", "not_reached") or (last := iv.farthest(direction)) is None:
                 continue
-            where = "at the end of its fit range" if why == "range_end" else "at the farthest of its points"
             out.append(Caveat(
                 Code.PROFILE_OPEN,
-                f"profile of {iv.name}: the records do not bound it on its {side} side within the values searched (the cost rose "
-                f"{last.rise:.3g} {where}, {last.value:.6g}, against {iv.sigmas**2:g} for the {iv.sigmas:g}-sigma limit; the "
-                f"estimate {iv.estimate:.6g}): the interval is open there",
+                f"profile of {iv.name}: the records do not bound it on its {side} side within the values searched "
+                f"{iv.limit_text(direction)}, where the {iv.sigmas:g}-sigma limit needs a rise of {iv.sigmas**2:g} (the estimate "
+                f"{iv.estimate:.6g}): the interval is open there",
                 {"param": iv.name, "side": side, "reason": why, "value": last.value, "rise": last.rise},
             ))
         if bad := iv.unconverged:

@@ -63,7 +63,8 @@ ACCEPTED_MAX_NFEV = 200
 # way to bend, not the physics that is missing.
 EXPLAINED_SHARE = 0.05
 #: The share of the excess a finished candidate must explain to be screened
-#: again ahead, while the last candidates' fits still run (:func:`_try_all`).
+#: again ahead, while the last candidates' fits still run (:func:`_try_all`);
+#: above EXPLAINED_SHARE, so that only a candidate _accept could take is.
 AHEAD_SHARE = 0.5
 # An effect's parameters must be this many standard errors from where the
 # effect does nothing for it to be accepted (Candidate.shows_itself).
@@ -696,16 +697,15 @@ def _try_all(
             best = max((x for x in out if x is not None), key=lambda x: x.score)
             # Only one _accept could take (its gates before the finite
             # differences): on the bundled campaign leakage finished first
-            # at +25 in BIC, explaining 0.06 % of the excess. And only one
-            # that explains most of the excess (AHEAD_SHARE): one that
+            # at +25 in BIC, explaining 0.06 % of the excess. And of those
+            # only one that explains most of the excess (AHEAD_SHARE): one that
             # leaves more of it can be overtaken by a fit still running
             # that explains the rest, and its second screening then takes
             # a core from the fits that must finish (the bundled heat run:
             # sensor offset, 10 % of the excess, screened again for 9 s
             # beside three running fits before heat build-up, all of it,
             # finished far above it; BENCHMARKS.md, stop 69).
-            if (best.delta_bic > BIC_STRONG and best.explained >= max(EXPLAINED_SHARE, AHEAD_SHARE) and _rescreened(best)
-                    and best.effects not in ahead):
+            if best.delta_bic > BIC_STRONG and best.explained >= AHEAD_SHARE and _rescreened(best) and best.effects not in ahead:
                 ahead[best.effects] = pool.submit(_try, datasets, current, effects, best.effects, *RESCREEN)
     clock.credit = 0.0
     ranked = [c for c in out if c is not None]
