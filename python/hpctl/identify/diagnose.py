@@ -62,9 +62,10 @@ ACCEPTED_MAX_NFEV = 200
 # a term that shaves a sliver off a large structured residual has found a
 # way to bend, not the physics that is missing.
 EXPLAINED_SHARE = 0.05
-#: The share of the excess a finished candidate must explain to be screened
-#: again ahead, while the last candidates' fits still run (:func:`_try_all`);
-#: above EXPLAINED_SHARE, so that only a candidate _accept could take is.
+#: The share of the excess at which a flexible model's Broyden screening
+#: ends (:func:`enough_explained`) to be screened again at once, while the
+#: last candidates' fits still run (:func:`_try_all`); above
+#: EXPLAINED_SHARE, so that only a candidate _accept could take is.
 AHEAD_SHARE = 0.5
 # An effect's parameters must be this many standard errors from where the
 # effect does nothing for it to be accepted (Candidate.shows_itself).
@@ -432,6 +433,11 @@ class Candidate:
     #: the candidate (:func:`_confirmed`): Broyden's BIC change
     #: (:attr:`delta_bic` is then the other's).
     broyden_delta_bic: float | None = None
+    #: Its Broyden screening was ended once it had explained
+    #: :data:`AHEAD_SHARE` of the excess (:func:`enough_explained`): it is
+    #: screened again before it is ranked, so :attr:`broyden_delta_bic` is
+    #: where that first screening stopped, not an optimum.
+    ended_at_share: bool = False
 
     @property
     def effect(self) -> str:
@@ -457,7 +463,7 @@ class Candidate:
         better than the model it extends (:func:`at_null_and_no_better`):
         :attr:`delta_bic` is where it stopped, not its optimum's (which is
         no better than the model's either, the test's premise)."""
-        return self.result.stopped
+        return self.result.stopped and not self.ended_at_share
 
     @property
     def null_z(self) -> dict[str, float]:
@@ -653,16 +659,16 @@ def _try_all(
     """Screening fits of every addition in ``adds``, in ``pool``, ranked by
     score; a progress line as each completes.
 
-    With ``ahead``: once every fit has started, the best-ranked finished
-    candidate that :func:`_confirmed` would screen again with finite
-    differences is submitted for that at once, its future kept in ``ahead``
+    A candidate whose Broyden screening ended at :data:`AHEAD_SHARE`
+    (:func:`enough_explained`) is screened again with finite differences
+    far from the optimum (:func:`_confirmed`) before the ranking, which
+    takes its second screening's gain. With ``ahead`` that second
+    screening is submitted as the first ends, its future kept in ``ahead``
     under its effects, so that it runs beside the last screening fits
     instead of after them (the bundled heat run: oil compliance's
     screening ran 188 s alone after heat build-up's, which was then
     screened again for 90 s). The same computation as :func:`_confirmed`'s,
-    so the result does not depend on it; where another candidate finishes
-    above it, the work was spent on a core the last fits left free or
-    shared."""
+    so the result does not depend on it."""
     if not adds:
         return []
     start = time.perf_counter()
@@ -691,24 +697,27 @@ def _try_all(
         start = now
         clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
         clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
-                   + (" (stopped heading for its null, no better)" if c.stopped_at_null else ""),
+                   + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
+                   + (f" (ended at {100 * c.explained:.0f} % of the excess explained, to be screened again)" if c.ended_at_share else ""),
                    len(adds) - done - clock.credit + clock.ACCEPT_FITS)
-        if ahead is not None and done < len(adds) and len(began) == len(adds):
-            best = max((x for x in out if x is not None), key=lambda x: x.score)
-            # Only one _accept could take (its gates before the finite
-            # differences): on the bundled campaign leakage finished first
-            # at +25 in BIC, explaining 0.06 % of the excess. And of those
-            # only one that explains most of the excess (AHEAD_SHARE): one that
-            # leaves more of it can be overtaken by a fit still running
-            # that explains the rest, and its second screening then takes
-            # a core from the fits that must finish (the bundled heat run:
-            # sensor offset, 10 % of the excess, screened again for 9 s
-            # beside three running fits before heat build-up, all of it,
-            # finished far above it; BENCHMARKS.md, stop 69).
-            if best.delta_bic > BIC_STRONG and best.explained >= AHEAD_SHARE and _rescreened(best) and best.effects not in ahead:
-                ahead[best.effects] = pool.submit(_try, datasets, current, effects, best.effects, *RESCREEN)
+        if c.ended_at_share and ahead is not None and c.effects not in ahead:
+            # Screened again at once: the pool takes its tasks in order, so
+            # this waits only for the screening fits not yet begun. Only a
+            # candidate that explains most of the excess is (the share
+            # stopped it): one that leaves more of it can be overtaken by a
+            # fit still running that explains the rest, and its second
+            # screening then takes a core from the fits that must finish
+            # (the bundled heat run: sensor offset, 10 % of the excess,
+            # screened again for 9 s beside three running fits before heat
+            # build-up, all of it, finished far above it; BENCHMARKS.md,
+            # stop 69).
+            ahead[c.effects] = pool.submit(_try, datasets, current, effects, c.effects, *RESCREEN)
     clock.credit = 0.0
     ranked = [c for c in out if c is not None]
+    for c in ranked:
+        if c.ended_at_share:
+            # Its first screening stopped partway: ranked by its second.
+            _confirmed(datasets, current, effects, c, clock, ahead)
     ranked.sort(key=lambda c: c.score, reverse=True)
     return ranked
 
@@ -882,6 +891,32 @@ def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[s
     return stop
 
 
+def enough_explained(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...],
+                     ) -> Callable[[Mapping[str, float], float], bool]:
+    """The stop test (:func:`fit`'s ``stop``) that ends a flexible model's
+    Broyden screening of ``add`` on ``current`` once it has explained
+    :data:`AHEAD_SHARE` of the excess and gained more than
+    :data:`BIC_STRONG` in BIC: such a candidate is screened again from the
+    model it extends, finite differences far from the optimum, before it
+    is ranked (:func:`_try_all`), since Broyden's end can be another
+    optimum than the finite differences' (:func:`screening_jacobian`), so
+    the first screening's later iterations would be spent for nothing. On
+    the bundled heat run heat build-up's explained 79 % of the excess 2.0 s
+    into its screening, which went on for 18.5 s more to 2.3 x the noise,
+    where its second screening reaches 0.32 x (BENCHMARKS.md, stop 70)."""
+    excess = max(current.rss - current.n, 1e-12)
+    added = len(model_for(datasets, effects + add, flexible=current.model.flexible).params) - len(current.model.params)
+    n = current.n
+
+    def stop(_values: Mapping[str, float], trial_rss: float) -> bool:
+        if not 0.0 < trial_rss < current.rss:
+            return False
+        gain = n * math.log(current.rss / trial_rss) - added * math.log(n)
+        return (current.rss - trial_rss) / excess >= AHEAD_SHARE and gain > BIC_STRONG
+
+    return stop
+
+
 def _try(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], jacobian: str | None = None,
     max_nfev: int = MAX_NFEV,
@@ -892,9 +927,12 @@ def _try(
     stop = at_null_and_no_better(add, current.rss)
     ftol = screening_ftol(current.n)
     jacobian = jacobian or screening_jacobian(current.model.flexible, current.n)
+    # A screening that is done again if it explains most of the excess ends there.
+    enough = enough_explained(datasets, current, effects, add) if current.model.flexible and jacobian == "broyden" else None
+    ends = stop if enough is None else (lambda v, r: enough(v, r) or (stop is not None and stop(v, r)))
 
     def attempt(start: Mapping[str, float]) -> FitResult:
-        return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=stop, ftol=ftol,
+        return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=ends, ftol=ftol,
                    jacobian=jacobian, errors=False, max_nfev=max_nfev)
 
     def better_from(start: Mapping[str, float], trial: FitResult) -> FitResult:
@@ -959,7 +997,9 @@ def _try(
         trial = better_from({**current.values, **{p.name: p.initial for p in current.model.params if p.name in stand_ins}}, trial)
     added = len(trial.model.params) - len(current.model.params)
     excess = max(current.rss - current.n, 1e-12)
-    return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess, screened_by=jacobian)
+    at_share = enough is not None and trial.stopped and enough(trial.values, trial.rss)
+    return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess, screened_by=jacobian,
+                     ended_at_share=at_share)
 
 
 #: How :func:`_confirmed` screens a candidate again: its Jacobian and
@@ -1444,4 +1484,4 @@ def _candidate_json(c: Candidate) -> dict[str, Any]:
     """One screened candidate, machine-readable (:func:`summary`)."""
     return {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score,
             "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic, "screened_by": c.screened_by,
-            "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null}
+            "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null, "ended_at_share": c.ended_at_share}
