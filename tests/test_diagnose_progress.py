@@ -172,15 +172,15 @@ def test_a_running_fit_counts_half_when_it_has_run_as_long_as_the_finished_ones_
 
 
 def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(monkeypatch: pytest.MonkeyPatch) -> None:
-    # _try_all starts _confirmed's finite-difference screening of the best
-    # finished candidate once every screening fit has started, beside the
-    # ones still running; _confirmed then takes it instead of fitting it
-    # again. Stand-in fits: the sensor offset's finishes first, with a gain
-    # _accept would weigh but a fifth of the excess explained (less than
-    # AHEAD_SHARE: no speculation on it, a fit still running may explain
-    # the rest); friction's next, with most of it; the leak's waits until
-    # friction's finite-difference screening has begun (a timeout there is
-    # the failure).
+    # A flexible Broyden screening that ended at AHEAD_SHARE of the excess
+    # (diagnose.enough_explained) is screened again at once, beside the
+    # fits still running, and ranked by that second screening. Stand-in
+    # fits: the sensor offset's finishes first, with a gain _accept would
+    # weigh but a fifth of the excess explained (it ran to its end: no
+    # second screening, a fit still running may explain the rest);
+    # friction's next, ended at the share; the leak's waits until
+    # friction's second screening has begun (a timeout there is the
+    # failure).
     import threading
 
     began = threading.Event()
@@ -188,9 +188,9 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
     offset_told = threading.Event()
     calls: list[tuple[tuple[str, ...], str | None]] = []
 
-    def candidate(add: tuple[str, ...], delta_bic: float, explained: float, how: str) -> Any:
-        result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=False)
-        return diagnose_module.Candidate(add, 1, result, delta_bic, explained, screened_by=how)  # type: ignore[arg-type]
+    def candidate(add: tuple[str, ...], delta_bic: float, explained: float, how: str, at_share: bool = False) -> Any:
+        result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=at_share)
+        return diagnose_module.Candidate(add, 1, result, delta_bic, explained, screened_by=how, ended_at_share=at_share)  # type: ignore[arg-type]
 
     again = diagnose_module.RESCREEN[0]
 
@@ -199,16 +199,16 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
         if jacobian == again:
             assert max_nfev == diagnose_module.RESCREEN[1]
             began.set()
-            return candidate(add, 9_000.0, 0.8, again)
+            return candidate(add, 9_000.0, 0.95, again)
         if add == ("leakage",):
             leak_started.set()
-            assert began.wait(60.0), "friction's finite-difference screening did not start while the leak's fit ran"
+            assert began.wait(60.0), "friction's second screening did not start while the leak's fit ran"
             return candidate(add, 20.0, 0.001, "broyden")
         assert leak_started.wait(60.0)
         if add == ("sensor_offset",):
             return candidate(add, 5_000.0, 0.2, "broyden")
-        assert offset_told.wait(60.0)  # the round has taken the offset's in (and not speculated on it)
-        return candidate(add, 8_000.0, 0.7, "broyden")
+        assert offset_told.wait(60.0)  # the round has taken the offset's in (and not screened it again)
+        return candidate(add, 4_000.0, diagnose_module.AHEAD_SHARE, "broyden", at_share=True)
 
     def say(message: str) -> None:
         if "(sensor_offset) fitted" in message:
@@ -220,11 +220,45 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
     with ThreadPoolExecutor(max_workers=4) as pool:
         ranked = diagnose_module._try_all([], None, (), [("friction",), ("sensor_offset",), ("leakage",)], clock, pool,  # type: ignore[arg-type]
                                           ahead=ahead)
+        # Friction ranked by its second screening (by its first, 4,000, it was below the offset).
         assert [c.effect for c in ranked] == ["friction", "sensor_offset", "leakage"]
-        assert list(ahead) == [("friction",)] and 0.2 < diagnose_module.AHEAD_SHARE < 0.7
-        confirmed = diagnose_module._confirmed([], None, (), ranked[0], clock, ahead)  # type: ignore[arg-type]
-    assert confirmed.delta_bic == 9_000.0 and confirmed.broyden_delta_bic == 8_000.0 and not ahead
-    assert calls.count((("friction",), again)) == 1 and len(calls) == 4
+        assert ranked[0].delta_bic == 9_000.0 and ranked[0].broyden_delta_bic == 4_000.0 and ranked[0].screened_by == again
+        assert not ahead and [c for c in calls if c[1] == again] == [(("friction",), again)] and len(calls) == 4
+        # _accept's confirmation then has nothing left to do.
+        assert diagnose_module._confirmed([], None, (), ranked[0], clock, ahead) is ranked[0]  # type: ignore[arg-type]
+    assert len(calls) == 4 and 0.2 < diagnose_module.AHEAD_SHARE < 0.7
+
+
+def test_every_screening_ended_at_the_share_is_screened_again_and_ranked_by_that(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Two candidates whose Broyden screenings both ended at AHEAD_SHARE:
+    # where each stopped says nothing of which explains more, so both are
+    # screened again (in the pool, in order), and the ranking is their
+    # second screenings' (here the reverse of their first; the rank is the
+    # gain per parameter of the effect: friction has two, the offsets three).
+    calls: list[tuple[tuple[str, ...], str | None]] = []
+    again = diagnose_module.RESCREEN[0]
+    second: dict[tuple[str, ...], float] = {("friction",): 7_000.0, ("sensor_offset",): 30_000.0}
+    first: dict[tuple[str, ...], float] = {("friction",): 8_000.0, ("sensor_offset",): 6_000.0}
+
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0) -> Any:
+        calls.append((add, jacobian))
+        rescreen = jacobian == again
+        result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=not rescreen)
+        gain = second[add] if rescreen else first[add]
+        return diagnose_module.Candidate(add, 1, result, gain, 0.9 if rescreen else 0.6,  # type: ignore[arg-type]
+                                         screened_by=again if rescreen else "broyden", ended_at_share=not rescreen)
+
+    monkeypatch.setattr(diagnose_module, "_try", fake_try)
+    aheads: tuple[dict[tuple[str, ...], Any] | None, ...] = ({}, None)
+    for ahead in aheads:  # screened again ahead in the pool, or here
+        calls.clear()
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            ranked = diagnose_module._try_all([], None, (), list(first), diagnose_module._Clock(lambda _m: None, 1), pool,  # type: ignore[arg-type]
+                                              ahead=ahead)
+        assert [c.effect for c in ranked] == ["sensor_offset", "friction"]
+        assert [(c.delta_bic, c.broyden_delta_bic) for c in ranked] == [(30_000.0, 6_000.0), (7_000.0, 8_000.0)]
+        assert sorted(calls, key=str) == sorted([*((a, None) for a in first), *((a, again) for a in first)], key=str)
+        assert all(c.ended_at_share and not c.stopped_at_null for c in ranked)
 
 
 def test_the_accepted_models_full_fit_starts_with_its_cross_validation(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -253,6 +253,10 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
     leak = next(c for c in br.rounds[0].candidates if c.effect == "leakage")
     fd_leak = next(c for c in fd.rounds[0].candidates if c.effect == "leakage")
     assert leak.screened_by == "hybrid" and leak.broyden_delta_bic is not None
+    # Its Broyden screening ended once it had explained half the excess
+    # (dg.enough_explained): what it would have gained after is the second
+    # screening's to say.
+    assert leak.ended_at_share and not leak.stopped_at_null
     # Its screening again (finite differences while far, Broyden's
     # updates near the optimum) gains what the finite differences' did,
     # to the screening's resolution (its result is the accepted fit's by
@@ -273,6 +277,7 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
     assert others and all(c.screened_by == "broyden" for c in others)
     rows = {r["effect"]: r for r in dg.summary(br)["candidates_last_round"]}
     assert rows["leakage"]["screened_by"] == "hybrid" and rows["leakage"]["broyden_delta_bic"] == leak.broyden_delta_bic
+    assert rows["leakage"]["ended_at_share"] is True and not any(r["ended_at_share"] for e, r in rows.items() if e != "leakage")
     # And the report's table of candidates.
     from hpctl.data.output import OutputDir
     from hpctl.report.calibration import diagnosis_report
@@ -280,7 +285,7 @@ def test_a_flexible_candidate_screened_by_broyden_is_weighed_on_its_finite_diffe
     with OutputDir(tmp_path, "diagnose") as out:
         report = diagnosis_report(br, out)
     text = (tmp_path / report.name).read_text(encoding="utf-8")
-    assert f"finite differences far, Broyden near (Broyden: {leak.broyden_delta_bic:.1f})" in text and "| Broyden |" in text
+    assert f"finite differences far, Broyden near (Broyden: {leak.broyden_delta_bic:.1f}, *ended at 50%*)" in text and "| Broyden |" in text
 
 
 @pytest.mark.parametrize("first_gain", [0.0, 1.0])

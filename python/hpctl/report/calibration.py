@@ -20,7 +20,7 @@ from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.dataset import Dataset, clock_jitters, noise_colours  # noqa: E402
 from hpctl.identify.derived import derived  # noqa: E402
-from hpctl.identify.diagnose import Diagnosis, Round, loop_areas  # noqa: E402
+from hpctl.identify.diagnose import AHEAD_SHARE, Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
 from hpctl.identify.switching import places  # noqa: E402
@@ -354,14 +354,17 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         lines += ["", f"### Candidates tried at step {k}", "",
                   "Screening fits; on long records the flexible model's rank the candidates with Broyden's Jacobian updates, and a "
                   "candidate weighed for acceptance is screened again, with finite differences wherever a step halves the cost "
-                  "(far from the optimum, where the path chooses it), Broyden's updates near it (its gain by Broyden's alone in brackets). "
+                  "(far from the optimum, where the path chooses it), Broyden's updates near it (its gain by Broyden's alone in brackets; "
+                  f"*ended at {AHEAD_SHARE:.0%}* where that screening was ended once it had explained that share of the excess, to be screened "
+                  "again). "
                   "A gain marked *stopped* is where its screening fit was ended heading for the effect's null, no better than the "
                   "model it extends: not an optimum.", "",
                   "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | "
                   "residual RMS / noise | screening Jacobian |",
                   "|---|---|---|---|---|---|---|"]
         for c in rnd.candidates:
-            jac = JACOBIAN_WORDS.get(c.screened_by, c.screened_by) + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f})")
+            at_share = f", *ended at {AHEAD_SHARE:.0%}*" if c.ended_at_share else ""
+            jac = JACOBIAN_WORDS.get(c.screened_by, c.screened_by) + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f}{at_share})")
             gain = f"{c.delta_bic:.1f}" + (" (*stopped*)" if c.stopped_at_null else "")
             lines.append(f"| `{c.effect}` | {c.added_params} | {gain} | {c.score:.1f} | {100 * c.explained:.1f} % | "
                          f"{c.result.rms_ratio:.3g} | {jac} |")
