@@ -891,6 +891,20 @@ def at_null_and_no_better(add: Sequence[str], rss: float) -> Callable[[Mapping[s
     return stop
 
 
+def bic_gain(n: int, rss_before: float, rss_after: float, added: int) -> float:
+    """The BIC change from ``rss_before`` to ``rss_after`` on ``n``
+    residuals with ``added`` parameters more (:attr:`FitResult.bic`'s
+    difference; positive is better)."""
+    return n * math.log(rss_before / rss_after) - added * math.log(n)
+
+
+def explained_share(current: FitResult, rss: float) -> float:
+    """The share of ``current``'s excess (its residual sum of squares
+    above the number of residuals: what is beyond the noise) that a
+    model reaching ``rss`` explains (:attr:`Candidate.explained`)."""
+    return (current.rss - rss) / max(current.rss - current.n, 1e-12)
+
+
 def enough_explained(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...],
                      ) -> Callable[[Mapping[str, float], float], bool]:
     """The stop test (:func:`fit`'s ``stop``) that ends a flexible model's
@@ -904,15 +918,12 @@ def enough_explained(datasets: Sequence[Dataset], current: FitResult, effects: t
     the bundled heat run heat build-up's explained 79 % of the excess 2.0 s
     into its screening, which went on for 18.5 s more to 2.3 x the noise,
     where its second screening reaches 0.32 x (BENCHMARKS.md, stop 70)."""
-    excess = max(current.rss - current.n, 1e-12)
     added = len(model_for(datasets, effects + add, flexible=current.model.flexible).params) - len(current.model.params)
-    n = current.n
 
     def stop(_values: Mapping[str, float], trial_rss: float) -> bool:
         if not 0.0 < trial_rss < current.rss:
             return False
-        gain = n * math.log(current.rss / trial_rss) - added * math.log(n)
-        return (current.rss - trial_rss) / excess >= AHEAD_SHARE and gain > BIC_STRONG
+        return explained_share(current, trial_rss) >= AHEAD_SHARE and bic_gain(current.n, current.rss, trial_rss, added) > BIC_STRONG
 
     return stop
 
@@ -996,9 +1007,8 @@ def _try(
         # start was better, and the runs that tell cost 1.5 s.
         trial = better_from({**current.values, **{p.name: p.initial for p in current.model.params if p.name in stand_ins}}, trial)
     added = len(trial.model.params) - len(current.model.params)
-    excess = max(current.rss - current.n, 1e-12)
     at_share = enough is not None and trial.stopped and enough(trial.values, trial.rss)
-    return Candidate(add, added, trial, current.bic - trial.bic, (current.rss - trial.rss) / excess, screened_by=jacobian,
+    return Candidate(add, added, trial, current.bic - trial.bic, explained_share(current, trial.rss), screened_by=jacobian,
                      ended_at_share=at_share)
 
 
@@ -1089,7 +1099,7 @@ def _null_delta_bic(datasets: Sequence[Dataset], c: Candidate) -> float:
     rss_null = rss_at(datasets, r.model.effects, values, flexible=r.model.flexible)
     if not (math.isfinite(rss_null) and r.rss > 0):
         return -math.inf
-    return r.n * math.log(rss_null / r.rss) - c.added_params * math.log(r.n)
+    return bic_gain(r.n, rss_null, r.rss, c.added_params)
 
 
 def offset_delta_bic(current: FitResult) -> float:
@@ -1125,7 +1135,7 @@ def offset_delta_bic(current: FitResult) -> float:
     k = sum(1 for c in OFFSET_CHANNELS.values() if any(c in d.targets for d in current.datasets))
     if gain >= rss:
         return math.inf
-    return n * math.log(rss / (rss - gain)) - k * math.log(n)
+    return bic_gain(n, rss, rss - gain, k)
 
 
 def _full_fit(datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], c: Candidate) -> FitResult:
