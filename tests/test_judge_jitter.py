@@ -23,7 +23,7 @@ from hpctl.identify import diagnose as dg
 from hpctl.identify import virtual_rig
 from hpctl.identify.dataset import prepare
 from hpctl.identify.fit import FitResult, fit, residual_vector
-from hpctl.identify.signals import derivative
+from hpctl.identify.signals import derivative, rate_noise
 from hpctl.model.unit import Unit
 
 CHANNEL = "body_disp_m"
@@ -147,3 +147,33 @@ def test_a_jitter_too_large_for_a_clock_is_not_counted(at_noise: FitResult, monk
     j = dg.judge(result)
     assert j.structure_remains and not j.jitter, j.describe()
     assert j.places[0].rate_noise is not None and "sample-time jitter" in j.places[0].describe(), j.describe()
+
+
+def test_a_jitter_longer_than_the_sampling_interval_is_not_said(at_noise: FitResult) -> None:
+    # A channel the model barely moves (the foreign rig's large accumulator
+    # behind a closed valve 6) can carry an excess that follows its tiny
+    # rate's pattern: the jitter that would make it is then absurd ("2.04e+17
+    # us" on a foreign classical diagnosis, stop 71). Here the clock's 150 us
+    # residual is kept while the model's channel moves a billionth as much:
+    # the reading is 1e9 times longer, beyond the 5 ms sampling interval, so
+    # the place says nothing of a jitter (the same residual with the real
+    # motion still reads one: the previous test).
+    rng = np.random.default_rng(7)
+    d, sim = at_noise.datasets[0], at_noise.sims[0]
+    assert not isinstance(sim, Exception)
+    t = d.times_s
+    model = np.asarray(sim[CHANNEL])
+    late = CubicSpline(t, model)(jittered(t, 1.5e-4, rng, float(t[-1])))
+    moving = measured_as(at_noise, late + d.targets[CHANNEL] - model)  # the previous test's measurement
+    still = 1e-9 * model
+    shifted = replace(moving.datasets[0], targets={**d.targets, CHANNEL: moving.datasets[0].targets[CHANNEL] - model + still})
+    result = replace(moving, datasets=[shifted], sims=[{**sim, CHANNEL: still}])
+    # The same residual (to rounding), so the same rss; only the rate is tiny.
+    assert np.allclose(result.residuals(0, CHANNEL), moving.residuals(0, CHANNEL), rtol=0.0, atol=1e-9 * d.sigma[CHANNEL])
+    dt_s = float(np.median(np.diff(t)))
+    read = rate_noise(result.residuals(0, CHANNEL), d.weight_sigma[CHANNEL], derivative(t, still))
+    assert read is not None and read.jitter_s > 1e3 * dt_s  # what the hint said before
+    j = dg.judge(result)
+    assert j.structure_remains and not j.jitter, j.describe()
+    [place] = [p for p in j.places if p.channel == CHANNEL]
+    assert place.rate_noise is None and "jitter" not in place.describe() and place.to_json()["rate_noise"] is None, j.describe()

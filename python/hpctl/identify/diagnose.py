@@ -223,6 +223,14 @@ class Place:
 #: interval: a clock's scatter about its instants (the foreign rig draws
 #: 20-200 us at 5 ms, under 0.04), not samples logged at the wrong time.
 JITTER_MAX_DT_SHARE = 0.1
+#: A jitter read from a channel's residual is said at all (a place's hint,
+#: :attr:`Place.rate_noise`) only while it is at most this share of the
+#: record's sampling interval: a scatter as large as the interval would
+#: scramble the samples' order, so a larger reading says the channel hardly
+#: moves in the model, not that its clock scatters (the foreign rig's
+#: large accumulator behind a closed valve 6, its model rate near zero:
+#: "a sample-time jitter of 2.04e+17 us", stop 71).
+JITTER_SAID_MAX_DT_SHARE = 1.0
 
 
 @dataclass(frozen=True)
@@ -365,13 +373,16 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
 def _rate_read(result: FitResult, i: int, channel: str) -> tuple[NDArray[np.float64], RateNoise] | None:
     """The model's rate of change of ``channel`` in record ``i`` and what
     :func:`hpctl.identify.signals.rate_noise` reads in its residual (None
-    where the run failed or nothing is read)."""
+    where the run failed, nothing is read or the jitter read is more than
+    :data:`JITTER_SAID_MAX_DT_SHARE` of the sampling interval)."""
     d, sim = result.datasets[i], result.sims[i]
     if isinstance(sim, Exception):
         return None
     rate = derivative(d.times_s, sim[channel])
     n = rate_noise(result.residuals(i, channel), d.weight_sigma[channel], rate)
-    return None if n is None else (rate, n)
+    if n is None or n.jitter_s > JITTER_SAID_MAX_DT_SHARE * float(np.median(np.diff(d.times_s))):
+        return None
+    return rate, n
 
 
 def _jitter_counted(result: FitResult, i: int, row: ResidualRow, read: tuple[NDArray[np.float64], RateNoise] | None) -> JitterCounted | None:
