@@ -616,3 +616,27 @@ def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
 
     banded = {c.details["param"] for c in _diagnosis_caveats(d) if c.code == "profile_band"}
     assert {"oil_heat_capacity_j_per_k", "wall_to_oil_tau_s"} <= banded, context
+
+
+def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for_friction() -> None:
+    # FOREIGN_RIG_SEED=12's seal (638 N Coulomb) from real gas alone (the
+    # previous test's draw that failed before stop 71): heat transfer was
+    # accepted in round 1 at 1.06 x the noise, the flexible damper making
+    # 593 N at 2 mm/s where the template makes a few, and the diagnosis
+    # stopped there ("effects found", no friction), since later rounds
+    # ended at the noise. Such a round now screens what makes a force at no
+    # flow, friction and sensor offsets, and only those.
+    from hpctl.identify.no_flow import NO_FLOW_EFFECTS, force_at_no_flow
+
+    g = generate("friction", 12)
+    lines: list[str] = []
+    d = diagnose([read_record(p) for p in g.records], ("real_gas",), flexible=True, progress=lines.append)
+    context = describe(d, 12, g.truth) + "\n" + "\n".join(lines)
+    check_honest(d, g.truth, context)
+    assert d.found == ["heat_transfer", "friction"], context
+    first, second = d.rounds[0], d.rounds[1]
+    assert first.judgement is not None and first.judgement.at_noise and force_at_no_flow(second.before), context
+    assert sorted(c.effect for c in second.candidates) == sorted(NO_FLOW_EFFECTS), context
+    assert any(line.startswith("round 2/6: at the noise, but the fitted damper makes a force at no flow") for line in lines), context
+    # With friction in the model the damper holds none: nothing more screened.
+    assert not force_at_no_flow(d.final) and d.rounds[-1].candidates == [], context

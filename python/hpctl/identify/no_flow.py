@@ -33,6 +33,10 @@ NO_FLOW_SPEED_M_S = 2e-3
 #: How many times the records' force noise (the quietest record's) the
 #: fitted force must exceed the template's by.
 NO_FLOW_NOISES = 3.0
+#: The effects of the library that make a force at no flow (seal friction
+#: in both directions, a load cell's offset in one): what a diagnosis at
+#: the noise still screens where the fitted damper holds such a force.
+NO_FLOW_EFFECTS = ("friction", "sensor_offset")
 
 
 @dataclass(frozen=True)
