@@ -58,6 +58,16 @@ def measured_as(result: FitResult, measurement: np.ndarray) -> FitResult:
     return replace(result, datasets=datasets, rss=float(r @ r))
 
 
+def clock_jittered(at_noise: FitResult, jitter_s: float = 1.5e-4, seed: int = 7) -> FitResult:
+    """``at_noise`` with its SDOF body measured at instants a clock of
+    ``jitter_s`` scatters, the record's own noise kept."""
+    d, sim = at_noise.datasets[0], at_noise.sims[0]
+    assert not isinstance(sim, Exception)
+    t, model = d.times_s, np.asarray(sim[CHANNEL])
+    late = CubicSpline(t, model)(jittered(t, jitter_s, np.random.default_rng(seed), float(t[-1])))
+    return measured_as(at_noise, late + d.targets[CHANNEL] - model)
+
+
 def test_a_clock_jitter_is_counted_in_the_noise_and_said(at_noise: FitResult, seed: int) -> None:
     rng = np.random.default_rng(seed)
     # From 100 us (1.46 x the noise without it at the least in 100 draws):
@@ -135,13 +145,7 @@ def test_a_jitter_too_large_for_a_clock_is_not_counted(at_noise: FitResult, monk
     # Counted only while a small share of the sampling interval: with the
     # share set below what is read, the channel is a place again, its text
     # still saying what the jitter would make of it.
-    rng = np.random.default_rng(7)
-    d, sim = at_noise.datasets[0], at_noise.sims[0]
-    assert not isinstance(sim, Exception)
-    t = d.times_s
-    model = np.asarray(sim[CHANNEL])
-    late = CubicSpline(t, model)(jittered(t, 1.5e-4, rng, float(t[-1])))
-    result = measured_as(at_noise, late + d.targets[CHANNEL] - model)
+    result = clock_jittered(at_noise)
     assert dg.judge(result).jitter
     monkeypatch.setattr(dg, "JITTER_MAX_DT_SHARE", 1e-3)
     j = dg.judge(result)
@@ -158,13 +162,11 @@ def test_a_jitter_longer_than_the_sampling_interval_is_not_said(at_noise: FitRes
     # the reading is 1e9 times longer, beyond the 5 ms sampling interval, so
     # the place says nothing of a jitter (the same residual with the real
     # motion still reads one: the previous test).
-    rng = np.random.default_rng(7)
+    moving = clock_jittered(at_noise)  # the previous test's measurement
     d, sim = at_noise.datasets[0], at_noise.sims[0]
     assert not isinstance(sim, Exception)
     t = d.times_s
     model = np.asarray(sim[CHANNEL])
-    late = CubicSpline(t, model)(jittered(t, 1.5e-4, rng, float(t[-1])))
-    moving = measured_as(at_noise, late + d.targets[CHANNEL] - model)  # the previous test's measurement
     still = 1e-9 * model
     shifted = replace(moving.datasets[0], targets={**d.targets, CHANNEL: moving.datasets[0].targets[CHANNEL] - model + still})
     result = replace(moving, datasets=[shifted], sims=[{**sim, CHANNEL: still}])
