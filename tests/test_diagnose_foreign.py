@@ -153,9 +153,10 @@ def test_an_effect_outside_the_library_leaves_structure_and_says_where(seed: int
 def test_a_damper_that_thins_as_its_oil_warms_is_left_as_structure_in_the_heat_run(seed: int) -> None:
     # The foreign rig's second effect outside the library: the damper's
     # oil viscosity falls with its temperature (exponentially, its
-    # coefficient drawn in 2-3.5 % a kelvin), which the 10-minute heat run shows and the
-    # short sines do not (there the flexible diagnosis says "nothing left",
-    # at 0.98-1.03 x the noise: honest, the records do not hold it).
+    # coefficient drawn in 2-3.5 % a kelvin), which the 10-minute heat run
+    # shows and the short sines do not (there the flexible diagnosis says
+    # "nothing left", at 0.98-1.03 x the noise: honest, the records do not
+    # hold it).
     # Flexibly, with the heat run: no effect may be forced onto it, and
     # what remains is said where it is. Measured (stop 71, seeds 1-4):
     # nothing found ("unexplained structure", heat build-up screened at
@@ -259,9 +260,10 @@ def test_flexible_diagnosis_does_not_take_friction_for_heat_transfer(seed: int) 
     # tests that show friction). Measured (stop 71, seeds 1-30): both found,
     # heat transfer first, 0.95-1.06 x the noise, tau within 0.03 % and 2.2
     # errors, 9-21 s; seed 12 only once a later round at the noise screens
-    # friction where the damper holds a force at no flow (the test below),
-    # seed 21 "nothing left" at 1.62 x the transducers' noise until the
-    # input's noise through the model was counted (true_noise_ratio).
+    # friction where the damper holds a force at no flow (the last test of
+    # this file); on seed 21 the check against the rig's own noise read
+    # 1.62 until the input's noise through the model was counted there
+    # (true_noise_ratio).
     g = generate("friction", seed)
     d = diagnose([read_record(p) for p in g.records], ("real_gas",), flexible=True)
     context = describe(d, seed, g.truth)
@@ -665,7 +667,8 @@ def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
 
 def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for_friction() -> None:
     # FOREIGN_RIG_SEED=12's seal (638 N Coulomb) from real gas alone (the
-    # previous test's draw that failed before stop 71): heat transfer was
+    # draw of test_flexible_diagnosis_does_not_take_friction_for_heat_transfer
+    # that failed before stop 71): heat transfer was
     # accepted in round 1 at 1.06 x the noise, the flexible damper making
     # 593 N at 2 mm/s where the template makes a few, and the diagnosis
     # stopped there ("effects found", no friction), since later rounds

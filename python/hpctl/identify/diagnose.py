@@ -1319,13 +1319,14 @@ def _diagnose(
         # looks like noise: a flexible model can stand in for an effect
         # (the two-stage damper took the foreign rig's seal friction, 322 N,
         # for a first blow-off reached at a few mm/s: 0.96 x the noise, while
-        # friction itself gained 1,186 in BIC). Later rounds stop there.
+        # friction itself gained 1,186 in BIC). Later rounds stop there, but
+        # for what a force at no flow in the damper can be (below).
         pool_now = _screened(datasets, effects, pool_effects)
         if not analysis.structured and r > 0:
             # At the noise, unless the flexible damper holds a force at no
             # flow, which only seal friction or an offset make: the effect
             # accepted last let the damper take one in again (the foreign
-            # rig's seal of 638 N breakaway, seed 12, from real gas alone:
+            # rig's seal of 638 N Coulomb, seed 12, from real gas alone:
             # heat transfer found, at 1.06 x the noise, friction never
             # screened after it, where with heat transfer declared it was
             # found in the first round). Only those are screened then.
