@@ -665,7 +665,7 @@ def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
     assert {"oil_heat_capacity_j_per_k", "wall_to_oil_tau_s"} <= banded, context
 
 
-def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for_friction() -> None:
+def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for_friction(tmp_path: Path) -> None:
     # FOREIGN_RIG_SEED=12's seal (638 N Coulomb) from real gas alone (the
     # draw of test_flexible_diagnosis_does_not_take_friction_for_heat_transfer
     # that failed before stop 71): heat transfer was
@@ -674,7 +674,9 @@ def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for
     # stopped there ("effects found", no friction), since later rounds
     # ended at the noise. Such a round now screens what makes a force at no
     # flow, friction and sensor offsets, and only those.
+    from hpctl.data.output import OutputDir
     from hpctl.identify.no_flow import NO_FLOW_EFFECTS, force_at_no_flow
+    from hpctl.report.calibration import diagnosis_report
 
     g = generate("friction", 12)
     lines: list[str] = []
@@ -688,3 +690,12 @@ def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for
     assert any(line.startswith("round 2/6: at the noise, but the fitted damper makes a force at no flow") for line in lines), context
     # With friction in the model the damper holds none: nothing more screened.
     assert not force_at_no_flow(d.final) and d.rounds[-1].candidates == [], context
+    # Why that round screened is in the JSON and the report.
+    assert second.no_flow == force_at_no_flow(second.before) and not first.no_flow, context
+    [step] = [s for s in summary(d)["effects"] if s["effect"] == "friction"]
+    assert [f["branch"] for f in step["force_at_no_flow"]] == [f.branch for f in second.no_flow], context
+    assert all(not s["force_at_no_flow"] for s in summary(d)["effects"] if s["effect"] != "friction"), context
+    with OutputDir(tmp_path, "diagnose") as out:
+        report = diagnosis_report(d, out)
+    text = (tmp_path / report.name).read_text(encoding="utf-8")
+    assert text.count("The model was at the noise, but its fitted damper made a force at no flow") == 1, context

@@ -40,7 +40,7 @@ from hpctl.identify.dataset import (
 )
 from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, model_for, residual_vector, rss_at
-from hpctl.identify.no_flow import NO_FLOW_EFFECTS, force_at_no_flow
+from hpctl.identify.no_flow import NO_FLOW_EFFECTS, NoFlowForce, force_at_no_flow
 from hpctl.identify.signals import RateNoise, derivative, rate_noise
 from hpctl.identify.switching import places
 from hpctl.identify.workers import static_pool
@@ -531,6 +531,10 @@ class Round:
     accepted: Candidate | None
     # What the accepted candidate leaves, judged against the noise.
     judgement: Judgement | None = None
+    # Where the model before the round was at the noise: the fitted
+    # damper's force at no flow that had the round screen what makes one
+    # (NO_FLOW_EFFECTS) instead of ending the diagnosis.
+    no_flow: list[NoFlowForce] = field(default_factory=list)
 
 
 @dataclass
@@ -1322,6 +1326,7 @@ def _diagnose(
         # friction itself gained 1,186 in BIC). Later rounds stop there, but
         # for what a force at no flow in the damper can be (below).
         pool_now = _screened(datasets, effects, pool_effects)
+        held: list[NoFlowForce] = []
         if not analysis.structured and r > 0:
             # At the noise, unless the flexible damper holds a force at no
             # flow, which only seal friction or an offset make: the effect
@@ -1376,7 +1381,7 @@ def _diagnose(
             judged_after = at_own_noise(accepted.result)
             judgement = judge(judged_after)
             clock.say(f"round {clock.round}/{max_rounds}: added {accepted.effect}: {judgement.describe(1)}")
-        rounds.append(Round(current, analysis, tried, accepted, judgement))
+        rounds.append(Round(current, analysis, tried, accepted, judgement, held))
         if accepted is None:
             break
         found += [e for e in LIBRARY if e in accepted.effects]
@@ -1487,6 +1492,8 @@ def summary(diag: Diagnosis) -> dict[str, Any]:
                 "worst_rms_ratio_before": max((row.rms_ratio for row in rnd.analysis.rows), default=None),
                 "worst_rms_ratio_after": after.worst_rms_ratio,
                 "residual_after": after.to_json(),
+                # Screened at the noise for the damper's force at no flow.
+                "force_at_no_flow": [vars(f) for f in rnd.no_flow],
             })
     final = diag.judgement or judge(diag.final, diag.final_analysis)
     return {

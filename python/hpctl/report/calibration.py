@@ -22,6 +22,7 @@ from hpctl.identify.dataset import Dataset, clock_jitters, noise_colours  # noqa
 from hpctl.identify.derived import derived  # noqa: E402
 from hpctl.identify.diagnose import AHEAD_SHARE, Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
+from hpctl.identify.no_flow import NO_FLOW_SPEED_M_S  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
 from hpctl.identify.switching import places  # noqa: E402
 from hpctl.identify.workers import WorkerError  # noqa: E402
@@ -358,7 +359,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
                   f"*ended at {AHEAD_SHARE:.0%}* where that screening was ended once it had explained that share of the excess, to be screened "
                   "again). "
                   "A gain marked *stopped* is where its screening fit was ended heading for the effect's null, no better than the "
-                  "model it extends: not an optimum.", "",
+                  "model it extends: not an optimum." + _no_flow_words(rnd), "",
                   "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | "
                   "residual RMS / noise | screening Jacobian |",
                   "|---|---|---|---|---|---|---|"]
@@ -399,6 +400,15 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
               *[f"![{p.stem}]({p.name})" for p in after], ""]
     out.write_text("report.md", "\n".join(lines))
     return out.final("report.md")
+
+
+def _no_flow_words(rnd: Round) -> str:
+    """Why a step at the noise screened only friction and offsets."""
+    if not rnd.no_flow:
+        return ""
+    where = ", ".join(f"{f.branch} {f.force_n:.0f} N (the template's {f.template_n:.0f} N)" for f in rnd.no_flow)
+    return (f" The model was at the noise, but its fitted damper made a force at no flow ({where} at "
+            f"{1e3 * NO_FLOW_SPEED_M_S:g} mm/s), which only seal friction or a load cell's offset make: only those were screened.")
 
 
 def fit_summary(result: FitResult, profiles: Sequence[ProfileInterval] = ()) -> dict[str, Any]:
