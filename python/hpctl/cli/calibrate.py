@@ -273,7 +273,7 @@ def _no_flow_caveats(result: FitResult) -> list[Caveat]:
     found = force_at_no_flow(result) if result.rms_ratio <= NOISE_CEILING else []
     if not found:
         return []
-    where = ", ".join(f"{f.branch} {f.force_n:.0f} N (the template's {f.template_n:.0f} N)" for f in found)
+    where = ", ".join(f.describe() for f in found)
     return [Caveat(
         Code.DAMPER_FORCE_AT_NO_FLOW,
         f"the fitted damper makes a force at no flow, {where} at {1e3 * NO_FLOW_SPEED_M_S:g} mm/s, more than "

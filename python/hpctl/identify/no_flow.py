@@ -54,6 +54,10 @@ class NoFlowForce:
     #: The records' force noise it was judged by, N.
     noise_n: float
 
+    def describe(self) -> str:
+        """The branch, its force and the template's, as the warning and the report say them."""
+        return f"{self.branch} {self.force_n:.0f} N (the template's {self.template_n:.0f} N)"
+
 
 def force_at_no_flow(result: FitResult) -> list[NoFlowForce]:
     """The branches of ``result``'s fitted damper characteristic that make

@@ -406,7 +406,7 @@ def _no_flow_words(rnd: Round) -> str:
     """Why a step at the noise screened only friction and offsets."""
     if not rnd.no_flow:
         return ""
-    where = ", ".join(f"{f.branch} {f.force_n:.0f} N (the template's {f.template_n:.0f} N)" for f in rnd.no_flow)
+    where = ", ".join(f.describe() for f in rnd.no_flow)
     return (f" The model was at the noise, but its fitted damper made a force at no flow ({where} at "
             f"{1e3 * NO_FLOW_SPEED_M_S:g} mm/s), which only seal friction or a load cell's offset make: only those were screened.")
 
