@@ -129,18 +129,16 @@ def describe(d: Diagnosis, seed: int, truth: dict[str, Any]) -> str:
     return f"seed={seed} truth={truth['hpctl_params']} verdict={d.verdict} found={d.found} left={j.describe(12) if j else None}"
 
 
-def test_an_effect_outside_the_library_leaves_structure_and_says_where(seed: int) -> None:
+@pytest.mark.parametrize("flexible", [False, True], ids=["one_gain", "flexible"])
+def test_an_effect_outside_the_library_leaves_structure_and_says_where(seed: int, flexible: bool) -> None:
     # An elastomer bump stop met at 35-50 mm of compression: no effect of
     # the library makes a force that rises steeply with compression only.
-    # With one damper gain, where the damper's shape is left too. Flexibly
-    # (not yet a test) a sensor offset is taken on most draws (stop 71,
-    # seeds 1-3: 33-74 x the noise left, the force most in the compressed
-    # half), and on FOREIGN_RIG_SEED=357950441 that offset raised the
-    # residual in the accepted model's own weights (240.95 -> 241.93 x):
-    # accepted by its gain in the screening's weights, which the judgement
-    # does not share; open (docs/foreign-rig.md, stop 71).
+    # With one damper gain the damper's shape is left too; with the
+    # flexible damper (where a control says "nothing left") the stop alone
+    # (stop 71, seeds 1-3: a sensor offset taken, 33-74 x the noise left,
+    # the force most in the compressed half, 11-12 s).
     g = short_case("bump_stop", seed)
-    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"))
+    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=flexible)
     context = describe(d, seed, g.truth)
     check_honest(d, g.truth, context)
     assert d.structure_remains and d.verdict in ("unexplained_structure", "effects_found_structure_remains"), context
@@ -150,6 +148,27 @@ def test_an_effect_outside_the_library_leaves_structure_and_says_where(seed: int
     force = [p for p in d.judgement.places if p.channel == "force_n"]
     assert force, context
     assert any(p.worst_regimes.get("stroke") == "compressed" or any(q == "disp_m" for q, _ in p.correlates_with) for p in force), context
+
+
+def test_an_offset_that_explains_nothing_as_the_verdict_judges_is_not_accepted() -> None:
+    # The draw CI made for the flexible bump stop (stop 71): a sensor offset
+    # explained 20 % of the excess in the weights its fit used and raised
+    # the residual in each model's own weights, where the verdict judges
+    # it, from 240.95 to 241.93 x the noise; it was "found". Pinned: the
+    # offset is refused with its share in the verdict's weights said
+    # (-0.8 %), and what remains is said where it is. The assertions are
+    # on the outcome, which does not depend on the rig drawing the same
+    # numbers to the last digit.
+    seed = 357950441
+    g = short_case("bump_stop", seed)
+    lines: list[str] = []
+    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=True, progress=lines.append)
+    context = describe(d, seed, g.truth) + "\n" + "\n".join(lines)
+    check_honest(d, g.truth, context)
+    assert "sensor_offset" not in d.found and d.structure_remains, context
+    offset = [c for c in summary(d)["candidates_by_round"][0] if c["effect"] == "sensor_offset"]
+    assert offset and offset[0]["refit_delta_bic"] < -10 and offset[0]["judged_explained"] < 0.05, context
+    assert any("sensor_offset not accepted: judged in each model's own weights" in line for line in lines), context
 
 
 def test_a_damper_that_thins_as_its_oil_warms_is_left_as_structure_in_the_heat_run(seed: int) -> None:
