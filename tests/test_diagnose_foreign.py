@@ -150,7 +150,7 @@ def test_an_effect_outside_the_library_leaves_structure_and_says_where(seed: int
     assert any(p.worst_regimes.get("stroke") == "compressed" or any(q == "disp_m" for q, _ in p.correlates_with) for p in force), context
 
 
-def test_an_offset_that_explains_nothing_as_the_verdict_judges_is_not_accepted() -> None:
+def test_an_offset_that_explains_nothing_as_the_verdict_judges_is_not_accepted(tmp_path: Path) -> None:
     # The draw CI made for the flexible bump stop (stop 71): a sensor offset
     # explained 20 % of the excess in the weights its fit used and raised
     # the residual in each model's own weights, where the verdict judges
@@ -169,6 +169,14 @@ def test_an_offset_that_explains_nothing_as_the_verdict_judges_is_not_accepted()
     offset = [c for c in summary(d)["candidates_by_round"][0] if c["effect"] == "sensor_offset"]
     assert offset and offset[0]["refit_delta_bic"] < -10 and offset[0]["judged_explained"] < 0.05, context
     assert any("sensor_offset not accepted: judged in each model's own weights" in line for line in lines), context
+    # The report's candidates say why a strong gain was not accepted.
+    from hpctl.data.output import OutputDir
+    from hpctl.report.calibration import diagnosis_report
+
+    with OutputDir(tmp_path, "diagnose") as out:
+        report = diagnosis_report(d, out)
+    [row] = [r for r in (tmp_path / report.name).read_text(encoding="utf-8").splitlines() if r.startswith("| `sensor_offset` |")]
+    assert "% of the excess as judged (own weights); not accepted |" in row, row
 
 
 def test_a_damper_that_thins_as_its_oil_warms_is_left_as_structure_in_the_heat_run(seed: int) -> None:

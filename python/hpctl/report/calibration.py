@@ -20,7 +20,7 @@ from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.dataset import Dataset, clock_jitters, noise_colours  # noqa: E402
 from hpctl.identify.derived import derived  # noqa: E402
-from hpctl.identify.diagnose import AHEAD_SHARE, Diagnosis, Round, loop_areas  # noqa: E402
+from hpctl.identify.diagnose import AHEAD_SHARE, Candidate, Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.no_flow import NO_FLOW_SPEED_M_S  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
@@ -361,14 +361,14 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
                   "A gain marked *stopped* is where its screening fit was ended heading for the effect's null, no better than the "
                   "model it extends: not an optimum." + _no_flow_words(rnd), "",
                   "| effect | added parameters | BIC gain | per parameter of the effect | share of the excess residual explained | "
-                  "residual RMS / noise | screening Jacobian |",
-                  "|---|---|---|---|---|---|---|"]
+                  "residual RMS / noise | screening Jacobian | weighed for acceptance |",
+                  "|---|---|---|---|---|---|---|---|"]
         for c in rnd.candidates:
             at_share = f", *ended at {AHEAD_SHARE:.0%}*" if c.ended_at_share else ""
             jac = JACOBIAN_WORDS.get(c.screened_by, c.screened_by) + ("" if c.broyden_delta_bic is None else f" (Broyden: {c.broyden_delta_bic:.1f}{at_share})")
             gain = f"{c.delta_bic:.1f}" + (" (*stopped*)" if c.stopped_at_null else "")
             lines.append(f"| `{c.effect}` | {c.added_params} | {gain} | {c.score:.1f} | {100 * c.explained:.1f} % | "
-                         f"{c.result.rms_ratio:.3g} | {jac} |")
+                         f"{c.result.rms_ratio:.3g} | {jac} | {_weighed(c, rnd.accepted)} |")
     lines += ["", "## Final parameters", "", *params_table(final), "",
               "## Error before and after", "",
               f"Declared model ({', '.join(diag.start_effects) or 'classical'}) against the final model, per record and channel (SI units)."
@@ -400,6 +400,19 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
               *[f"![{p.stem}]({p.name})" for p in after], ""]
     out.write_text("report.md", "\n".join(lines))
     return out.final("report.md")
+
+
+def _weighed(c: Candidate, accepted: Candidate | None) -> str:
+    """What became of a candidate whose full fit was weighed for acceptance
+    (:func:`hpctl.identify.diagnose._diagnose`): its BIC change there, and
+    the share of the excess it explains as the verdict judges it, each
+    model in its own weights; "-" for one never weighed that far."""
+    if c.refit_delta_bic is None:
+        return "-"
+    words = f"full fit {c.refit_delta_bic:+.1f} in BIC"
+    if c.judged_explained is not None:
+        words += f", {100 * c.judged_explained:.1f} % of the excess as judged (own weights)"
+    return words + ("; accepted" if c is accepted else "; not accepted")
 
 
 def _no_flow_words(rnd: Round) -> str:
