@@ -454,13 +454,13 @@ class Candidate:
     null_delta_bic: float | None = None
     #: The BIC change of the accepted model's full fit (with the input
     #: noise, a larger budget) against the model it extends; a candidate
-    #: whose gain does not hold there is not accepted (:func:`_diagnose`).
+    #: whose gain does not hold there is not accepted (:func:`_settle`).
     refit_delta_bic: float | None = None
     #: The share of the excess that full fit explains as the verdict
     #: judges it: both models in their own weights (:func:`at_own_noise`),
     #: where the screening compared them in the weights they were fitted
     #: with; below :data:`EXPLAINED_SHARE` the candidate is not accepted
-    #: (:func:`_diagnose`).
+    #: (:func:`_settle`).
     judged_explained: float | None = None
     #: How its screening fit got its Jacobian (:func:`screening_jacobian`).
     screened_by: str = "finite_difference"

@@ -404,7 +404,7 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
 
 def _weighed(c: Candidate, accepted: Candidate | None) -> str:
     """What became of a candidate whose full fit was weighed for acceptance
-    (:func:`hpctl.identify.diagnose._diagnose`): its BIC change there, and
+    (:func:`hpctl.identify.diagnose._settle`): its BIC change there, and
     the share of the excess it explains as the verdict judges it, each
     model in its own weights; "-" for one never weighed that far."""
     if c.refit_delta_bic is None:
