@@ -161,7 +161,7 @@ def _strut_force(d: Dataset) -> tuple[FloatArray, FloatArray | float, float] | N
     mass = d.record.sprung_mass_kg
     if d.record.kind != "sdof" or "body_disp_m" not in d.targets or mass is None or len(d.times_s) < 2 * SDOF_ACCEL_WINDOW:
         return None
-    dt = float(np.median(np.diff(d.times_s)))
+    dt = d.interval_s
     x = d.targets["body_disp_m"]
     sigma_x = float(d.sigma["body_disp_m"])
     # Each displacement's error: its noise and the clock's jitter (all

@@ -100,6 +100,12 @@ class Dataset:
     def name(self) -> str:
         return self.record.name
 
+    @property
+    def interval_s(self) -> float:
+        """The record's sampling interval, s: the median of its steps (inf
+        with fewer than two samples)."""
+        return float(np.median(np.diff(self.times_s))) if len(self.times_s) > 1 else math.inf
+
 
 def base_unit(record: RigRecord, template: Unit | None = None) -> Unit:
     """The unit a record describes: its piston area, gas volumes and static

@@ -391,7 +391,7 @@ def _rate_read(result: FitResult, i: int, channel: str) -> tuple[NDArray[np.floa
         return None
     rate = derivative(d.times_s, sim[channel])
     n = rate_noise(result.residuals(i, channel), d.weight_sigma[channel], rate)
-    if n is None or n.jitter_s > JITTER_SAID_MAX_DT_SHARE * float(np.median(np.diff(d.times_s))):
+    if n is None or n.jitter_s > JITTER_SAID_MAX_DT_SHARE * d.interval_s:
         return None
     return rate, n
 
@@ -399,7 +399,7 @@ def _rate_read(result: FitResult, i: int, channel: str) -> tuple[NDArray[np.floa
 def fastest_interval_s(datasets: Sequence[Dataset]) -> float:
     """The shortest median sampling interval of ``datasets``' records, s
     (inf without a record of two samples)."""
-    return min((float(np.median(np.diff(d.times_s))) for d in datasets if len(d.times_s) > 1), default=math.inf)
+    return min((d.interval_s for d in datasets), default=math.inf)
 
 
 def _jitter_counted(result: FitResult, i: int, row: ResidualRow, read: tuple[NDArray[np.float64], RateNoise] | None,
