@@ -628,8 +628,14 @@ def _print_diagnosis(rep: Reporter, diag: diagnose.Diagnosis, path: Path) -> Non
         params = "" if c is None else ", ".join(f"{p.name}={c.result.values[p.name]:.4g}" for e in c.effects for p in LIBRARY[e].params)
         t.add_row(str(k), ", ".join(rnd.before.model.effects) or "classical", f"{rnd.before.rms_ratio:.3g}", f"{rnd.before.bic:.0f}",
                   "-" if c is None else c.effect, "-" if c is None else f"{c.delta_bic:.0f}", params)
+    for r in diag.reconsidered:
+        if r.dropped and r.refit_delta_bic is not None:
+            t.add_row("tested again", "", "", "", f"{r.effect} dropped", f"{-r.refit_delta_bic:.0f}", "")
     t.add_row("final", ", ".join(diag.final.model.effects) or "classical", f"{diag.final.rms_ratio:.3g}", f"{diag.final.bic:.0f}", "", "", "")
     rep.out.print(t)
+    for r in diag.reconsidered:
+        if r.refit_delta_bic is not None:
+            rep.say(f"Tested again at the final model: {r.describe()}.")
     if diag.judgement is not None:
         rep.say(diag.judgement.describe())
     rep.say(f"Report: {path}")

@@ -20,7 +20,7 @@ from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.dataset import Dataset, clock_jitters, noise_colours  # noqa: E402
 from hpctl.identify.derived import derived  # noqa: E402
-from hpctl.identify.diagnose import AHEAD_SHARE, Candidate, Diagnosis, Round, loop_areas  # noqa: E402
+from hpctl.identify.diagnose import AHEAD_SHARE, BIC_STRONG, NULL_Z, Candidate, Diagnosis, Round, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.no_flow import NO_FLOW_SPEED_M_S  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
@@ -313,6 +313,11 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         lines.append("The residual of the declared model is indistinguishable from the measurement noise: nothing is left to explain.")
     else:
         lines.append("Structured residual remains that no effect in the library explains (see the residual analysis below).")
+    if diag.reconsidered:
+        lines += ["", f"Each effect found was tested again at the final model: one whose parameters were less than {NULL_Z:g} standard "
+                  f"errors from doing nothing was refitted out of the model, and dropped where the model without it was no more than "
+                  f"{BIC_STRONG:g} worse in BIC (an effect found in one round can stand in there for one found later): "
+                  + "; ".join(rc.describe() for rc in diag.reconsidered) + "."]
     if final.model.flexible:
         lines += ["", "Every model was fitted flexibly: the damper characteristic per valve state and direction, the heat-transfer law "
                   "and the friction's shape identified from the data (`--flexible`), not one gain on the assumed curve."]
@@ -348,6 +353,10 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
         else:
             lines.append(f"| {k} | {model} | {rnd.before.rms_ratio:.3g} | {rnd.before.bic:.1f} | `{c.effect}` | {c.delta_bic:.1f} | "
                          f"{c.score:.1f} | {_fmt(c.cv_before, 4)} | {_fmt(c.cv_after, 4)} | {_after(rnd)} |")
+    for rc in diag.reconsidered:
+        if rc.dropped and rc.refit_delta_bic is not None:
+            # Its "gain": the BIC change of the model without it, as the rounds' gains (positive is better).
+            lines.append(f"| tested again | | | | `{rc.effect}` dropped | {-rc.refit_delta_bic:.1f} | | | | {rc.rms_ratio_without:.3g} |")
     lines.append(f"| final | {', '.join(final.model.effects) or 'classical'} | {final.rms_ratio:.3g} | {final.bic:.1f} | | | | | | |")
     for k, rnd in enumerate(diag.rounds):
         if not rnd.candidates:
