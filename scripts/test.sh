@@ -44,7 +44,8 @@ fi
 
 echo "== Python package and test dependencies"
 python3 -m pip install --quiet --upgrade pip
-python3 -m pip install --quiet -e ".[test]"
+# The versions the pinned foreign-rig draws were read with (tests/constraints.txt says why).
+python3 -m pip install --quiet -e ".[test]" -c tests/constraints.txt
 
 echo "== Rust tests (workspace)"
 cargo test --workspace --release
