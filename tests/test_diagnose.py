@@ -7,6 +7,7 @@ been tuned to one dataset.
 
 from __future__ import annotations
 
+import math
 import os
 import secrets
 from dataclasses import replace
@@ -178,6 +179,69 @@ def test_an_effect_whose_parameters_sit_at_its_null_is_not_accepted() -> None:
     r = FitResult(Model(("friction",), True), {"friction_coulomb_n": 0.0, "friction_viscous_n_s_per_m": 0.0},
                   {"friction_coulomb_n": 117.0, "friction_viscous_n_s_per_m": 1298.0}, 1.0, 1, [], [], [])
     assert not Candidate(("friction",), 2, r, 10.0, 0.1).shows_itself
+
+
+def _reconsidered_case() -> tuple[list, object]:  # type: ignore[type-arg]
+    """hp-core's rig with friction and no offset, fitted with both (the
+    accepted model's fit: the input noise carried, errors)."""
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.fit import fit
+
+    rng = np.random.default_rng(11)
+    _values, records = rig_data(["friction"], rng)
+    datasets = prepare(records)
+    return datasets, fit(datasets, SEED_MODEL + ("friction", "sensor_offset"))
+
+
+def test_a_found_effect_at_its_null_in_the_final_model_is_refitted_out_and_dropped() -> None:
+    # The final model's test of each effect found (diagnose._reconsider):
+    # offsets the data do not have sit within NULL_Z errors of zero, are
+    # refitted out and dropped (the model without them is better in BIC);
+    # friction, many errors from its null, is not refitted. Against an
+    # independent computation: the BIC change is the two fits' own.
+    from hpctl.identify.diagnose import BIC_STRONG, NULL_Z, _Clock, _reconsider, null_z
+    from hpctl.identify.fit import FitResult, at_own_noise
+
+    datasets, final = _reconsidered_case()
+    assert isinstance(final, FitResult)
+    z = null_z(final, ("friction", "sensor_offset"))
+    assert z["sensor_offset"] < NULL_Z <= z["friction"], z
+    lines: list[str] = []
+    current, judged, tested = _reconsider(datasets, final, at_own_noise(final), final.model.effects, ["friction", "sensor_offset"],
+                                          _Clock(lines.append, 6))
+    by = {t.effect: t for t in tested}
+    assert set(by) == {"friction", "sensor_offset"} and not by["friction"].dropped and by["friction"].refit_delta_bic is None
+    off = by["sensor_offset"]
+    assert off.dropped and off.refit_delta_bic == pytest.approx(current.bic - final.bic) and off.refit_delta_bic <= BIC_STRONG
+    assert current.model.effects == SEED_MODEL + ("friction",) and not any(k.startswith("sensor_") for k in current.values)
+    assert judged.rms_ratio == pytest.approx(off.rms_ratio_without) and off.rms_ratio_with == pytest.approx(at_own_noise(final).rms_ratio)
+    assert any(line.startswith("tested again at the final model: sensor_offset dropped") for line in lines), lines
+
+
+def test_a_found_effect_the_model_needs_is_kept_when_its_errors_are_wide_or_its_refit_fails(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Wide errors put friction "near" its null, but the model refitted
+    # without it is far worse: kept. A refit whose runs failed (a
+    # non-finite BIC) is no evidence against an effect: kept too.
+    from hpctl.identify import diagnose as diagnose_module
+    from hpctl.identify.diagnose import BIC_STRONG, _Clock, _reconsider
+    from hpctl.identify.fit import FitResult
+
+    datasets, final = _reconsidered_case()
+    assert isinstance(final, FitResult)
+    wide = replace(final, stderr={k: 1e12 for k in final.values})  # every parameter within its errors of anything
+    current, _judged, tested = _reconsider(datasets, wide, wide, wide.model.effects, ["friction"], _Clock(lambda _m: None, 6))
+    [t] = tested
+    assert not t.dropped and t.refit_delta_bic is not None and t.refit_delta_bic > BIC_STRONG and current is wide
+
+    real_fit = diagnose_module.fit
+
+    def failed(*args: object, **kwargs: object) -> FitResult:
+        return replace(real_fit(*args, **kwargs), rss=float("nan"))  # type: ignore[arg-type]
+
+    monkeypatch.setattr(diagnose_module, "fit", failed)
+    current, _judged, tested = _reconsider(datasets, wide, wide, wide.model.effects, ["friction"], _Clock(lambda _m: None, 6))
+    [t] = tested
+    assert not t.dropped and not math.isfinite(t.refit_delta_bic or 0.0) and current is wide
 
 
 def test_an_effect_within_its_errors_of_the_null_shows_itself_by_what_switching_it_off_loses() -> None:

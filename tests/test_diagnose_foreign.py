@@ -31,6 +31,7 @@ from hpctl.cli import main as cli_main
 from hpctl.data.records import read_record
 from hpctl.identify.diagnose import BIC_STRONG, NOISE_CEILING, NULL_Z, Diagnosis, diagnose, summary
 from hpctl.identify.profile import profile_point
+from hpctl.model.effects import LIBRARY
 
 SHORT = ("sine_0.03hz", "sine_0.3hz", "sine_1hz")
 SIGMA_KEY = {"force_n": "force_n", "p_gas_pa": "p_pa", "p_gas2_pa": "p_pa", "body_disp_m": "disp_m"}
@@ -121,6 +122,17 @@ def check_honest(d: Diagnosis, truth: dict[str, Any], context: str) -> None:
         assert step["rms_ratio_after"] < step["rms_ratio_before"], context
         after = step["residual_after"]
         assert after["rms_ratio"] == pytest.approx(step["rms_ratio_after"]) and after["structure_remains"] == (not after["at_noise"]), context
+    # Each effect found with a null tested again at the final model: one
+    # near its null refitted out, dropped exactly where the model without
+    # it was no worse than BIC_STRONG, and then nowhere in the result.
+    nested = {e for r in d.rounds if r.accepted is not None for e in r.accepted.effects
+              if any(p.null is not None for p in LIBRARY[e].params)}
+    assert {t.effect for t in d.reconsidered} == nested, context
+    for t in d.reconsidered:
+        assert (t.refit_delta_bic is None) == (t.null_z >= NULL_Z), context
+        assert t.dropped == (t.refit_delta_bic is not None and t.refit_delta_bic <= BIC_STRONG), context
+        assert (t.effect in d.found) != t.dropped and (t.effect in d.final.model.effects) != t.dropped, context
+    assert s["dropped"] == d.dropped and len(s["reconsidered"]) == len(d.reconsidered), context
     json.dumps(s)  # machine-readable as it is
 
 
@@ -675,8 +687,6 @@ def test_flexible_diagnosis_names_a_sensor_effect_at_the_noise_with_its_paramete
     # Measured on the short sweep (stop 36, seeds 11 and 12): found alone,
     # 0.98-1.10 x the noise, every parameter within 0.7 % and 2 errors,
     # 24-69 s.
-    from hpctl.model.effects import LIBRARY
-
     g, d, context = found_first_at_the_noise(effect, seed)
     for p in LIBRARY[effect].params:
         est, err, true = estimate(d, g, p.name)

@@ -1448,7 +1448,8 @@ def _reconsider(
                     jacobian=accepted_jacobian(flexible, current.n))
         t.refit_delta_bic = refit.bic - current.bic
         t.rms_ratio_with = judged.rms_ratio
-        if t.refit_delta_bic > BIC_STRONG:
+        # A refit whose runs failed (a non-finite BIC) is no evidence against it: kept.
+        if not t.refit_delta_bic <= BIC_STRONG:
             kept.add(t.effect)
             clock.say(f"tested again at the final model: {t.describe()}")
             continue
