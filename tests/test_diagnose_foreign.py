@@ -760,6 +760,36 @@ def test_flexible_diagnosis_names_heat_build_up_at_the_noise(seed: int) -> None:
     assert {"oil_heat_capacity_j_per_k", "wall_to_oil_tau_s"} <= banded, context
 
 
+def test_a_walk_toward_a_log_scaled_null_far_worse_than_the_model_is_not_waited_out(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A draw of the heat build-up test above (stop 72): oil compliance's
+    # screening (the oil rigid in the rig) walked the modulus from 1.00 to
+    # 1.86 GPa in 37 finite-difference Jacobians, 18 to 5 times the model's
+    # residual sum of squares all the way, 140 s of the diagnosis's 161.
+    # On a log scale FAR_WORSE now ends such a walk anywhere
+    # (diagnose.at_null_and_no_better): the same rejection, stopped heading
+    # for its null, in a few Jacobians. Counted, not timed.
+    from hpctl.identify import diagnose as dg
+    from hpctl.identify import fit as fit_module
+    from hpctl.identify.dataset import prepare
+
+    g = effect_case("heat_buildup", 1455421066)
+    declared = ("heat_transfer", "real_gas")
+    current = fit_module.fit(prepare([read_record(p) for p in g.records]), declared, flexible=True)
+    sets: list[int] = []
+    simulate = fit_module.simulate_all
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        sets.append(len(args[2]))
+        return simulate(*args, **kwargs)
+
+    monkeypatch.setattr(fit_module, "simulate_all", counted)
+    c = dg._try(current.datasets, current, declared, ("oil_compliance",))
+    jacobians = sum(1 for k in sets if k > 1)
+    context = f"{c.result.message}; {c.result.rss / current.rss:.3g} x the model's residual; {jacobians} Jacobians; {c.result.values['oil_bulk_modulus_pa']:.4g} Pa"
+    assert c.stopped_at_null and c.delta_bic < -dg.BIC_STRONG and c.result.rss > current.rss, context
+    assert jacobians <= 4, context
+
+
 def test_a_damper_that_took_the_seal_in_after_an_accepted_effect_is_screened_for_friction(tmp_path: Path) -> None:
     # FOREIGN_RIG_SEED=12's seal (638 N Coulomb) from real gas alone (the
     # draw of test_flexible_diagnosis_does_not_take_friction_for_heat_transfer

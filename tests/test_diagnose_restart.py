@@ -121,7 +121,11 @@ def test_the_stop_test_asks_for_every_bound_null_and_no_gain() -> None:
     outside = 3e9 * 10 ** (-1.1 * dg.NEAR_NULL * decades)
     assert oil({"oil_bulk_modulus_pa": inside}, rss) and oil({"oil_bulk_modulus_pa": inside}, 2 * rss)
     assert not oil({"oil_bulk_modulus_pa": inside}, 0.999 * rss)  # it bought something: go on
-    assert not oil({"oil_bulk_modulus_pa": outside}, 100 * dg.FAR_WORSE * rss)
+    assert not oil({"oil_bulk_modulus_pa": outside}, 0.999 * dg.FAR_WORSE * rss)
+    # FAR_WORSE times the model's residual ends it anywhere on a log scale
+    # (FOREIGN_RIG_SEED=1455421066's walk from 1 GPa at 18 x), not on a
+    # linear one (below).
+    assert oil({"oil_bulk_modulus_pa": outside}, dg.FAR_WORSE * rss) and oil({"oil_bulk_modulus_pa": 1e9}, 18 * rss)
     # Friction is at its null only with both its terms there.
     friction = dg.at_null_and_no_better(("friction",), rss)
     assert friction is not None
@@ -135,6 +139,7 @@ def test_the_stop_test_asks_for_every_bound_null_and_no_gain() -> None:
     assert not friction(near_friction, 2 * rss)
     assert friction(near_friction, dg.FAR_WORSE * rss)
     assert not friction(near_friction, 0.999 * dg.FAR_WORSE * rss)
+    assert not friction({"friction_coulomb_n": 1000.0, "friction_viscous_n_s_per_m": 0.0}, 100 * dg.FAR_WORSE * rss)
     # A pair of log-scaled nulls is no better near both; with a linear
     # null in it, only at them.
     logs = dg.at_null_and_no_better(("leakage", "valve_lag"), rss)
@@ -160,14 +165,16 @@ def test_oil_compliances_screening_fit_on_data_without_it_stops_at_its_null(seed
     monkeypatch.setattr(fit_module, "simulate_all", counted)
     c = dg._try(datasets, current, SEED_MODEL, ("oil_compliance",))
     stopped = len(runs)
-    # Stopped where the data pushed it: at its stiffest, worse than the
+    # Stopped where the data pushed it: toward its stiffest, worse than the
     # model it extends, so never accepted (as without the stop).
     assert c.result.message == "stopped by the caller's test (stop)", f"seed={seed}: {c.result.message}"
     p = LIBRARY["oil_compliance"].params[0]
     lo, hi = p.x_bounds()
-    # Near the bound (its null, on a log scale) and no better.
+    # Near the bound (its null, on a log scale) and no better, or anywhere
+    # FAR_WORSE times the model (HPCTL_TEST_SEED=1450587866: 1.56 GPa at
+    # 11,200 x, stop 73).
     off = abs(p.to_x(c.result.values[p.name]) - hi) / (hi - lo)
-    assert off <= dg.NEAR_NULL, \
+    assert off <= dg.NEAR_NULL or c.result.rss >= dg.FAR_WORSE * current.rss, \
         f"seed={seed}: {c.result.values}, {c.result.rss / current.rss:.3g} x the model's residual"
     assert c.result.rss > current.rss and c.delta_bic < 0, f"seed={seed}"
     assert c.result.stopped and c.stopped_at_null, f"seed={seed}"
