@@ -523,11 +523,7 @@ class Candidate:
 
     @property
     def null_z(self) -> dict[str, float]:
-        """Per effect added, how far its parameters are from where the
-        effect does nothing (:attr:`hpctl.model.effects.Param.null`), in
-        standard errors: the largest over its parameters that have a null
-        (inf where an error is zero; effects without such parameters are
-        left out)."""
+        """Per effect added, how far its fit put it from doing nothing (:func:`null_z`)."""
         return null_z(self.result, self.effects)
 
     @property
