@@ -141,6 +141,18 @@ def describe(d: Diagnosis, seed: int, truth: dict[str, Any]) -> str:
     return f"seed={seed} truth={truth['hpctl_params']} verdict={d.verdict} found={d.found} left={j.describe(12) if j else None}"
 
 
+def pinned_diagnosis(effect: str | None, seed: int, declared: tuple[str, ...]) -> tuple[Any, Diagnosis, list[str], str]:
+    """A pinned draw of the short sweep diagnosed flexibly from ``declared``,
+    checked honest: the case, the diagnosis, its progress lines, and the
+    context an assertion prints (the lines with it)."""
+    g = short_case(effect, seed)
+    lines: list[str] = []
+    d = diagnose([read_record(p) for p in g.records], declared, flexible=True, progress=lines.append)
+    context = describe(d, seed, g.truth) + "\n" + "\n".join(lines)
+    check_honest(d, g.truth, context)
+    return g, d, lines, context
+
+
 @pytest.mark.parametrize("flexible", [False, True], ids=["one_gain", "flexible"])
 def test_an_effect_outside_the_library_leaves_structure_and_says_where(seed: int, flexible: bool) -> None:
     # An elastomer bump stop met at 35-50 mm of compression: no effect of
@@ -171,12 +183,7 @@ def test_an_offset_that_explains_nothing_as_the_verdict_judges_is_not_accepted(t
     # (-0.8 %), and what remains is said where it is. The assertions are
     # on the outcome, which does not depend on the rig drawing the same
     # numbers to the last digit.
-    seed = 357950441
-    g = short_case("bump_stop", seed)
-    lines: list[str] = []
-    d = diagnose([read_record(p) for p in g.records], ("heat_transfer", "real_gas"), flexible=True, progress=lines.append)
-    context = describe(d, seed, g.truth) + "\n" + "\n".join(lines)
-    check_honest(d, g.truth, context)
+    _g, d, lines, context = pinned_diagnosis("bump_stop", 357950441, ("heat_transfer", "real_gas"))
     assert "sensor_offset" not in d.found and d.structure_remains, context
     offset = [c for c in summary(d)["candidates_by_round"][0] if c["effect"] == "sensor_offset"]
     assert offset and offset[0]["refit_delta_bic"] < -10 and offset[0]["judged_explained"] < 0.05, context
@@ -299,12 +306,7 @@ def test_pairs_are_fitted_where_a_single_passed_its_screening_and_its_full_fit_w
     # single passed the screening's tests, so nothing was found. Pairs are
     # now fitted wherever no single is accepted in the end: heat transfer
     # with real gas, at the noise.
-    seed = 1273941668
-    g = short_case(None, seed)
-    lines: list[str] = []
-    d = diagnose([read_record(p) for p in g.records], (), flexible=True, progress=lines.append)
-    context = describe(d, seed, g.truth) + "\n" + "\n".join(lines)
-    check_honest(d, g.truth, context)
+    _g, d, lines, context = pinned_diagnosis(None, 1273941668, ())
     assert sorted(d.found) == ["heat_transfer", "real_gas"] and d.verdict == "effects_found", context
     [single] = [c for c in d.rounds[0].candidates if c.effects == ("heat_transfer",)]
     assert single.judged_explained is not None and single.judged_explained < 0.05, context
@@ -320,12 +322,7 @@ def test_an_effect_found_as_a_stand_in_is_dropped_when_what_it_stood_in_for_is_f
     # Each effect found is now tested again at the final model: the offset
     # is refitted out, the model without it better in BIC (-19.0 measured),
     # and said dropped in the progress, the JSON and the report.
-    seed = 2028051846
-    g = short_case(None, seed)
-    lines: list[str] = []
-    d = diagnose([read_record(p) for p in g.records], (), flexible=True, progress=lines.append)
-    context = describe(d, seed, g.truth) + "\n" + "\n".join(lines)
-    check_honest(d, g.truth, context)
+    g, d, lines, context = pinned_diagnosis(None, 2028051846, ())
     # The story, as it went: the offset accepted on the way.
     assert d.rounds[0].accepted is not None and d.rounds[0].accepted.effects == ("sensor_offset",), context
     assert sorted(d.found) == ["heat_transfer", "real_gas"] and d.verdict == "effects_found", context
