@@ -1192,23 +1192,16 @@ def _null_delta_bic(datasets: Sequence[Dataset], c: Candidate) -> float:
     come from that model's fit having stopped short (the other parameters
     stay where the candidate's fit put them: the sensor offsets of
     HPCTL_TEST_SEED=1104332819 at -0.2 +- 0.9 N gain nothing here)."""
-    return null_gain(datasets, c.result, c.effects, c.added_params)
-
-
-def null_gain(datasets: Sequence[Dataset], r: FitResult, effects: Sequence[str], added: int) -> float:
-    """The BIC change of ``r`` against the same model with the parameters
-    of ``effects`` at their nulls and every other parameter at ``r``'s
-    values, on ``datasets`` (one run of the records); ``added``: the
-    parameters those effects cost (positive is better, :func:`bic_gain`)."""
+    r = c.result
     values = dict(r.values)
-    for e in effects:
+    for e in c.effects:
         for p in LIBRARY[e].params:
             if p.null is not None and p.name in values:
                 values[p.name] = p.null
     rss_null = rss_at(datasets, r.model.effects, values, flexible=r.model.flexible)
     if not (math.isfinite(rss_null) and r.rss > 0):
         return -math.inf
-    return bic_gain(r.n, rss_null, r.rss, added)
+    return bic_gain(r.n, rss_null, r.rss, c.added_params)
 
 
 def offset_delta_bic(current: FitResult) -> float:
@@ -1255,9 +1248,16 @@ def _full_fit(datasets: Sequence[Dataset], current: FitResult, effects: tuple[st
     is the next round's baseline, and one stopped short of its optimum lets
     the next candidate "explain" the rest of the way, see
     :attr:`Candidate.shows_itself`)."""
-    flexible = current.model.flexible
-    return fit(datasets, effects + c.effects, initial=c.result.values, flexible=flexible, max_nfev=ACCEPTED_MAX_NFEV,
-               ftol=accepted_ftol(current.n, len(c.result.model.params)), jacobian=accepted_jacobian(flexible, current.n))
+    return _going_on(datasets, effects + c.effects, c.result.values, current.model.flexible, current.n, len(c.result.model.params))
+
+
+def _going_on(datasets: Sequence[Dataset], effects: tuple[str, ...], initial: Mapping[str, float], flexible: bool, n: int,
+              k: int) -> FitResult:
+    """A fit of a model that goes on (:func:`_full_fit`, :func:`_reconsider`):
+    with the input noise, the accepted model's evaluation budget, and its
+    tolerance and Jacobian for ``n`` residuals and ``k`` parameters."""
+    return fit(datasets, effects, initial=initial, flexible=flexible, max_nfev=ACCEPTED_MAX_NFEV, ftol=accepted_ftol(n, k),
+               jacobian=accepted_jacobian(flexible, n))
 
 
 def _accept(
@@ -1453,23 +1453,20 @@ def _reconsider(
                   "doing nothing: refitting the model without it")
         without = tuple(x for x in effects if x != t.effect)
         params = {p.name for p in LIBRARY[t.effect].params}
-        flexible = current.model.flexible
-        refit = fit(datasets, without, initial={k: v for k, v in current.values.items() if k not in params}, flexible=flexible,
-                    max_nfev=ACCEPTED_MAX_NFEV, ftol=accepted_ftol(current.n, len(current.model.params)),
-                    jacobian=accepted_jacobian(flexible, current.n))
+        refit = _going_on(datasets, without, {k: v for k, v in current.values.items() if k not in params}, current.model.flexible,
+                          current.n, len(current.model.params))
         t.refit_delta_bic = refit.bic - current.bic
         t.rms_ratio_with = judged.rms_ratio
         # A refit whose runs failed (a non-finite BIC) is no evidence against it: kept.
-        if not t.refit_delta_bic <= BIC_STRONG:
+        t.dropped = t.refit_delta_bic <= BIC_STRONG
+        if t.dropped:
+            judged = at_own_noise(refit)
+            t.rms_ratio_without = judged.rms_ratio
+            current, effects, datasets = refit, without, refit.datasets
+            found = [x for x in found if x != t.effect]
+        else:
             kept.add(t.effect)
-            clock.say(f"tested again at the final model: {t.describe()}")
-            continue
-        judged = at_own_noise(refit)
-        t.rms_ratio_without = judged.rms_ratio
-        t.dropped = True
         clock.say(f"tested again at the final model: {t.describe()}")
-        current, effects, datasets = refit, without, refit.datasets
-        found = [x for x in found if x != t.effect]
     return current, judged, list(tested.values())
 
 
@@ -1570,7 +1567,8 @@ def _diagnose(
         effects = tuple(e for e in LIBRARY if e in effects + accepted.effects)
         current, judged = accepted.result, judged_after
     current, judged, reconsidered = _reconsider(current.datasets, current, judged, effects, found, clock)
-    found = [e for e in found if not any(t.dropped and t.effect == e for t in reconsidered)]
+    dropped = {t.effect for t in reconsidered if t.dropped}
+    found = [e for e in found if e not in dropped]
     current = judged
     final_analysis = analyse(current)
     final_judgement = judge(current, final_analysis)
