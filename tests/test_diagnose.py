@@ -244,6 +244,72 @@ def test_a_found_effect_the_model_needs_is_kept_when_its_errors_are_wide_or_its_
     assert not t.dropped and not math.isfinite(t.refit_delta_bic or 0.0) and current is wide
 
 
+def test_the_design_effect_is_one_on_noise_and_the_span_of_a_structured_residual() -> None:
+    # diagnose.design_effect: the sandwich covariance of an effect's
+    # parameters against the one the BIC assumes (independent residuals of
+    # one variance). Analytic cases first: the mean of the generalised
+    # eigenvalues, here the diagonal's ratios.
+    from hpctl.identify.diagnose import design_effect, scaled_delta_bic
+    from hpctl.identify.fit import FitResult, Model
+
+    names = [p.name for p in Model(SEED_MODEL + ("friction",), True).params]
+    i, j = names.index("friction_coulomb_n"), names.index("friction_viscous_n_s_per_m")
+    iid = np.eye(len(names))
+    iid[i, i], iid[j, j] = 1.0, 4.0
+    robust = iid.copy()
+    robust[i, i], robust[j, j] = 3.0, 8.0  # ratios 3 and 2
+    r = FitResult(Model(SEED_MODEL + ("friction",), True), {n: 1.0 for n in names}, {}, 1.0, 10, [], [], [], covariance=robust,
+                  covariance_iid=iid)
+    assert design_effect(r, "friction") == pytest.approx(2.5)
+    assert design_effect(replace(r, covariance_iid=None), "friction") is None
+    assert design_effect(replace(r, covariance=np.full_like(robust, np.inf)), "friction") is None
+    # The BIC change with its likelihood ratio divided by it: only ever
+    # less evidence for the larger model, and the change itself at 1.
+    n, k = 1000, 2
+    assert scaled_delta_bic(50.0, k, n, 2.5) == pytest.approx((50.0 + k * math.log(n)) / 2.5 - k * math.log(n))
+    assert scaled_delta_bic(50.0, k, n, 0.5) == 50.0 and scaled_delta_bic(50.0, k, n, None) == 50.0
+
+    # Real fits on hp-core's rig (data with friction): the model that has
+    # it leaves the noise, independent, and the design effect is about 1;
+    # without it, the residual is 3 x the noise and correlated over many
+    # samples, and the offsets' design effect is that span.
+    from hpctl.identify.fit import fit
+
+    datasets, final = _reconsidered_case()
+    assert isinstance(final, FitResult) and final.rms_ratio < 1.1
+    for effect in ("friction", "sensor_offset"):
+        assert 0.8 < (design_effect(final, effect) or 0.0) < 1.4, effect
+    structured = fit(datasets, SEED_MODEL + ("sensor_offset",))
+    assert structured.rms_ratio > 2.0 and (design_effect(structured, "sensor_offset") or 0.0) > 5.0
+
+
+def test_a_found_effect_whose_evidence_is_the_residuals_correlation_is_dropped() -> None:
+    # hp-core's rig with heat build-up, fitted with sensor offsets instead:
+    # the residual stays at several times the noise, correlated, and the
+    # offsets take a little of it (within NULL_Z errors of zero). Refitted
+    # without them, the BIC, which counts every residual as independent,
+    # says they are worth keeping; with the likelihood ratio divided by the
+    # residuals' design effect it does not, and they are dropped.
+    from hpctl.identify.dataset import prepare
+    from hpctl.identify.diagnose import BIC_STRONG, NULL_Z, _Clock, _reconsider, design_effect, null_z
+    from hpctl.identify.fit import at_own_noise, fit
+
+    _values, records = rig_data(["heat_buildup"], np.random.default_rng(11))
+    datasets = prepare(records)
+    final = fit(datasets, SEED_MODEL + ("sensor_offset",))
+    assert null_z(final, ["sensor_offset"])["sensor_offset"] < NULL_Z
+    design = design_effect(final, "sensor_offset")
+    assert design is not None and design > 10.0
+    lines: list[str] = []
+    current, _judged, [t] = _reconsider(datasets, final, at_own_noise(final), final.model.effects, ["sensor_offset"], _Clock(lines.append, 6))
+    assert t.refit_delta_bic is not None and t.refit_delta_bic == pytest.approx(current.bic - final.bic) and t.refit_delta_bic > BIC_STRONG
+    k = final.k - current.k
+    assert k == 3 and t.design_effect == design
+    assert t.scaled_delta_bic == pytest.approx((t.refit_delta_bic + k * math.log(final.n)) / design - k * math.log(final.n))
+    assert t.scaled_delta_bic is not None and t.scaled_delta_bic <= BIC_STRONG and t.dropped
+    assert current.model.effects == SEED_MODEL and "with the residuals' correlation counted (design effect" in lines[-1], lines
+
+
 def test_an_effect_within_its_errors_of_the_null_shows_itself_by_what_switching_it_off_loses() -> None:
     # Wide errors (a flexible damper can take friction's role by moving far)
     # but switching the effect off at the candidate's own values loses much:

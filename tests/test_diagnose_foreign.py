@@ -124,13 +124,19 @@ def check_honest(d: Diagnosis, truth: dict[str, Any], context: str) -> None:
         assert after["rms_ratio"] == pytest.approx(step["rms_ratio_after"]) and after["structure_remains"] == (not after["at_noise"]), context
     # Each effect found with a null tested again at the final model: one
     # near its null refitted out, dropped exactly where the model without
-    # it was no worse than BIC_STRONG, and then nowhere in the result.
+    # it was no worse than BIC_STRONG once the residuals' correlation is
+    # counted (which only takes evidence away), and then nowhere in the result.
     nested = {e for r in d.rounds if r.accepted is not None for e in r.accepted.effects
               if any(p.null is not None for p in LIBRARY[e].params)}
     assert {t.effect for t in d.reconsidered} == nested, context
     for t in d.reconsidered:
         assert (t.refit_delta_bic is None) == (t.null_z >= NULL_Z), context
-        assert t.dropped == (t.refit_delta_bic is not None and t.refit_delta_bic <= BIC_STRONG), context
+        assert (t.scaled_delta_bic is None) == (t.refit_delta_bic is None), context
+        if t.refit_delta_bic is not None and t.scaled_delta_bic is not None and math.isfinite(t.refit_delta_bic):
+            assert t.scaled_delta_bic <= t.refit_delta_bic or t.scaled_delta_bic <= BIC_STRONG, context
+            if t.design_effect is None or t.design_effect <= 1.0:
+                assert t.scaled_delta_bic == t.refit_delta_bic, context
+        assert t.dropped == (t.scaled_delta_bic is not None and t.scaled_delta_bic <= BIC_STRONG), context
         assert (t.effect in d.found) != t.dropped and (t.effect in d.final.model.effects) != t.dropped, context
     assert s["dropped"] == d.dropped and len(s["reconsidered"]) == len(d.reconsidered), context
     json.dumps(s)  # machine-readable as it is

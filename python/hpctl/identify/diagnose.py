@@ -452,6 +452,34 @@ def null_z(result: FitResult, effects: Sequence[str]) -> dict[str, float]:
     return out
 
 
+def design_effect(result: FitResult, effect: str) -> float | None:
+    """How much the residuals of ``result`` weaken a BIC change over
+    ``effect``'s parameters (those with a null): the mean eigenvalue of the
+    covariance of their estimate, the sandwich that counts the residuals'
+    correlation and uneven spread (:attr:`FitResult.covariance`), against
+    the one the BIC's likelihood assumes, independent residuals of one
+    variance (:attr:`FitResult.covariance_iid`). Rao and Scott's
+    first-order correction (1981): a likelihood-ratio statistic divided by
+    it is again about chi-square on as many degrees of freedom. About 1
+    where the residuals are independent noise; the number of samples a
+    structured residual's correlation spans where they are not. None where
+    either covariance is missing or singular over those parameters."""
+    if result.covariance is None or result.covariance_iid is None:
+        return None
+    names = [p.name for p in result.model.params]
+    idx = [names.index(p.name) for p in LIBRARY[effect].params if p.null is not None and p.name in names]
+    if not idx:
+        return None
+    robust, iid = result.covariance[np.ix_(idx, idx)], result.covariance_iid[np.ix_(idx, idx)]
+    if not (np.all(np.isfinite(robust)) and np.all(np.isfinite(iid))):
+        return None
+    try:
+        delta = float(np.trace(np.linalg.solve(iid, robust))) / len(idx)
+    except np.linalg.LinAlgError:
+        return None
+    return delta if math.isfinite(delta) and delta > 0.0 else None
+
+
 @dataclass
 class Candidate:
     """One effect (or, when no single one is enough, a pair) added to the model."""
@@ -580,6 +608,12 @@ class Reconsidered:
     #: the model with it to the model refitted without it (above
     #: :data:`BIC_STRONG`: worse without it, kept).
     refit_delta_bic: float | None = None
+    #: Where refitted: :func:`design_effect` of its parameters at the model
+    #: it was tested on, and the refit's BIC change with the likelihood
+    #: ratio divided by it where it is above 1 (the BIC's own where it is
+    #: not): what the decision reads.
+    design_effect: float | None = None
+    scaled_delta_bic: float | None = None
     #: Dropped: the model refitted without it goes on.
     dropped: bool = False
     #: RMS / noise, as the verdict judges it, with it and, where refitted, without.
@@ -591,13 +625,17 @@ class Reconsidered:
                  "doing nothing")
         if self.refit_delta_bic is not None:
             words += f", the model refitted without it {self.refit_delta_bic:+.1f} in BIC"
+            if self.scaled_delta_bic is not None and self.scaled_delta_bic != self.refit_delta_bic:
+                words += (f", {self.scaled_delta_bic:+.1f} with the residuals' correlation counted (design effect "
+                          f"{self.design_effect:.3g})")
         if self.rms_ratio_without is not None:
             words += f" (RMS / noise {self.rms_ratio_with:.3g} -> {self.rms_ratio_without:.3g})"
         return words
 
     def to_json(self) -> dict[str, Any]:
-        return {"effect": self.effect, "null_z": self.null_z, "refit_delta_bic": self.refit_delta_bic, "dropped": self.dropped,
-                "rms_ratio_with": self.rms_ratio_with, "rms_ratio_without": self.rms_ratio_without}
+        return {"effect": self.effect, "null_z": self.null_z, "refit_delta_bic": self.refit_delta_bic, "design_effect": self.design_effect,
+                "scaled_delta_bic": self.scaled_delta_bic, "dropped": self.dropped, "rms_ratio_with": self.rms_ratio_with,
+                "rms_ratio_without": self.rms_ratio_without}
 
 
 @dataclass
@@ -1181,7 +1219,7 @@ def _with_errors(datasets: Sequence[Dataset], c: Candidate) -> None:
         return
     # One evaluation: the optimiser stops at the start, with the Jacobian there.
     at = fit(datasets, r.model.effects, initial=r.values, input_noise=False, flexible=r.model.flexible, max_nfev=1, place_switches=False)
-    c.result = replace(r, stderr=at.stderr, covariance=at.covariance)
+    c.result = replace(r, stderr=at.stderr, covariance=at.covariance, covariance_iid=at.covariance_iid)
 
 
 def _null_delta_bic(datasets: Sequence[Dataset], c: Candidate) -> float:
@@ -1456,9 +1494,11 @@ def _reconsider(
         refit = _going_on(datasets, without, {k: v for k, v in current.values.items() if k not in params}, current.model.flexible,
                           current.n, len(current.model.params))
         t.refit_delta_bic = refit.bic - current.bic
+        t.design_effect = design_effect(current, t.effect)
+        t.scaled_delta_bic = scaled_delta_bic(t.refit_delta_bic, current.k - refit.k, current.n, t.design_effect)
         t.rms_ratio_with = judged.rms_ratio
         # A refit whose runs failed (a non-finite BIC) is no evidence against it: kept.
-        t.dropped = t.refit_delta_bic <= BIC_STRONG
+        t.dropped = t.scaled_delta_bic <= BIC_STRONG
         if t.dropped:
             judged = at_own_noise(refit)
             t.rms_ratio_without = judged.rms_ratio
@@ -1468,6 +1508,18 @@ def _reconsider(
             kept.add(t.effect)
         clock.say(f"tested again at the final model: {t.describe()}")
     return current, judged, list(tested.values())
+
+
+def scaled_delta_bic(delta_bic: float, k: int, n: int, design: float | None) -> float:
+    """A nested model's BIC change ``delta_bic`` (``k`` parameters fewer,
+    ``n`` residuals) with its likelihood ratio divided by the design
+    effect ``design`` (:func:`design_effect`) where that is above 1; the
+    change itself where it is not, or unknown: the correction only ever
+    takes evidence away."""
+    if design is None or not design > 1.0:
+        return delta_bic
+    penalty = k * math.log(n)
+    return (delta_bic + penalty) / design - penalty
 
 
 def _diagnose(

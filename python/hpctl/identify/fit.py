@@ -345,6 +345,14 @@ class FitResult:
     #: test held (a screening fit toward its effect's null, no better than
     #: the model it extends: :func:`hpctl.identify.diagnose.at_null_and_no_better`).
     stopped: bool = False
+    #: The covariance the estimate would have were the residuals
+    #: independent draws of one variance, the residual sum of squares'
+    #: share (the likelihood :attr:`bic` assumes): the sandwich's bread,
+    #: in the values' units, the order of ``model.params`` (None where
+    #: ``covariance`` is). How far ``covariance`` is from it is how much
+    #: the residuals' correlation and uneven spread weaken what a BIC
+    #: change says (:func:`hpctl.identify.diagnose.design_effect`).
+    covariance_iid: FloatArray | None = field(default=None, repr=False)
 
     @property
     def place_step_max(self) -> float | None:
@@ -882,7 +890,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         place_step = _place_step(x, lo, hi, jmat[:n_data], jmat[n_data:], r, prior_rows(x) if prior else np.zeros(0), places,
                                  np.concatenate([d.switch_leads for d in datasets]))
     return FitResult(model, values, standard_errors(params, cov), rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message, cov,
-                     place_step, stopped)
+                     place_step, stopped, _iid_covariance(params, x, jmat[:n_data], jmat[n_data:], rss / max(len(r), 1), places))
 
 
 #: A flexible fit with friction whose Stribeck velocity ends below this
@@ -1415,13 +1423,7 @@ def _covariance(
     if k == 0:
         return np.zeros((0, 0))
     if nuisance is not None and nuisance.shape[1]:
-        m = nuisance.shape[1]
-        j_data = np.hstack([j_data, nuisance])
-        j_prior = np.vstack([np.hstack([j_prior, np.zeros((j_prior.shape[0], m))]),
-                             np.hstack([np.zeros((m, k)), np.eye(m) / PLACE_PRIOR_SD])])
-        x = np.concatenate([x, np.zeros(m)])
-        params = [*params, *([PLACE_PARAM] * m)]
-        return _covariance(params, x, j_data, j_prior, r, output_share, blocks, input_draws)[:k, :k]
+        return _covariance(*_with_nuisance(params, x, j_data, j_prior, nuisance), r, output_share, blocks, input_draws)[:k, :k]
     rss = float(r @ r)
     if input_draws is None:
         share = np.ones(len(r))
@@ -1436,6 +1438,35 @@ def _covariance(
     kappa = max(rss - input_ss, 0.0) / max(float(np.sum(output_share)) - k, 1.0)
     meat = kappa * output_meat(j_data, output_share, r, blocks, input_draws if m else None) + g @ g.T + j_prior.T @ j_prior
     return _to_values(params, x, _sandwich(j_data, j_prior, meat, k))
+
+
+def _iid_covariance(params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray, s2: float,
+                    nuisance: FloatArray | None) -> FloatArray:
+    """The estimate's covariance were its residuals independent with the
+    one variance ``s2`` (:attr:`FitResult.covariance_iid`), with the
+    priors and the nuisance columns :func:`_covariance` takes, so that the
+    two differ only in what the residuals are assumed to be."""
+    k = len(params)
+    if k == 0:
+        return np.zeros((0, 0))
+    if not math.isfinite(s2) or s2 <= 0.0:
+        return np.full((k, k), np.inf)
+    if nuisance is not None and nuisance.shape[1]:
+        return _iid_covariance(*_with_nuisance(params, x, j_data, j_prior, nuisance), s2, None)[:k, :k]
+    scaled = j_data / math.sqrt(s2)
+    return _to_values(params, x, _sandwich(scaled, j_prior, scaled.T @ scaled + j_prior.T @ j_prior, k))
+
+
+def _with_nuisance(params: Sequence[Param], x: FloatArray, j_data: FloatArray, j_prior: FloatArray,
+                   nuisance: FloatArray) -> tuple[list[Param], FloatArray, FloatArray, FloatArray]:
+    """The parameters, coordinates and Jacobian with the nuisance columns
+    appended as parameters of their own, each with its prior's row
+    (:data:`PLACE_PRIOR_SD`): the covariance of all of them, the
+    parameters' block of which carries the nuisance's uncertainty."""
+    k, m = len(params), nuisance.shape[1]
+    j_data = np.hstack([j_data, nuisance])
+    j_prior = np.vstack([np.hstack([j_prior, np.zeros((j_prior.shape[0], m))]), np.hstack([np.zeros((m, k)), np.eye(m) / PLACE_PRIOR_SD])])
+    return [*params, *([PLACE_PARAM] * m)], np.concatenate([x, np.zeros(m)]), j_data, j_prior
 
 
 def _sandwich(j_data: FloatArray, j_prior: FloatArray, meat: FloatArray, k: int) -> FloatArray:

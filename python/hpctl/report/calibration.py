@@ -316,7 +316,9 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
     if diag.reconsidered:
         lines += ["", f"Each effect found was tested again at the final model: one whose parameters were less than {NULL_Z:g} standard "
                   f"errors from doing nothing was refitted out of the model, and dropped where the model without it was no more than "
-                  f"{BIC_STRONG:g} worse in BIC (an effect found in one round can stand in there for one found later): "
+                  f"{BIC_STRONG:g} worse in BIC, its likelihood ratio divided by the residuals' design effect where their correlation or "
+                  f"uneven spread makes it more than 1 (a structured residual counts each sample as evidence many times over; "
+                  f"an effect found in one round can stand in there for one found later): "
                   + "; ".join(rc.describe() for rc in diag.reconsidered) + "."]
     if final.model.flexible:
         lines += ["", "Every model was fitted flexibly: the damper characteristic per valve state and direction, the heat-transfer law "
