@@ -625,7 +625,7 @@ class Reconsidered:
                  "doing nothing")
         if self.refit_delta_bic is not None:
             words += f", the model refitted without it {self.refit_delta_bic:+.1f} in BIC"
-            if self.scaled_delta_bic is not None and self.scaled_delta_bic != self.refit_delta_bic:
+            if self.scaled_delta_bic is not None and math.isfinite(self.scaled_delta_bic) and self.scaled_delta_bic != self.refit_delta_bic:
                 words += (f", {self.scaled_delta_bic:+.1f} with the residuals' correlation counted (design effect "
                           f"{self.design_effect:.3g})")
         if self.rms_ratio_without is not None:
