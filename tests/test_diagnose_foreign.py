@@ -284,6 +284,35 @@ def test_flexible_diagnosis_of_a_control_adds_no_effect(seed: int, tmp_path: Pat
     assert "fitted flexibly" in (out / "report.md").read_text()
 
 
+def test_a_channel_above_the_noise_by_a_colour_its_records_suggest_says_so(tmp_path: Path) -> None:
+    # FOREIGN_RIG_SEED=9's control (no effect), flexible: the 0.3 Hz sine's
+    # force read 1.31 x its level, all of it noise: the rig drew 44.0 N
+    # white and 39.1 N correlated over 38 ms, and the three records' levels
+    # (58.0, 43.4 and 47.5 N at 167, 17 and 5 ms) suggest that colour
+    # (evidence 8.9) without establishing it (12). The verdict stays
+    # "unexplained structure" (the levels cannot tell the colour from a
+    # misfit), and the place says what the channel reads with the colour.
+    from hpctl.identify.signals import COLOUR_EVIDENCE, COLOUR_HINT_EVIDENCE
+
+    g, d, _lines, context = pinned_diagnosis(None, 9, ("heat_transfer", "real_gas"))
+    assert d.judgement is not None and d.verdict == "unexplained_structure", context
+    [pl] = [p for p in d.judgement.places if (p.record, p.channel) == ("sine_0.3hz", "force_n")]
+    assert pl.rms_ratio > NOISE_CEILING and pl.colour_hint is not None, context
+    colour, ratio = pl.colour_hint
+    assert COLOUR_HINT_EVIDENCE <= colour.evidence < COLOUR_EVIDENCE and ratio <= 1.1, context
+    truth = g.truth["noise"]["force_n"]
+    assert abs(math.sqrt(colour.white_var + colour.coloured_var) / truth["sigma"] - 1.0) < 0.1, context
+    # Said in the JSON and the report.
+    [place] = [p for p in summary(d)["remaining_structure"]["places"] if p["record"] == "sine_0.3hz" and p["channel"] == "force_n"]
+    assert place["noise_colour_hint"]["rms_ratio"] == pytest.approx(ratio) and "do not establish" in place["text"], context
+    from hpctl.data.output import OutputDir
+    from hpctl.report.calibration import diagnosis_report
+
+    with OutputDir(tmp_path, "diagnose") as out:
+        report = diagnosis_report(d, out)
+    assert "do not establish" in (tmp_path / report.name).read_text(encoding="utf-8"), context
+
+
 def test_flexible_diagnosis_from_the_classical_model_finds_heat_transfer_and_real_gas(seed: int) -> None:
     # The seed's story on data hp-core did not write (test_diagnose.py's
     # test_classical_model_recovers_heat_transfer_and_real_gas on hp-core's

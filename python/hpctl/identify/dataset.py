@@ -16,6 +16,7 @@ from hpctl.data.records import LOGGED_SWITCH_LEAD, RigRecord
 from hpctl.errors import HpctlError, RecordError
 from hpctl.identify.corners import clock_jitter, corners, join_residual
 from hpctl.identify.signals import (
+    COLOUR_HINT_EVIDENCE,
     NoiseColour,
     NoiseLevel,
     derivative,
@@ -90,6 +91,11 @@ class Dataset:
     #: fit show one (its level in :attr:`sigma` includes what the record's
     #: differences miss of it).
     noise_colour: dict[str, NoiseColour] = field(default_factory=dict)
+    #: A correlated part the records suggest but do not establish
+    #: (:data:`hpctl.identify.signals.COLOUR_HINT_EVIDENCE`), not in
+    #: :attr:`sigma`, with the variance this record's level misses of it:
+    #: what a channel judged above the noise would read with it.
+    noise_colour_hint: dict[str, tuple[NoiseColour, float]] = field(default_factory=dict)
     #: The channels whose noise level in :attr:`sigma` came from differences
     #: no test said hold noise only (the signal may show in every order),
     #: no other record of the channel having a level that did: it may be
@@ -165,6 +171,7 @@ def measured_datasets(records: Sequence[RigRecord], template: Unit | None = None
             levels.setdefault(c, []).append((dt, len(t), lv))
         drives.append((rec, t, x_in, rig, xs, vs, targets, level, dt, joins))
     colours = {c: k for c, lv in levels.items() if (k := noise_colour(c, lv)) is not None}
+    hints = {c: k for c, lv in levels.items() if c not in colours and (k := noise_colour(c, lv, COLOUR_HINT_EVIDENCE)) is not None}
     # Where no order of differences holds a record's noise only (a sine
     # sampled 20-40 times a cycle with the damper's knees: the foreign heat
     # run's force read 33 N from the eighth where the rig drew 16), the
@@ -196,7 +203,9 @@ def measured_datasets(records: Sequence[RigRecord], template: Unit | None = None
         strut = smooth(t, rec["base_disp_m"] - rec["body_disp_m"]) if rec.kind == "sdof" else xs
         out.append(Dataset(rec, base_unit(rec, template), rig, t, hard, on, targets, sigma, rec.static.ambient_k, weight_sigma,
                            strut, derivative(t, strut) if rec.kind == "sdof" else vs, x_raw_noise,
-                           noise_colour={c: k for c, k in colours.items() if c in targets}, input_jitter_s=jitter[rec.kind],
+                           noise_colour={c: k for c, k in colours.items() if c in targets},
+                           noise_colour_hint={c: (k, k.missed_var(dt, level[c].order)) for c, k in hints.items() if c in targets},
+                           input_jitter_s=jitter[rec.kind],
                            noise_unchecked=tuple(unchecked)))
     return out
 

@@ -41,7 +41,7 @@ from hpctl.identify.dataset import (
 from hpctl.identify.derived import derived
 from hpctl.identify.fit import FitResult, at_own_noise, fit, model_for, residual_vector, rss_at
 from hpctl.identify.no_flow import NO_FLOW_EFFECTS, NoFlowForce, force_at_no_flow
-from hpctl.identify.signals import RateNoise, derivative, rate_noise
+from hpctl.identify.signals import COLOUR_EVIDENCE, NoiseColour, RateNoise, derivative, rate_noise
 from hpctl.identify.switching import places
 from hpctl.identify.workers import static_pool
 from hpctl.model.effects import LIBRARY, OFFSET_CHANNELS, flexible_params
@@ -197,12 +197,26 @@ class Place:
     #: (:func:`hpctl.identify.signals.rate_noise`): the sample-time jitter
     #: that would make it. A hint at the measurement, not an effect fitted.
     rate_noise: RateNoise | None = None
+    #: Where the records suggest a correlated part of the channel's noise
+    #: without establishing it (:attr:`Dataset.noise_colour_hint`): that
+    #: colour and the channel's RMS over the noise with it in the weights.
+    #: A hint at the measurement, not taken into the verdict.
+    colour_hint: tuple[NoiseColour, float] | None = None
 
     def describe(self) -> str:
         where = ", ".join(f"{r} ({self.regimes[r]:.2g}x)" for r in self.worst_regimes.values())
         corr = ", ".join(f"{q} (r={c:+.2f})" for q, c in self.correlates_with)
         return (f"{self.record}/{self.channel}: {self.rms_ratio:.2g}x noise" + (f", most in {where}" if where else "")
-                + (f"; correlates with {corr}" if corr else "") + (f"; {self.describe_rate()}" if self.rate_noise else ""))
+                + (f"; correlates with {corr}" if corr else "") + (f"; {self.describe_rate()}" if self.rate_noise else "")
+                + (f"; {self.describe_colour()}" if self.colour_hint else ""))
+
+    def describe_colour(self) -> str:
+        if self.colour_hint is None:
+            return ""
+        k, ratio = self.colour_hint
+        return (f"the records' noise levels suggest {k.coloured_share:.0%} of this channel's noise correlated over "
+                f"{k.corr_time_s * 1e3:.3g} ms, which they do not establish (evidence {k.evidence:.1f}, {COLOUR_EVIDENCE:g} needed; "
+                f"{ratio:.3g}x with it in the weights)")
 
     def describe_rate(self) -> str:
         n = self.rate_noise
@@ -216,7 +230,9 @@ class Place:
         return {"record": self.record, "channel": self.channel, "rms_ratio": self.rms_ratio, "autocorr": self.autocorr,
                 "regimes": self.regimes, "worst_regimes": self.worst_regimes,
                 "correlates_with": [{"quantity": q, "r": c} for q, c in self.correlates_with],
-                "rate_noise": None if n is None else {"jitter_s": n.jitter_s, "t": n.t, "rms_ratio": n.rms_ratio}, "text": self.describe()}
+                "rate_noise": None if n is None else {"jitter_s": n.jitter_s, "t": n.t, "rms_ratio": n.rms_ratio},
+                "noise_colour_hint": None if self.colour_hint is None else {**self.colour_hint[0].to_json(), "rms_ratio": self.colour_hint[1]},
+                "text": self.describe()}
 
 
 #: A sample-time jitter read from a channel's residual is counted in its
@@ -376,8 +392,12 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
                        if c.record == row.record and c.channel == row.channel and math.isfinite(c.r)),
                       key=lambda qc: -abs(qc[1]))
         rate = read(row)
+        hint = d.noise_colour_hint.get(row.channel)
+        colour = None
+        if hint is not None and np.all(np.isfinite(z)):
+            colour = (hint[0], float(np.sqrt(np.mean(r**2 / (d.weight_sigma[row.channel] ** 2 + hint[1])))))
         places.append(Place(row.record, row.channel, row.rms_ratio, row.autocorr, regimes, worst_regimes,
-                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3], None if rate is None else rate[1]))
+                            [qc for qc in corr[:2] if abs(qc[1]) >= 0.3], None if rate is None else rate[1], colour))
     return Judgement(pooled, worst, at_noise, places, jitter)
 
 

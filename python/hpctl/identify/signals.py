@@ -80,6 +80,19 @@ LEVEL_REL_VAR = {4: 5.0, 6: 6.3}
 #: white noise sampled as the foreign rig's sweep; half the variance
 #: correlated over 15 / 50 ms is found in 77 / 94 % (tests/test_noise_colour.py).
 COLOUR_EVIDENCE = 12.0
+#: Evidence that suggests a correlated part without establishing it: the
+#: 95 % point of chi-square on the two parameters it adds. Not taken into
+#: the weights; said where a channel is judged above the noise, with what
+#: the channel would read with it (:attr:`hpctl.identify.diagnose.Place.colour_hint`).
+#: On three records sampled as the foreign rig's short sweep (401 samples at
+#: 167, 17 and 5 ms; 2,000 campaigns each, stop 74): white noise reaches
+#: it in 1.5 % (COLOUR_EVIDENCE in 0.1 %), a third or more of the variance
+#: correlated over 20-50 ms is established in 31 % and only suggested in
+#: 40 % more; on the five-sine sweep 2.0 % and 58 % + 26 %. (The foreign
+#: control, FOREIGN_RIG_SEED=9: the force's levels 58.0, 43.4 and 47.5 N,
+#: evidence 8.9; the truth 44.0 N white and 39.1 N over 38 ms, so the 0.3 Hz
+#: sine's residual, all noise, read 1.31 x its level.)
+COLOUR_HINT_EVIDENCE = 6.0
 
 
 def _colour_consistent(levels: int) -> float:
@@ -212,13 +225,15 @@ def noise_level(y: FloatArray) -> NoiseLevel:
     return min((NoiseLevel(noise_sigma(y, k), k, False) for k in (4, 6, 8)), key=lambda lv: lv.sigma)
 
 
-def noise_colour(channel: str, levels: Sequence[tuple[float, int, NoiseLevel]]) -> NoiseColour | None:
+def noise_colour(channel: str, levels: Sequence[tuple[float, int, NoiseLevel]], min_evidence: float = COLOUR_EVIDENCE) -> NoiseColour | None:
     """The correlated part of a channel's noise from ``levels``, one
     ``(sampling interval s, samples, level)`` per record of the channel;
     only levels whose differences were checked to hold noise count (a
     level raised by the signal would pass for the noise's correlated part).
     ``None`` when the levels do not show one (all sampled alike, fewer than
-    three records, or not enough evidence)."""
+    three records, or evidence under ``min_evidence``:
+    :data:`COLOUR_EVIDENCE` to be believed, :data:`COLOUR_HINT_EVIDENCE`
+    to be suggested)."""
     levels = [lv for lv in levels if lv[2].checked]
     if len(levels) < 3:
         return None
@@ -234,7 +249,7 @@ def noise_colour(channel: str, levels: Sequence[tuple[float, int, NoiseLevel]]) 
         if fitted is None:
             return None
         sse, sse0, white, coloured, tau, above = fitted
-        if coloured <= 0.0 or sse0 - sse < COLOUR_EVIDENCE:
+        if coloured <= 0.0 or sse0 - sse < min_evidence:
             return None
         # The colour must explain every level within its scatter: a level the
         # signal still raises (hpctl's virtual heat run, its force read 35 N

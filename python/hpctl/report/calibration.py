@@ -336,6 +336,8 @@ def diagnosis_report(diag: Diagnosis, out: OutputDir, caveats: Sequence[Caveat] 
                 what = [", ".join(f"{q} ({c:+.2f})" for q, c in pl.correlates_with)] if pl.correlates_with else []
                 if pl.rate_noise is not None:
                     what.append(pl.describe_rate())
+                if pl.colour_hint is not None:
+                    what.append(pl.describe_colour())
                 corr = "; ".join(what) or "-"
                 lines.append(f"| {pl.record} | {pl.channel} | {pl.rms_ratio:.3g} | {pl.autocorr:.2f} | {most} | {corr} |")
     lines += ["", *warnings_section(caveats)]
