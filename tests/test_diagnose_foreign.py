@@ -284,33 +284,37 @@ def test_flexible_diagnosis_of_a_control_adds_no_effect(seed: int, tmp_path: Pat
     assert "fitted flexibly" in (out / "report.md").read_text()
 
 
-def test_a_channel_above_the_noise_by_a_colour_its_records_suggest_says_so(tmp_path: Path) -> None:
+def test_a_channel_above_its_level_by_a_noise_colour_its_records_suggest_is_judged_with_it(tmp_path: Path) -> None:
     # FOREIGN_RIG_SEED=9's control (no effect), flexible: the 0.3 Hz sine's
     # force read 1.31 x its level, all of it noise: the rig drew 44.0 N
     # white and 39.1 N correlated over 38 ms, and the three records' levels
     # (58.0, 43.4 and 47.5 N at 167, 17 and 5 ms) suggest that colour
-    # (evidence 8.9) without establishing it (12). The verdict stays
-    # "unexplained structure" (the levels cannot tell the colour from a
-    # misfit), and the place says what the channel reads with the colour.
+    # (evidence 8.9) without establishing it (12). With what the record's
+    # level misses of it in the weights the channel is at the noise, and
+    # its residual is no more correlated than that noise: "nothing left",
+    # the colour said in the verdict, the JSON, a warning and the report.
+    from hpctl.cli.calibrate import _diagnosis_caveats
     from hpctl.identify.signals import COLOUR_EVIDENCE, COLOUR_HINT_EVIDENCE
 
     g, d, _lines, context = pinned_diagnosis(None, 9, ("heat_transfer", "real_gas"))
-    assert d.judgement is not None and d.verdict == "unexplained_structure", context
-    [pl] = [p for p in d.judgement.places if (p.record, p.channel) == ("sine_0.3hz", "force_n")]
-    assert pl.rms_ratio > NOISE_CEILING and pl.colour_hint is not None, context
-    colour, ratio = pl.colour_hint
-    assert COLOUR_HINT_EVIDENCE <= colour.evidence < COLOUR_EVIDENCE and ratio <= 1.1, context
+    j = d.judgement
+    assert j is not None and d.verdict == "nothing_left" and not j.places, context
+    [c] = j.colours
+    assert (c.record, c.channel) == ("sine_0.3hz", "force_n") and c.rms_ratio <= 1.1 and c.rms_ratio_without > NOISE_CEILING, context
+    assert COLOUR_HINT_EVIDENCE <= c.colour.evidence < COLOUR_EVIDENCE, context
+    assert all(a <= m for a, m in zip(c.autocorr, c.autocorr_max)) and c.lags[0] == 1 < c.lags[1], context
     truth = g.truth["noise"]["force_n"]
-    assert abs(math.sqrt(colour.white_var + colour.coloured_var) / truth["sigma"] - 1.0) < 0.1, context
-    # Said in the JSON and the report.
-    [place] = [p for p in summary(d)["remaining_structure"]["places"] if p["record"] == "sine_0.3hz" and p["channel"] == "force_n"]
-    assert place["noise_colour_hint"]["rms_ratio"] == pytest.approx(ratio) and "do not establish" in place["text"], context
+    assert abs(math.sqrt(c.colour.white_var + c.colour.coloured_var) / truth["sigma"] - 1.0) < 0.1, context
+    [out] = summary(d)["remaining_structure"]["colours"]
+    assert out["rms_ratio_without"] == c.rms_ratio_without and out["colour"]["evidence"] == c.colour.evidence, context
+    [warned] = [w for w in _diagnosis_caveats(d) if w.code == "colour_counted"]
+    assert warned.details["channels"] == ["sine_0.3hz/force_n"], context
     from hpctl.data.output import OutputDir
     from hpctl.report.calibration import diagnosis_report
 
-    with OutputDir(tmp_path, "diagnose") as out:
-        report = diagnosis_report(d, out)
-    assert "do not establish" in (tmp_path / report.name).read_text(encoding="utf-8"), context
+    with OutputDir(tmp_path, "diagnose") as o:
+        report = diagnosis_report(d, o)
+    assert "counting a noise colour" in (tmp_path / report.name).read_text(encoding="utf-8"), context
 
 
 def test_flexible_diagnosis_from_the_classical_model_finds_heat_transfer_and_real_gas(seed: int) -> None:

@@ -60,6 +60,10 @@ class Code(StrEnum):
     #: A channel above its noise was judged at it by counting a sample-time
     #: jitter read from its own residual: the verdict rests on that reading.
     JITTER_COUNTED = "jitter_counted"
+    #: A channel above its noise was judged at it by counting a correlated
+    #: part of its noise that its records' levels suggest without
+    #: establishing it: the verdict rests on that colour.
+    COLOUR_COUNTED = "colour_counted"
     #: A channel's noise level was read from differences that may still
     #: hold the signal (no order held noise only, and no other record of
     #: the channel had a level that did): it may be too high, so its RMS /

@@ -618,6 +618,15 @@ def _diagnosis_caveats(diag: diagnose.Diagnosis) -> list[Caveat]:
             {"channels": [f"{c.record}/{c.channel}" for c in j.jitter], "jitter_s": [c.jitter_s for c in j.jitter],
              "rms_ratio_without": [c.rms_ratio_without for c in j.jitter], "rms_ratio": [c.rms_ratio for c in j.jitter]},
         ))
+    if j is not None and j.colours:
+        out.append(Caveat(
+            Code.COLOUR_COUNTED,
+            "judged at the noise only by counting a correlated part of the noise that the records' noise levels suggest without "
+            "establishing it (more records of the channel at other sampling rates, or a longer one, would tell): "
+            + "; ".join(c.describe() for c in j.colours),
+            {"channels": [f"{c.record}/{c.channel}" for c in j.colours], "evidence": [c.colour.evidence for c in j.colours],
+             "rms_ratio_without": [c.rms_ratio_without for c in j.colours], "rms_ratio": [c.rms_ratio for c in j.colours]},
+        ))
     return out
 
 
