@@ -22,23 +22,10 @@ import pytest
 from scipy.signal import lfilter
 
 from hpctl.identify import diagnose as dg
-from hpctl.identify import virtual_rig
-from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import FitResult, fit, residual_vector
+from hpctl.identify.fit import FitResult, residual_vector
 from hpctl.identify.signals import COLOUR_HINT_EVIDENCE, NoiseColour
-from hpctl.model.unit import Unit
 
 CHANNEL = "body_disp_m"
-STEP = virtual_rig.Test("sdof_step", virtual_rig.Step(0.043, 0.5, 0.05), 5.0, 1000, sdof=True, damper_on=False, excitation="step")
-
-
-@pytest.fixture(scope="module")
-def at_noise() -> FitResult:
-    """The seed unit fitted to its own SDOF step (5 s at 200 Hz)."""
-    records = virtual_rig.make_records(Unit.seed(), tests=[STEP], seed=3)
-    return fit(prepare(records), ("heat_transfer", "real_gas"), input_noise=False)
-
-
 @pytest.fixture
 def seed() -> int:
     return int(os.environ.get("HPCTL_TEST_SEED", secrets.randbelow(2**31)))
@@ -73,17 +60,27 @@ def drawn(at_noise: FitResult, seed: int) -> tuple[float, float, NoiseColour]:
     return tau, coloured, NoiseColour(CHANNEL, sigma**2, coloured**2, tau, COLOUR_HINT_EVIDENCE + 2.0)
 
 
+def judged(at_noise: FitResult, added: np.ndarray, colour: NoiseColour, seed: int
+           ) -> tuple[FitResult, dg.ResidualReport, dg.ResidualRow, dg.Judgement, str]:
+    """``at_noise`` with ``added`` and ``colour`` suggested (:func:`with_colour`),
+    its analysis, the SDOF body's row, the judgement, and the context an
+    assertion prints."""
+    result = with_colour(at_noise, added, colour)
+    raw = dg.analyse(result)
+    row = next(r for r in raw.rows if r.channel == CHANNEL)
+    j = dg.judge(result, raw)
+    k = colour
+    return result, raw, row, j, (f"seed={seed} tau={k.corr_time_s * 1e3:.1f} ms coloured={k.coloured_var**0.5:.3g} raw={row.rms_ratio:.3f} "
+                                 f"{j.describe()}")
+
+
 def test_a_noise_colour_the_records_suggest_is_counted_and_said(at_noise: FitResult, seed: int) -> None:
     from hpctl.cli.calibrate import _diagnosis_caveats
 
     d = at_noise.datasets[0]
     tau, coloured, colour = drawn(at_noise, seed)
     noise = ou(np.random.default_rng(seed + 1), len(d.times_s), d.interval_s, tau, coloured)
-    result = with_colour(at_noise, noise, colour)
-    raw = dg.analyse(result)
-    row = next(r for r in raw.rows if r.channel == CHANNEL)
-    j = dg.judge(result, raw)
-    context = f"seed={seed} tau={tau * 1e3:.1f} ms coloured={coloured:.3g} raw={row.rms_ratio:.3f} {j.describe()}"
+    result, raw, row, j, context = judged(at_noise, noise, colour, seed)
     # Without the colour the channel is above the noise; counted, at it.
     assert row.rms_ratio > dg.NOISE_CEILING, context
     assert j.at_noise and not j.places and not j.jitter, context
@@ -116,11 +113,7 @@ def test_a_smooth_error_is_not_counted_as_a_suggested_colour(at_noise: FitResult
     rng = np.random.default_rng(seed + 2)
     t = d.times_s
     error = coloured * math.sqrt(2.0) * np.sin(2.0 * math.pi * float(rng.uniform(0.5, 2.0)) * t + float(rng.uniform(0.0, 2.0 * math.pi)))
-    result = with_colour(at_noise, error, colour)
-    raw = dg.analyse(result)
-    row = next(r for r in raw.rows if r.channel == CHANNEL)
-    j = dg.judge(result, raw)
-    context = f"seed={seed} tau={tau * 1e3:.1f} ms coloured={coloured:.3g} raw={row.rms_ratio:.3f} {j.describe()}"
+    _result, _raw, row, j, context = judged(at_noise, error, colour, seed)
     assert row.rms_ratio > dg.NOISE_CEILING, context
     assert not j.at_noise and not j.colours, context
     [place] = [p for p in j.places if p.channel == CHANNEL]

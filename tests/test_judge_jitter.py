@@ -20,29 +20,10 @@ from scipy.interpolate import CubicSpline
 
 from foreign_rig.sensors import jittered
 from hpctl.identify import diagnose as dg
-from hpctl.identify import virtual_rig
-from hpctl.identify.dataset import prepare
-from hpctl.identify.fit import FitResult, fit, residual_vector
+from hpctl.identify.fit import FitResult, residual_vector
 from hpctl.identify.signals import derivative, rate_noise
-from hpctl.model.unit import Unit
 
 CHANNEL = "body_disp_m"
-
-
-#: The virtual rig's SDOF step with the damper off: under-damped, so the
-#: body passes its fastest speeds (0.4 m/s) several times, and a jitter's
-#: 3 standard errors are reached from about 30 us (with the damper on, its
-#: one fast rise holds about 3.5 errors at most, and hpctl's own fit leaves
-#: 1.44 x the noise there: the base's noise through the damper, which the
-#: weights of an SDOF record do not carry; noted in docs/foreign-rig.md).
-STEP = virtual_rig.Test("sdof_step", virtual_rig.Step(0.043, 0.5, 0.05), 5.0, 1000, sdof=True, damper_on=False, excitation="step")
-
-
-@pytest.fixture(scope="module")
-def at_noise() -> FitResult:
-    """The seed unit fitted to its own SDOF step (5 s at 200 Hz)."""
-    records = virtual_rig.make_records(Unit.seed(), tests=[STEP], seed=3)
-    return fit(prepare(records), ("heat_transfer", "real_gas"), input_noise=False)
 
 
 @pytest.fixture
