@@ -406,9 +406,9 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
     worst = max((r.rms_ratio for r in rows), default=0.0)
     # The pooled residual in the same weights: each counted channel's sum of
     # squares (its samples times its mean square) with the jitter or colour in them.
-    counted_ratios = [(c.record, c.rms_ratio_without, c.rms_ratio) for c in jitter] + [(c.record, c.rms_ratio_without, c.rms_ratio) for c in colours]
-    less = sum(len(result.datasets[index[rec]].times_s) * (without**2 - with_**2) for rec, without, with_ in counted_ratios)
-    pooled = math.sqrt(max(result.rss - less, 0.0) / result.n) if (jitter or colours) and result.n else result.rms_ratio
+    counted_all: list[JitterCounted | ColourCounted] = [*jitter, *colours]
+    less = sum(len(result.datasets[index[c.record]].times_s) * (c.rms_ratio_without**2 - c.rms_ratio**2) for c in counted_all)
+    pooled = math.sqrt(max(result.rss - less, 0.0) / result.n) if counted_all and result.n else result.rms_ratio
     structured = any(r.structured for r in rows) or pooled > POOLED_RMS_RATIO
     at_noise = not structured and pooled <= NOISE_CEILING and worst <= NOISE_CEILING
     places: list[Place] = []
@@ -442,10 +442,10 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
                        if c.record == row.record and c.channel == row.channel and math.isfinite(c.r)),
                       key=lambda qc: -abs(qc[1]))
         rate = read(row)
-        hint = d.noise_colour_hint.get(row.channel)
+        hinted = _colour_weights(d, row.channel)
         colour = None
-        if hint is not None and np.all(np.isfinite(z)):
-            colour = (hint[0], float(np.sqrt(np.mean(r**2 / (d.weight_sigma[row.channel] ** 2 + hint[1])))))
+        if hinted is not None and np.all(np.isfinite(z)):
+            colour = (hinted[0], float(np.sqrt(np.mean(r**2 / hinted[1]))))
         places.append(Place(row.record, row.channel, row.rms_ratio, row.autocorr, regimes, worst_regimes,
                             [qc for qc in corr[:2] if abs(qc[1]) >= 0.3], None if rate is None else rate[1], colour))
     return Judgement(pooled, worst, at_noise, places, jitter, colours)
@@ -460,6 +460,15 @@ def judge(result: FitResult, analysis: ResidualReport | None = None, limit: int 
 #: the residual's variance, and a smooth one keeps most of that as its
 #: autocorrelation three correlation times on.
 COMPLETE_AUTOCORR = 0.15
+
+
+def _colour_weights(d: Dataset, channel: str) -> tuple[NoiseColour, NDArray[np.float64]] | None:
+    """The colour ``d``'s records suggest for ``channel`` and the channel's
+    weights' variances with what its level misses of it (None: none suggested)."""
+    hint = d.noise_colour_hint.get(channel)
+    if hint is None:
+        return None
+    return hint[0], d.weight_sigma[channel] ** 2 + hint[1]
 
 
 def _colour_counted(result: FitResult, i: int, row: ResidualRow) -> ColourCounted | None:
@@ -481,11 +490,10 @@ def _colour_counted(result: FitResult, i: int, row: ResidualRow) -> ColourCounte
     FOREIGN_RIG_SEED=9: the 0.3 Hz sine's force at 1.31 x, 1.02 x with the
     colour, the rig's noise 0.96 x)."""
     d = result.datasets[i]
-    hint = d.noise_colour_hint.get(row.channel)
-    if hint is None:
+    hinted = _colour_weights(d, row.channel)
+    if hinted is None:
         return None
-    colour, missed = hint
-    w2 = d.weight_sigma[row.channel] ** 2 + missed
+    colour, w2 = hinted
     z = result.residuals(i, row.channel) / np.sqrt(w2)
     if not np.all(np.isfinite(z)) or len(z) < 2:
         return None
@@ -499,9 +507,10 @@ def _colour_counted(result: FitResult, i: int, row: ResidualRow) -> ColourCounte
         return None
     # From three correlation times to twelve, the largest in size: a
     # periodic misfit's autocorrelation passes through zero at some lags.
-    lag_far = max(range(far, 4 * far + 1), key=lambda k: abs(autocorr(z, k)))
+    sizes = {k: abs(autocorr(z, k)) for k in range(far, 4 * far + 1)}
+    lag_far = max(sizes, key=sizes.__getitem__)
     lags = (1, lag_far)
-    rho = (autocorr(z, 1), abs(autocorr(z, lag_far)))
+    rho = (autocorr(z, 1), sizes[lag_far])
     allowed = 3.0 / math.sqrt(len(z)) + COMPLETE_AUTOCORR
     rho_max = tuple(colour.coloured_var * math.exp(-lag * d.interval_s / colour.corr_time_s) / float(np.mean(w2)) + allowed
                     for lag in (1, far))
