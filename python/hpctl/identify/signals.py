@@ -85,10 +85,11 @@ COLOUR_EVIDENCE = 12.0
 #: the weights; said where a channel is judged above the noise, with what
 #: the channel would read with it (:attr:`hpctl.identify.diagnose.Place.colour_hint`).
 #: On three records sampled as the foreign rig's short sweep (401 samples at
-#: 167, 17 and 5 ms; 2,000 campaigns each, stop 74): white noise reaches
-#: it in 1.5 % (COLOUR_EVIDENCE in 0.1 %), a third or more of the variance
-#: correlated over 20-50 ms is established in 31 % and only suggested in
-#: 40 % more; on the five-sine sweep 2.0 % and 58 % + 26 %. (The foreign
+#: 167, 17 and 5 ms; stop 74): white noise reaches it in 1.5 % of 2,000
+#: campaigns (COLOUR_EVIDENCE in 0.1 %); of 1,000 drawn as the foreign
+#: rig draws its noise, the 112 with a third or more of the variance
+#: correlated over 20-50 ms have it established in 31 % and only suggested
+#: in 40 % more; on the five-sine sweep 2.0 % and 58 % + 26 % (of 113). (The foreign
 #: control, FOREIGN_RIG_SEED=9: the force's levels 58.0, 43.4 and 47.5 N,
 #: evidence 8.9; the truth 44.0 N white and 39.1 N over 38 ms, so the 0.3 Hz
 #: sine's residual, all noise, read 1.31 x its level.)
