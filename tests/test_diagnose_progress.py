@@ -292,7 +292,8 @@ def test_the_accepted_models_full_fit_starts_with_its_cross_validation(monkeypat
     monkeypatch.setattr(diagnose_module.Candidate, "shows_itself", property(lambda self: True))
 
     def candidate(add: tuple[str, ...], delta_bic: float) -> Any:
-        result = SimpleNamespace(model=SimpleNamespace(flexible=False), values={}, stopped=False)
+        # No covariances: no design effect, the gain as it is.
+        result = SimpleNamespace(model=SimpleNamespace(flexible=False), values={}, stopped=False, covariance=None, covariance_iid=None, n=1000)
         return diagnose_module.Candidate(add, 1, result, delta_bic, 0.5)  # type: ignore[arg-type]
 
     ranked = [candidate(("friction",), 900.0), candidate(("leakage",), 800.0)]

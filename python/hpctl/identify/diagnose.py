@@ -591,9 +591,9 @@ def null_z(result: FitResult, effects: Sequence[str]) -> dict[str, float]:
     return out
 
 
-def design_effect(result: FitResult, effect: str) -> float | None:
+def design_effect(result: FitResult, *effects: str) -> float | None:
     """How much the residuals of ``result`` weaken a BIC change over
-    ``effect``'s parameters (those with a null): the mean eigenvalue of the
+    ``effects``' parameters (those with a null): the mean eigenvalue of the
     covariance of their estimate, the sandwich that counts the residuals'
     correlation and uneven spread (:attr:`FitResult.covariance`), against
     the one the BIC's likelihood assumes, independent residuals of one
@@ -606,7 +606,7 @@ def design_effect(result: FitResult, effect: str) -> float | None:
     if result.covariance is None or result.covariance_iid is None:
         return None
     names = [p.name for p in result.model.params]
-    idx = [names.index(p.name) for p in LIBRARY[effect].params if p.null is not None and p.name in names]
+    idx = [names.index(p.name) for e in effects for p in LIBRARY[e].params if p.null is not None and p.name in names]
     if not idx:
         return None
     robust, iid = result.covariance[np.ix_(idx, idx)], result.covariance_iid[np.ix_(idx, idx)]
@@ -656,6 +656,13 @@ class Candidate:
     #: the candidate (:func:`_confirmed`): Broyden's BIC change
     #: (:attr:`delta_bic` is then the other's).
     broyden_delta_bic: float | None = None
+    #: Where weighed for acceptance (:func:`_accept`): :func:`design_effect`
+    #: over its effects' parameters at its screening fit, and
+    #: :attr:`delta_bic` with the likelihood ratio divided by it
+    #: (:func:`scaled_delta_bic`); at or below :data:`BIC_STRONG` it is not
+    #: accepted.
+    design_effect: float | None = None
+    scaled_delta_bic: float | None = None
     #: Its Broyden screening was ended once it had explained
     #: :data:`AHEAD_SHARE` of the excess (:func:`enough_explained`): it is
     #: screened again before it is ranked, so :attr:`broyden_delta_bic` is
@@ -1463,6 +1470,20 @@ def _accept(
             if c.offset_delta_bic <= BIC_STRONG:
                 continue
         _with_errors(datasets, c)
+        # The BIC counts every residual as an independent draw; a residual
+        # correlated over many samples counts the same evidence many times,
+        # and a candidate can then gain by taking a little of a structure
+        # no effect of the library makes (the foreign rig's bump stop: a
+        # sensor offset gained 1,018.7 in BIC at a design effect of 41.4,
+        # 0.6 counted; every true effect's design effect at its screening
+        # fit was 1.0-6.3, its counted gain 864 or more; docs/foreign-rig.md,
+        # stops 74-75). The same correction as _reconsider's.
+        c.design_effect = design_effect(c.result, *c.effects)
+        c.scaled_delta_bic = scaled_delta_bic(c.delta_bic, c.added_params, c.result.n, c.design_effect)
+        if c.scaled_delta_bic <= BIC_STRONG:
+            clock.say(f"round {clock.round}/{clock.max_rounds}: {c.effect} not accepted: its BIC change {-c.delta_bic:+.1f} is "
+                      f"{-c.scaled_delta_bic:+.1f} with the residuals' correlation counted (design effect {c.design_effect:.3g})")
+            continue
         if not c.shows_itself:
             c.null_delta_bic = _null_delta_bic(datasets, c)
         if not c.shows_itself:
@@ -1906,4 +1927,5 @@ def _candidate_json(c: Candidate) -> dict[str, Any]:
     return {"effect": c.effect, "delta_bic": c.delta_bic, "added_params": c.added_params, "score": c.score,
             "offset_delta_bic": c.offset_delta_bic, "refit_delta_bic": c.refit_delta_bic,
             "judged_explained": c.judged_explained, "screened_by": c.screened_by,
-            "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null, "ended_at_share": c.ended_at_share}
+            "broyden_delta_bic": c.broyden_delta_bic, "stopped_at_null": c.stopped_at_null, "ended_at_share": c.ended_at_share,
+            "design_effect": c.design_effect, "scaled_delta_bic": c.scaled_delta_bic}

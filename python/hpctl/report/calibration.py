@@ -419,8 +419,13 @@ def _weighed(c: Candidate, accepted: Candidate | None) -> str:
     """What became of a candidate whose full fit was weighed for acceptance
     (:func:`hpctl.identify.diagnose._settle`): its BIC change there, and
     the share of the excess it explains as the verdict judges it, each
-    model in its own weights; "-" for one never weighed that far."""
+    model in its own weights; where the residuals' correlation took its
+    screening gain to :data:`BIC_STRONG` or below, that; "-" for one never
+    weighed that far."""
     if c.refit_delta_bic is None:
+        if c.scaled_delta_bic is not None and c.scaled_delta_bic <= BIC_STRONG:
+            return (f"gain {c.scaled_delta_bic:.1f} with the residuals' correlation counted (design effect {c.design_effect:.3g}); "
+                    "not accepted")
         return "-"
     words = f"full fit {c.refit_delta_bic:+.1f} in BIC"
     if c.judged_explained is not None:
