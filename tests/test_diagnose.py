@@ -57,14 +57,18 @@ def test_the_one_undeclared_effect_is_found(effect: str, seed: int) -> None:
     assert d.final.rms_ratio < 1.1
 
 
-@pytest.mark.parametrize("pinned", [143783620, 310, 105])
+@pytest.mark.parametrize("pinned", [143783620, 310, 105, 1567099722])
 def test_a_candidate_starts_again_where_the_model_it_extends_bent_a_parameter_onto_a_bound(pinned: int) -> None:
     # Draws where the declared model puts the gas's thermal time constant
     # on its lower bound to stand in for the oil's compliance; the
     # screening fit warm-started from there reached a local optimum with
     # the bulk modulus 2.2-3.9 x too stiff and sensor lag was named first
     # (the first was a CI failure). The time constant restarted at its
-    # own start finds the truth (diagnose._try).
+    # own start finds the truth (diagnose._try). The last (a failure of
+    # the robustness suite, stop 75): the fit ended with the time constant
+    # still on its bound, 31 % of the excess explained, and the restart's
+    # start was 1.29 x that end, so it was not taken; it is now, being
+    # better than the declared model.
     from hpctl.identify.dataset import prepare
     from hpctl.identify.diagnose import _try
     from hpctl.identify.fit import fit
