@@ -423,7 +423,7 @@ def _weighed(c: Candidate, accepted: Candidate | None) -> str:
     screening gain to :data:`BIC_STRONG` or below, that; "-" for one never
     weighed that far."""
     if c.refit_delta_bic is None:
-        if c.scaled_delta_bic is not None and c.scaled_delta_bic <= BIC_STRONG:
+        if c.scaled_delta_bic is not None and c.scaled_delta_bic <= BIC_STRONG and c.design_effect is not None:
             return (f"gain {c.scaled_delta_bic:.1f} with the residuals' correlation counted (design effect {c.design_effect:.3g}); "
                     "not accepted")
         return "-"
