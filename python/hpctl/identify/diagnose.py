@@ -1490,7 +1490,7 @@ def _accept(
         # no effect of the library makes (the foreign rig's bump stop: a
         # sensor offset gained 1,018.7 in BIC at a design effect of 41.4,
         # 0.6 counted; every true effect's design effect at its screening
-        # fit was 1.0-8.1, its counted gain 864 or more; docs/foreign-rig.md,
+        # fit was 1.0-9.3, its counted gain 864 or more; docs/foreign-rig.md,
         # stops 74-75). The same correction as _reconsider's. Only ever
         # less evidence: with no design effect the gain is read as it is,
         # above BIC_STRONG here.
