@@ -208,13 +208,17 @@ def test_a_fit_refuses_an_evaluation_budget_outside_its_range(max_nfev: object) 
 def test_a_stiff_oil_inside_the_far_tests_reach_is_still_found(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
     # The near test (NEAR_NULL) ends a screening walk toward a log-scaled
     # null that is no better than the model it extends: an oil as stiff as
-    # 1.8-2.6 GPa, inside its reach, is a walk toward the null from the 1
+    # 1.82-2.6 GPa, inside its reach, is a walk toward the null from the 1
     # GPa start that gets better, not worse, and is found as without the
-    # test (the same fit, value for value).
+    # test (the same fit, value for value). The reach begins at 1.818 GPa
+    # (a tenth of the log range below 3 GPa); drawn from 1.8 GPa, 2.7 % of
+    # the draws fell outside it and failed the test's premise
+    # (HPCTL_TEST_SEED=536083999: 1.8046 GPa).
     rng = np.random.default_rng(seed)
     p = LIBRARY["oil_compliance"].params[0]
-    modulus = float(10 ** rng.uniform(math.log10(1.8e9), math.log10(2.6e9)))
     lo, hi = p.x_bounds()
+    reach = 10 ** (hi - 0.99 * dg.NEAR_NULL * (hi - lo))  # a hair inside, against rounding
+    modulus = float(10 ** rng.uniform(math.log10(reach), math.log10(2.6e9)))
     assert hi - p.to_x(modulus) <= dg.NEAR_NULL * (hi - lo)  # inside the far test's reach
     tau = virtual_rig.effect_values(["heat_transfer"], rng)["tau_s"]
     truth = virtual_rig.truth_unit(["oil_compliance"], {p.name: modulus}, template=Unit.seed().replace(tau_s=tau))
