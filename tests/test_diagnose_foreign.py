@@ -377,9 +377,9 @@ def test_an_offset_standing_in_for_the_gas_laws_is_not_accepted_on_the_residuals
     # (the model without it better by 19.0 in BIC; that test is pinned on
     # hp-core's rig in test_diagnose.py). Since stop 75 the round's own
     # test divides the gain's likelihood ratio by the residuals' design
-    # effect (45 here, the residual correlated over the gas laws' whole
-    # cycle): the offset, +247.5 in BIC as if every residual were
-    # independent, is not accepted, and the pair with the gas laws is.
+    # effect (44.8 here: at 236 x the noise the residual is correlated
+    # over many samples): the offset, +247.5 in BIC as if every residual
+    # were independent, is not accepted, and the pair with the gas laws is.
     g, d, lines, context = pinned_diagnosis(None, 2028051846, ())
     [offset] = [c for c in d.rounds[0].candidates if c.effects == ("sensor_offset",)]
     assert offset.delta_bic > 10 * BIC_STRONG and offset.design_effect is not None and offset.design_effect > 10.0, context
