@@ -98,6 +98,17 @@ def true_noise_ratio(d: Diagnosis, truth: dict[str, Any]) -> float:
     return math.sqrt(sq / n)
 
 
+def check_correction(delta: float, scaled: float | None, design: float | None, context: str) -> None:
+    """A BIC change ``delta`` and the same with the residuals' correlation
+    counted: never more evidence (where the design effect is above 1),
+    and the change itself where it is not."""
+    if scaled is None or not math.isfinite(delta):
+        return
+    assert scaled <= delta or scaled <= BIC_STRONG, context
+    if design is None or design <= 1.0:
+        assert scaled == delta, context
+
+
 def check_honest(d: Diagnosis, truth: dict[str, Any], context: str) -> None:
     j = d.judgement
     assert j is not None, context
@@ -132,10 +143,8 @@ def check_honest(d: Diagnosis, truth: dict[str, Any], context: str) -> None:
     for t in d.reconsidered:
         assert (t.refit_delta_bic is None) == (t.null_z >= NULL_Z), context
         assert (t.scaled_delta_bic is None) == (t.refit_delta_bic is None), context
-        if t.refit_delta_bic is not None and t.scaled_delta_bic is not None and math.isfinite(t.refit_delta_bic):
-            assert t.scaled_delta_bic <= t.refit_delta_bic or t.scaled_delta_bic <= BIC_STRONG, context
-            if t.design_effect is None or t.design_effect <= 1.0:
-                assert t.scaled_delta_bic == t.refit_delta_bic, context
+        if t.refit_delta_bic is not None:
+            check_correction(t.refit_delta_bic, t.scaled_delta_bic, t.design_effect, context)
         assert t.dropped == (t.scaled_delta_bic is not None and t.scaled_delta_bic <= BIC_STRONG), context
         assert (t.effect in d.found) != t.dropped and (t.effect in d.final.model.effects) != t.dropped, context
     assert s["dropped"] == d.dropped and len(s["reconsidered"]) == len(d.reconsidered), context
@@ -145,10 +154,7 @@ def check_honest(d: Diagnosis, truth: dict[str, Any], context: str) -> None:
     for r, rows in zip(d.rounds, s["candidates_by_round"]):
         for c, row in zip(r.candidates, rows):
             assert (row["design_effect"], row["scaled_delta_bic"]) == (c.design_effect, c.scaled_delta_bic), context
-            if c.scaled_delta_bic is not None and math.isfinite(c.delta_bic):
-                assert c.scaled_delta_bic <= c.delta_bic or c.scaled_delta_bic <= BIC_STRONG, context
-                if c.design_effect is None or c.design_effect <= 1.0:
-                    assert c.scaled_delta_bic == c.delta_bic, context
+            check_correction(c.delta_bic, c.scaled_delta_bic, c.design_effect, context)
         if r.accepted is not None:
             assert r.accepted.scaled_delta_bic is not None and r.accepted.scaled_delta_bic > BIC_STRONG, context
     json.dumps(s)  # machine-readable as it is

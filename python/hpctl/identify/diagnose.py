@@ -772,8 +772,7 @@ class Reconsidered:
         if self.refit_delta_bic is not None:
             words += f", the model refitted without it {self.refit_delta_bic:+.1f} in BIC"
             if self.scaled_delta_bic is not None and math.isfinite(self.scaled_delta_bic) and self.scaled_delta_bic != self.refit_delta_bic:
-                words += (f", {self.scaled_delta_bic:+.1f} with the residuals' correlation counted (design effect "
-                          f"{self.design_effect:.3g})")
+                words += f", {self.scaled_delta_bic:+.1f} {counted_words(self.design_effect)}"
         if self.rms_ratio_without is not None:
             words += f" (RMS / noise {self.rms_ratio_with:.3g} -> {self.rms_ratio_without:.3g})"
         return words
@@ -1498,7 +1497,7 @@ def _accept(
         c.scaled_delta_bic = scaled_delta_bic(c.delta_bic, c.added_params, c.result.n, c.design_effect)
         if c.scaled_delta_bic <= BIC_STRONG:
             clock.say(f"round {clock.round}/{clock.max_rounds}: {c.effect} not accepted: its BIC change {-c.delta_bic:+.1f} is "
-                      f"{-c.scaled_delta_bic:+.1f} with the residuals' correlation counted (design effect {c.design_effect:.3g})")
+                      f"{-c.scaled_delta_bic:+.1f} {counted_words(c.design_effect)}")
             continue
         if not c.shows_itself:
             c.null_delta_bic = _null_delta_bic(datasets, c)
@@ -1696,6 +1695,12 @@ def scaled_delta_bic(delta_bic: float, k: int, n: int, design: float | None) -> 
         return delta_bic
     penalty = k * math.log(n)
     return (delta_bic + penalty) / design - penalty
+
+
+def counted_words(design: float | None) -> str:
+    """How a BIC change corrected by :func:`scaled_delta_bic` is said (the
+    progress, :meth:`Reconsidered.describe`, the report's candidates)."""
+    return f"with the residuals' correlation counted (design effect {'unknown' if design is None else f'{design:.3g}'})"
 
 
 def _diagnose(

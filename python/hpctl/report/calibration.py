@@ -20,7 +20,7 @@ from hpctl.caveats import Caveat  # noqa: E402
 from hpctl.data.output import OutputDir, provenance_line  # noqa: E402
 from hpctl.identify.dataset import Dataset, clock_jitters, noise_colours  # noqa: E402
 from hpctl.identify.derived import derived  # noqa: E402
-from hpctl.identify.diagnose import AHEAD_SHARE, BIC_STRONG, NULL_Z, Candidate, Diagnosis, Round, loop_areas  # noqa: E402
+from hpctl.identify.diagnose import AHEAD_SHARE, BIC_STRONG, NULL_Z, Candidate, Diagnosis, Round, counted_words, loop_areas  # noqa: E402
 from hpctl.identify.fit import FitResult  # noqa: E402
 from hpctl.identify.no_flow import NO_FLOW_SPEED_M_S  # noqa: E402
 from hpctl.identify.profile import ProfileInterval  # noqa: E402
@@ -424,8 +424,7 @@ def _weighed(c: Candidate, accepted: Candidate | None) -> str:
     weighed that far."""
     if c.refit_delta_bic is None:
         if c.scaled_delta_bic is not None and c.scaled_delta_bic <= BIC_STRONG and c.design_effect is not None:
-            return (f"gain {c.scaled_delta_bic:.1f} with the residuals' correlation counted (design effect {c.design_effect:.3g}); "
-                    "not accepted")
+            return f"gain {c.scaled_delta_bic:.1f} {counted_words(c.design_effect)}; not accepted"
         return "-"
     words = f"full fit {c.refit_delta_bic:+.1f} in BIC"
     if c.judged_explained is not None:
