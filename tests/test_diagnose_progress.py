@@ -165,6 +165,61 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     assert clock.credit == 0.0
 
 
+STILL_LINE = re.compile(r"^round 1/1: still fitting (.*), the (\d+) other candidates took (\S+ s)"
+                        r"(?:; (\S+) screened again beside)?; then about (\S+ s) for cross-validation and the final fit$")
+
+
+def test_a_fit_that_outruns_the_others_is_said_to_be_still_running(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The bundled heat run's round 1 in small: three screenings that end
+    # at once, the first of them at the share (screened again beside), and
+    # one that runs on alone (oil compliance there: 92 s where the others
+    # took 4-29 s, and for a minute nothing was said). A line every
+    # HEARTBEAT_S while nothing completes, naming the fit still running and
+    # how long it has run, what the finished ones took and the second
+    # screening beside; the lines as each fit completes are unchanged, and
+    # so is the ranking.
+    durations = {"friction": 0.05, "leakage": 0.05, "sensor_offset": 0.05, "oil_compliance": 1.0}
+
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0) -> Any:
+        time.sleep(durations[add[0]] if jacobian is None else 0.4)
+        at_share = add == ("friction",) and jacobian is None
+        result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=at_share)
+        gain = {"friction": 900.0, "leakage": 5.0, "sensor_offset": 20.0, "oil_compliance": -3.0}[add[0]] + (100.0 if jacobian else 0.0)
+        return diagnose_module.Candidate(add, 1, result, gain, 0.6 if add == ("friction",) else 0.01,  # type: ignore[arg-type]
+                                         screened_by=jacobian or "broyden", ended_at_share=at_share)
+
+    monkeypatch.setattr(diagnose_module, "_try", fake_try)
+    monkeypatch.setattr(diagnose_module, "HEARTBEAT_S", 0.2)
+    said: list[tuple[float, str]] = []
+    clock = diagnose_module._Clock(lambda m: said.append((time.perf_counter(), m)), 1)
+    clock.round = 1
+    start = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        ranked = diagnose_module._try_all([], None, (), [(e,) for e in durations], clock, pool, ahead={})  # type: ignore[arg-type]
+    assert [c.effect for c in ranked] == ["friction", "sensor_offset", "leakage", "oil_compliance"]
+    assert ranked[0].delta_bic == 1_000.0  # by its second screening
+    still = [(when - start, m) for when, m in said if STILL_LINE.match(m)]
+    # Oil compliance alone from about 0.05 s to 1.0 s: four lines, 0.2 s apart.
+    assert 3 <= len(still) <= 5, said
+    for when, line in still:
+        m = STILL_LINE.match(line)
+        assert m is not None
+        running, finished, took, again, after = m.groups()
+        # Its time so far, whole seconds (0 s, then 1 s), never more than has passed.
+        assert re.fullmatch(r"oil_compliance \((\d+) s so far\)", running), line
+        assert int(re.findall(r"\d+", running)[0]) <= round(when) + 1, line
+        assert finished == "3" and took == "0 s", line
+        assert again in (None, "friction"), line
+        assert after.endswith(" s"), line
+    # The second screening is said while it runs (0.05-0.45 s), not after.
+    assert any(m.group(4) == "friction" for _, line in still if (m := STILL_LINE.match(line))), said
+    assert not any(when > 0.6 and "screened again beside" in line for when, line in still), still
+    # Every completion's line as before: one each, counted 1..4.
+    done = [m for _, m in said if " fitted, BIC change " in m]
+    assert [int(re.findall(r"candidate (\d+)/4", m)[0]) for m in done] == [1, 2, 3, 4], said
+    assert "(oil_compliance)" in done[-1]
+
+
 def test_a_running_fit_counts_half_when_it_has_run_as_long_as_the_finished_ones_took() -> None:
     assert diagnose_module.running_credit([], [1.0]) == 0.0
     assert diagnose_module.running_credit([2.0], []) == 0.0

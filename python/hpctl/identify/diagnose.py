@@ -16,7 +16,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import Executor, Future, ThreadPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -922,6 +922,61 @@ def running_credit(finished_s: Sequence[float], running_s: Sequence[float]) -> f
     return sum(max(e, 0.0) / (max(e, 0.0) + mean) for e in running_s)
 
 
+#: Seconds without a screening fit completing after which the progress
+#: says which are still running (:func:`_still_running`). On the bundled
+#: heat run oil compliance's screening ran alone for a minute after the
+#: last of the others had completed (its runs 16 x theirs, the stiff oil),
+#: and nothing was said meanwhile: the estimate last said, 32 s, was
+#: passed with a minute still to go (stop 76).
+HEARTBEAT_S = 20.0
+
+
+def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began: dict[int, float], ended: dict[int, float], done: int,
+               start: float, clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]]) -> Candidate:
+    """:func:`_try_all`'s bookkeeping and progress line for its ``i``-th
+    fit, completed as ``f`` after ``done`` others, the last of them at
+    ``start``; its candidate."""
+    c = f.result()
+    now = time.perf_counter()
+    out[i] = c
+    ended[i] = now
+    done += 1
+    clock.fits += 1
+    clock.fit_wall_s += now - start
+    clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
+    clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
+               + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
+               + (f" (ended at {100 * c.explained:.0f} % of the excess explained, to be screened again)" if c.ended_at_share else ""),
+               len(adds) - done - clock.credit + clock.ACCEPT_FITS)
+    return c
+
+
+def _still_running(clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]], began: dict[int, float], ended: dict[int, float],
+                   ahead: dict[tuple[str, ...], Future[Candidate]] | None) -> None:
+    """The progress line when no screening fit has completed for
+    :data:`HEARTBEAT_S`: which are still running and for how long, how
+    long the finished ones took, and what follows them. No estimate of
+    their own rest: how long a fit that has outrun the others still takes
+    is not told by them (oil compliance on the bundled heat run, 92 s,
+    where the five others took 4-29 s), so the time left is said as what
+    it is at least, the cross-validation and the final fit after them."""
+    now = time.perf_counter()
+    running = sorted(((now - b, "+".join(adds[i])) for i, b in list(began.items()) if i not in ended), reverse=True)
+    if not running:
+        return
+    took = sorted(ended[i] - began[i] for i in list(ended))
+    what = " and ".join(f"{name} ({_fmt_s(e)} so far)" for e, name in running)
+    if took:
+        span = _fmt_s(took[0]) if _fmt_s(took[0]) == _fmt_s(took[-1]) else f"{_fmt_s(took[0])} to {_fmt_s(took[-1])}"
+        what += f", the {len(took)} other {kind}{'s' if len(took) > 1 else ''} took {span}"
+    again = [e for e, fut in (ahead or {}).items() if not fut.done()]
+    if again:
+        what += f"; {', '.join('+'.join(e) for e in again)} screened again beside"
+    per = clock.per_fit_s()
+    after = "" if per is None else f"; then about {_fmt_s(per * clock.ACCEPT_FITS)} for cross-validation and the final fit"
+    clock.say(f"round {clock.round}/{clock.max_rounds}: still fitting {what}{after}")
+
+
 def _try_all(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], adds: Sequence[tuple[str, ...]], clock: _Clock,
     pool: Executor, kind: str = "candidate", ahead: dict[tuple[str, ...], Future[Candidate]] | None = None,
@@ -955,33 +1010,28 @@ def _try_all(
     out: list[Candidate | None] = [None] * len(adds)
     done = 0
     clock.tell(f"{kind}s 1-{len(adds)} of {len(adds)} started ({', '.join('+'.join(a) for a in adds)})", len(adds) + clock.ACCEPT_FITS)
-    for f in as_completed(futures):
-        c = f.result()
-        now = time.perf_counter()
-        i = futures[f]
-        out[i] = c
-        ended[i] = now
-        done += 1
-        clock.fits += 1
-        clock.fit_wall_s += now - start
-        start = now
-        clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
-        clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
-                   + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
-                   + (f" (ended at {100 * c.explained:.0f} % of the excess explained, to be screened again)" if c.ended_at_share else ""),
-                   len(adds) - done - clock.credit + clock.ACCEPT_FITS)
-        if c.ended_at_share and ahead is not None and c.effects not in ahead:
-            # Screened again at once: the pool takes its tasks in order, so
-            # this waits only for the screening fits not yet begun. Only a
-            # candidate that explains most of the excess is (the share
-            # stopped it): one that leaves more of it can be overtaken by a
-            # fit still running that explains the rest, and its second
-            # screening then takes a core from the fits that must finish
-            # (the bundled heat run: sensor offset, 10 % of the excess,
-            # screened again for 9 s beside three running fits before heat
-            # build-up, all of it, finished far above it; BENCHMARKS.md,
-            # stop 69).
-            ahead[c.effects] = pool.submit(_try, datasets, current, effects, c.effects, *RESCREEN)
+    pending = set(futures)
+    while pending:
+        finished, pending = wait(pending, timeout=HEARTBEAT_S, return_when=FIRST_COMPLETED)
+        if not finished:
+            _still_running(clock, kind, adds, began, ended, ahead)
+            continue
+        for f in sorted(finished, key=futures.__getitem__):
+            c = _completed(f, futures[f], out, began, ended, done, start, clock, kind, adds)
+            done += 1
+            start = time.perf_counter()
+            if c.ended_at_share and ahead is not None and c.effects not in ahead:
+                # Screened again at once: the pool takes its tasks in order, so
+                # this waits only for the screening fits not yet begun. Only a
+                # candidate that explains most of the excess is (the share
+                # stopped it): one that leaves more of it can be overtaken by a
+                # fit still running that explains the rest, and its second
+                # screening then takes a core from the fits that must finish
+                # (the bundled heat run: sensor offset, 10 % of the excess,
+                # screened again for 9 s beside three running fits before heat
+                # build-up, all of it, finished far above it; BENCHMARKS.md,
+                # stop 69).
+                ahead[c.effects] = pool.submit(_try, datasets, current, effects, c.effects, *RESCREEN)
     clock.credit = 0.0
     ranked = [c for c in out if c is not None]
     for c in ranked:
