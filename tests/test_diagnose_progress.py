@@ -129,7 +129,7 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     # long as the finished ones took counts half done). The mixed durations
     # finish shortest first, so their estimates fall short (0.5-0.7 x while
     # half the fits are left): the fits still to come are the long ones.
-    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...]) -> Any:
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], **_: Any) -> Any:
         time.sleep(durations_s[effects_.index(add[0])])
         return diagnose_module.Candidate(effects=add, added_params=1, result=SimpleNamespace(stopped=False), delta_bic=0.0)  # type: ignore[arg-type]
 
@@ -141,7 +141,8 @@ def test_the_time_left_counts_the_fits_still_running(durations_s: list[float], m
     class Clock(diagnose_module._Clock):
         ACCEPT_FITS = 0.0
 
-        def tell(self, what: str, fits_left: float) -> None:
+        def tell(self, what: str, fits_left: float, running_s: float | None = None) -> None:
+            assert running_s is None  # no fit here times a run
             per = self.per_fit_s()
             if "fitted" in what and per is not None:
                 said.append((time.perf_counter(), per * fits_left))
@@ -180,7 +181,8 @@ def test_a_fit_that_outruns_the_others_is_said_to_be_still_running(monkeypatch: 
     # so is the ranking.
     durations = {"friction": 0.05, "leakage": 0.05, "sensor_offset": 0.05, "oil_compliance": 1.0}
 
-    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0) -> Any:
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0,
+                 **_: Any) -> Any:
         time.sleep(durations[add[0]] if jacobian is None else 0.4)
         at_share = add == ("friction",) and jacobian is None
         result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=at_share)
@@ -220,6 +222,64 @@ def test_a_fit_that_outruns_the_others_is_said_to_be_still_running(monkeypatch: 
     assert "(oil_compliance)" in done[-1]
 
 
+def test_a_running_fit_takes_the_finished_ones_time_per_run_at_its_own_runs_cost() -> None:
+    left = diagnose_module.screening_left_s
+    # Nothing to weigh by without a cost on both sides.
+    assert left([], [(1.0, 0.1)]) is None
+    assert left([(2.0, None)], [(1.0, 0.1)]) is None
+    assert left([(2.0, 0.1)], [(1.0, None)]) is None
+    # The finished fits' median duration per run (40, 60 and 300: 60) at
+    # each running fit's cost, less what it has run; the longest.
+    assert left([(4.0, 0.1), (6.0, 0.1), (30.0, 0.1)], [(10.0, 0.5), (1.0, 0.1)]) == pytest.approx(20.0)
+    assert left([(4.0, 0.1), (6.0, 0.1)], [(0.0, 0.2)]) == pytest.approx(10.0)  # median of 40 and 60
+    # Past its due: nothing, never less.
+    assert left([(4.0, 0.1)], [(100.0, 0.1)]) == 0.0
+
+
+def test_the_time_left_weighs_a_running_fit_by_what_its_runs_cost(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The bundled heat run's round in small: three screenings whose runs
+    # are cheap and one whose runs cost ten times theirs (oil compliance's
+    # stiff oil there: 1.9 s a run against 0.12 s), each making 10-20 runs
+    # (a sleep in place of the fit; the fit times its first run for
+    # on_first_run). At each completion before the long one ends, the
+    # screening time said left is within a factor 2 of what it then took;
+    # counting the running fit as the finished ones' mean (running_credit
+    # alone) said under a third of it (stop 76: 15 s said where 119 s were
+    # on the heat run).
+    cost = {"friction": 0.01, "leakage": 0.01, "sensor_offset": 0.01, "oil_compliance": 0.1}
+    runs = {"friction": 10, "leakage": 15, "sensor_offset": 20, "oil_compliance": 15}
+
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], on_first_run: Any = None, **_: Any) -> Any:
+        on_first_run(cost[add[0]])
+        time.sleep(cost[add[0]] * runs[add[0]])
+        return diagnose_module.Candidate(effects=add, added_params=1, result=SimpleNamespace(stopped=False), delta_bic=0.0)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(diagnose_module, "_try", fake_try)
+    said: list[tuple[float, float, float | None]] = []  # (when, by the rate alone, by the runs' cost)
+
+    class Clock(diagnose_module._Clock):
+        ACCEPT_FITS = 0.0
+
+        def tell(self, what: str, fits_left: float, running_s: float | None = None) -> None:
+            per = self.per_fit_s()
+            if "fitted" in what and per is not None:
+                said.append((time.perf_counter(), per * fits_left, running_s))
+
+    clock = Clock(lambda _m: None, 1)
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        diagnose_module._try_all([], None, (), [(e,) for e in cost], clock, pool)  # type: ignore[arg-type]
+    end = time.perf_counter()
+    assert len(said) == 4
+    for when, by_rate, by_cost in said[:-1]:
+        truth = end - when
+        assert by_cost is not None and truth / 2 <= max(by_rate, by_cost) <= 2 * truth, said
+    # The first completion's (0.1 s in, 1.4 s left): by the rate alone far short.
+    first_when, first_by_rate, _ = said[0]
+    assert first_by_rate < (end - first_when) / 3, said
+    # The last: nothing running, nothing by cost.
+    assert said[-1][2] is None
+
+
 def test_a_running_fit_counts_half_when_it_has_run_as_long_as_the_finished_ones_took() -> None:
     assert diagnose_module.running_credit([], [1.0]) == 0.0
     assert diagnose_module.running_credit([2.0], []) == 0.0
@@ -249,7 +309,8 @@ def test_the_winners_finite_difference_screening_starts_while_the_last_fits_run(
 
     again = diagnose_module.RESCREEN[0]
 
-    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0) -> Any:
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0,
+                 **_: Any) -> Any:
         calls.append((add, jacobian))
         if jacobian == again:
             assert max_nfev == diagnose_module.RESCREEN[1]
@@ -295,7 +356,8 @@ def test_every_screening_ended_at_the_share_is_screened_again_and_ranked_by_that
     second: dict[tuple[str, ...], float] = {("friction",): 7_000.0, ("sensor_offset",): 30_000.0}
     first: dict[tuple[str, ...], float] = {("friction",): 8_000.0, ("sensor_offset",): 6_000.0}
 
-    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0) -> Any:
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], jacobian: str | None = None, max_nfev: int = 0,
+                 **_: Any) -> Any:
         calls.append((add, jacobian))
         rescreen = jacobian == again
         result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=not rescreen)

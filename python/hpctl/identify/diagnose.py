@@ -894,10 +894,18 @@ class _Clock:
             return self.fit_wall_s / (self.fits + self.credit)
         return self.first_fit_s
 
-    def tell(self, what: str, fits_left: float) -> None:
+    def tell(self, what: str, fits_left: float, running_s: float | None = None) -> None:
+        """``what`` with the time left: ``fits_left`` (cross-validation
+        and the accepted fit counted in) at the clock's rate, or, where
+        the fits still running are known to take longer by what their runs
+        cost (``running_s``, :func:`screening_left_s`), that and
+        :data:`ACCEPT_FITS` at the rate."""
         per = self.per_fit_s()
-        eta = "" if per is None else f"; about {_fmt_s(per * fits_left)} left in this round"
-        self.say(f"round {self.round}/{self.max_rounds}: {what}{eta}")
+        if per is None:
+            self.say(f"round {self.round}/{self.max_rounds}: {what}")
+            return
+        left = per * fits_left if running_s is None else max(per * fits_left, running_s + per * self.ACCEPT_FITS)
+        self.say(f"round {self.round}/{self.max_rounds}: {what}; about {_fmt_s(left)} left in this round")
 
 
 def running_credit(finished_s: Sequence[float], running_s: Sequence[float]) -> float:
@@ -931,8 +939,8 @@ def running_credit(finished_s: Sequence[float], running_s: Sequence[float]) -> f
 HEARTBEAT_S = 20.0
 
 
-def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began: dict[int, float], ended: dict[int, float], done: int,
-               start: float, clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]]) -> Candidate:
+def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began: dict[int, float], ended: dict[int, float],
+               cost: dict[int, float], done: int, start: float, clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]]) -> Candidate:
     """:func:`_try_all`'s bookkeeping and progress line for its ``i``-th
     fit, completed as ``f`` after ``done`` others, the last of them at
     ``start``; its candidate."""
@@ -947,19 +955,51 @@ def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began:
     clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
                + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
                + (f" (ended at {100 * c.explained:.0f} % of the excess explained, to be screened again)" if c.ended_at_share else ""),
-               len(adds) - done - clock.credit + clock.ACCEPT_FITS)
+               len(adds) - done - clock.credit + clock.ACCEPT_FITS, _left_by_cost(began, ended, cost, now))
     return c
 
 
+def _left_by_cost(began: dict[int, float], ended: dict[int, float], cost: dict[int, float], now: float) -> float | None:
+    """:func:`screening_left_s` of :func:`_try_all`'s fits at ``now``."""
+    return screening_left_s([(ended[i] - began[i], cost.get(i)) for i in list(ended)],
+                            [(now - b, cost.get(i)) for i, b in list(began.items()) if i not in ended])
+
+
+def screening_left_s(finished: Sequence[tuple[float, float | None]], running: Sequence[tuple[float, float | None]]) -> float | None:
+    """How long the screening fits still ``running`` take, from what one
+    run of each one's model costs: each ``(seconds so far, seconds a run)``
+    takes the ``finished`` fits' median ratio of their duration to their
+    run's cost, times its own run's cost, less what it has run; the longest
+    of them, since they run side by side. None where no fit on either side
+    has a cost (a fit times its first run: ``fit``'s ``on_first_run``).
+
+    Why: a round's fits differ in what a run costs far more than in how
+    many runs they make. On the bundled heat run oil compliance's first
+    run took 1.9 s, the others' 0.12-0.15 s (its stiff oil), and its
+    screening 92 s where they took 4-29 s: counted as the finished ones'
+    mean, it was said to be nearly done (15 s left said where 119 s were;
+    32 s where 88 s were). Their ratios of duration to run, 37-240 (how many
+    runs a fit makes), take it to about a minute from when the first of
+    them finishes."""
+    ratios = sorted(d / c for d, c in finished if c is not None and c > 0.0 and d >= 0.0)
+    if not ratios:
+        return None
+    mid = len(ratios) // 2
+    k = ratios[mid] if len(ratios) % 2 else 0.5 * (ratios[mid - 1] + ratios[mid])
+    rest = [k * c - e for e, c in running if c is not None and c > 0.0]
+    return max(0.0, *rest) if rest else None
+
+
 def _still_running(clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]], began: dict[int, float], ended: dict[int, float],
-                   ahead: dict[tuple[str, ...], Future[Candidate]] | None) -> None:
+                   cost: dict[int, float], ahead: dict[tuple[str, ...], Future[Candidate]] | None) -> None:
     """The progress line when no screening fit has completed for
     :data:`HEARTBEAT_S`: which are still running and for how long, how
-    long the finished ones took, and what follows them. No estimate of
-    their own rest: how long a fit that has outrun the others still takes
-    is not told by them (oil compliance on the bundled heat run, 92 s,
-    where the five others took 4-29 s), so the time left is said as what
-    it is at least, the cross-validation and the final fit after them."""
+    long the finished ones took, and the time left in the round by what
+    the runs of each cost (:func:`screening_left_s`); where that is not
+    known, only what follows them, the cross-validation and the final fit:
+    how long a fit that has outrun the others still takes is not told by
+    their times alone (oil compliance on the bundled heat run, 92 s, where
+    the five others took 4-29 s)."""
     now = time.perf_counter()
     running = sorted(((now - b, "+".join(adds[i])) for i, b in list(began.items()) if i not in ended), reverse=True)
     if not running:
@@ -973,7 +1013,13 @@ def _still_running(clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]], be
     if again:
         what += f"; {', '.join('+'.join(e) for e in again)} screened again beside"
     per = clock.per_fit_s()
-    after = "" if per is None else f"; then about {_fmt_s(per * clock.ACCEPT_FITS)} for cross-validation and the final fit"
+    by_cost = _left_by_cost(began, ended, cost, now)
+    if per is None:
+        after = ""
+    elif by_cost is None:
+        after = f"; then about {_fmt_s(per * clock.ACCEPT_FITS)} for cross-validation and the final fit"
+    else:
+        after = f"; about {_fmt_s(by_cost + per * clock.ACCEPT_FITS)} left in this round"
     clock.say(f"round {clock.round}/{clock.max_rounds}: still fitting {what}{after}")
 
 
@@ -1001,10 +1047,16 @@ def _try_all(
     # the fits still running are counted by how far they are likely to be.
     began: dict[int, float] = {}
     ended: dict[int, float] = {}
+    # What one run of each fit's model cost (its first, timed by fit).
+    cost: dict[int, float] = {}
 
     def timed(i: int, add: tuple[str, ...]) -> Candidate:
         began[i] = time.perf_counter()
-        return _try(datasets, current, effects, add)
+
+        def first_run(seconds: float) -> None:
+            cost.setdefault(i, seconds)
+
+        return _try(datasets, current, effects, add, on_first_run=first_run)
 
     futures = {pool.submit(timed, i, add): i for i, add in enumerate(adds)}
     out: list[Candidate | None] = [None] * len(adds)
@@ -1014,10 +1066,10 @@ def _try_all(
     while pending:
         finished, pending = wait(pending, timeout=HEARTBEAT_S, return_when=FIRST_COMPLETED)
         if not finished:
-            _still_running(clock, kind, adds, began, ended, ahead)
+            _still_running(clock, kind, adds, began, ended, cost, ahead)
             continue
         for f in sorted(finished, key=futures.__getitem__):
-            c = _completed(f, futures[f], out, began, ended, done, start, clock, kind, adds)
+            c = _completed(f, futures[f], out, began, ended, cost, done, start, clock, kind, adds)
             done += 1
             start = time.perf_counter()
             if c.ended_at_share and ahead is not None and c.effects not in ahead:
@@ -1265,7 +1317,7 @@ def enough_explained(datasets: Sequence[Dataset], current: FitResult, effects: t
 
 def _try(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], add: tuple[str, ...], jacobian: str | None = None,
-    max_nfev: int = MAX_NFEV,
+    max_nfev: int = MAX_NFEV, on_first_run: Callable[[float], None] | None = None,
 ) -> Candidate:
     # A screening fit: without errors (the few candidates weighed for
     # acceptance get theirs, :func:`_with_errors`; the accepted one is
@@ -1279,7 +1331,7 @@ def _try(
 
     def attempt(start: Mapping[str, float]) -> FitResult:
         return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=ends, ftol=ftol,
-                   jacobian=jacobian, errors=False, max_nfev=max_nfev)
+                   jacobian=jacobian, errors=False, max_nfev=max_nfev, on_first_run=on_first_run)
 
     def better_from(start: Mapping[str, float], trial: FitResult, or_below: float = 0.0) -> FitResult:
         # Fitted again only from a start better than where the fit ended,

@@ -15,6 +15,7 @@ import functools
 import itertools
 import math
 import threading
+import time
 from array import array
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -455,6 +456,7 @@ def fit(
     jacobian: str = "finite_difference",
     errors: bool = True,
     place_switches: bool = True,
+    on_first_run: Callable[[float], None] | None = None,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -536,17 +538,22 @@ def fit(
     below :data:`STRIBECK_VALLEY_RATIO` times its smoothing velocity (the
     peak hidden under the smoothing: a valley of its own) is fitted again
     from a peak above it (:data:`STRIBECK_RESTART`), and the lower cost is
-    kept; the message says which."""
+    kept; the message says which.
+
+    ``on_first_run``: called once, with the wall seconds of the fit's first
+    run of the records: what a run of this model costs, which the
+    diagnosis's progress weighs its screening fits' times by
+    (:func:`hpctl.identify.diagnose.screening_left_s`)."""
     with one_blas_thread():  # see hpctl.identify.blas
         try:
             run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
                                     held=held, fixed=fixed, tie=tie, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors,
                                     place_switches=place_switches)
-            result = run(initial=initial)
+            result = run(initial=initial, on_first_run=on_first_run)
             if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
                 return result
             try:
-                again = run(initial={**result.values, **STRIBECK_RESTART})
+                again = run(initial={**result.values, **STRIBECK_RESTART}, on_first_run=None)
             except HpctlError as e:
                 # The restart is a second opinion: its failure never costs the first fit.
                 result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
@@ -565,7 +572,8 @@ def fit(
 
 def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
          fold: int | None, flexible: bool, input_noise: bool, held: Mapping[str, float] | None, fixed: Mapping[str, float] | None,
-         tie: Tie | None, stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool) -> FitResult:
+         tie: Tie | None, stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool,
+         on_first_run: Callable[[float], None] | None) -> FitResult:
     """:func:`fit` without the Stribeck restart. Every argument is given:
     the defaults are :func:`fit`'s alone."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
@@ -605,10 +613,15 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     # outputs without running the model once more.
     runs: dict[str, tuple[bytes, list[dict[str, FloatArray] | Exception]]] = {}
 
+    first_run = [on_first_run] if on_first_run is not None else []
+
     def evaluate(x: FloatArray) -> tuple[FloatArray, list[FloatArray | None]]:
         key = x.tobytes()
         if key not in cache:
+            began = time.perf_counter()
             sims = simulate_all(model, datasets, [values_from_x(params, x)], record_steps=True)[0]
+            if first_run:
+                first_run.pop()(time.perf_counter() - began)
             ends = [None if isinstance(s, Exception) else s.pop("step_end_s", None) for s in sims]
             cache[key] = (residual_vector(datasets, sims, fold), ends)
             runs["last"] = (key, sims)
@@ -812,7 +825,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             at = values_from_x(params, x)
             known = all(d.switch_leads.size for d in datasets if switch_samples(d).size)
             placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:] if known else ROUND_SPANS)
-            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, fixed=fixed, tie=tie, stop=stop,
+            again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, fixed=fixed, tie=tie, stop=stop, on_first_run=None,
                          ftol=ftol, jacobian=jacobian, place_switches=False)
             # The places found at the optimum of the midway model shift the
             # optimum, which shifts the places: a switch whose segment tells
