@@ -978,9 +978,9 @@ def screening_left_s(finished: Sequence[tuple[float, float | None]], running: Se
     run took 1.9 s, the others' 0.12-0.15 s (its stiff oil), and its
     screening 92 s where they took 4-29 s: counted as the finished ones'
     mean, it was said to be nearly done (15 s left said where 119 s were;
-    32 s where 88 s were). Their ratios of duration to run, 37-240 (how many
-    runs a fit makes), take it to about a minute from when the first of
-    them finishes."""
+    32 s where 88 s were). Weighed by its run's cost, 83-116 s said where
+    84-110 s were, from the second fit to finish on (the first finished
+    before oil compliance's first run was timed; stop 76)."""
     ratios = sorted(d / c for d, c in finished if c is not None and c > 0.0 and d >= 0.0)
     if not ratios:
         return None
