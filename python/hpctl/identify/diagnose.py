@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import os
+import statistics
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ThreadPoolExecutor, wait
@@ -942,13 +943,12 @@ HEARTBEAT_S = 20.0
 def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began: dict[int, float], ended: dict[int, float],
                cost: dict[int, float], done: int, start: float, clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]]) -> Candidate:
     """:func:`_try_all`'s bookkeeping and progress line for its ``i``-th
-    fit, completed as ``f`` after ``done`` others, the last of them at
-    ``start``; its candidate."""
+    fit, completed as ``f``, the ``done``-th to complete, the one before it
+    at ``start``; its candidate."""
     c = f.result()
     now = time.perf_counter()
     out[i] = c
     ended[i] = now
-    done += 1
     clock.fits += 1
     clock.fit_wall_s += now - start
     clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
@@ -981,11 +981,10 @@ def screening_left_s(finished: Sequence[tuple[float, float | None]], running: Se
     32 s where 88 s were). Weighed by its run's cost, 83-116 s said where
     84-110 s were, from the second fit to finish on (the first finished
     before oil compliance's first run was timed; stop 76)."""
-    ratios = sorted(d / c for d, c in finished if c is not None and c > 0.0 and d >= 0.0)
+    ratios = [d / c for d, c in finished if c is not None and c > 0.0 and d >= 0.0]
     if not ratios:
         return None
-    mid = len(ratios) // 2
-    k = ratios[mid] if len(ratios) % 2 else 0.5 * (ratios[mid - 1] + ratios[mid])
+    k = statistics.median(ratios)
     rest = [k * c - e for e, c in running if c is not None and c > 0.0]
     return max(0.0, *rest) if rest else None
 
@@ -1069,8 +1068,8 @@ def _try_all(
             _still_running(clock, kind, adds, began, ended, cost, ahead)
             continue
         for f in sorted(finished, key=futures.__getitem__):
-            c = _completed(f, futures[f], out, began, ended, cost, done, start, clock, kind, adds)
             done += 1
+            c = _completed(f, futures[f], out, began, ended, cost, done, start, clock, kind, adds)
             start = time.perf_counter()
             if c.ended_at_share and ahead is not None and c.effects not in ahead:
                 # Screened again at once: the pool takes its tasks in order, so
