@@ -423,3 +423,56 @@ def test_the_accepted_models_full_fit_starts_with_its_cross_validation(monkeypat
         assert list(full) == [("leakage",)]
         assert full[("leakage",)].result().effects == ("leakage",)
     assert sorted(fitted) == [("friction",), ("leakage",)]
+
+
+def test_a_second_look_does_not_cross_validate_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    # _settle looks again at the candidates left when the one accepted did
+    # not hold its gain in its full fit: one its cross-validation rejected
+    # the first time is not cross-validated again (the same fits of the
+    # same data), nor is the model they extend; one not cross-validated yet
+    # is, against that model's kept value.
+    calls: list[tuple[str, ...]] = []
+
+    def fake_cv(datasets: Any, effects: Any, start: Any, pool: Any = None, held: Any = None) -> float:
+        added = tuple(e for e in effects if e not in ("heat_transfer", "real_gas"))
+        calls.append(added)
+        return {(): 100.0, ("friction",): 150.0, ("leakage",): 50.0, ("sensor_lag",): 90.0}[added]
+
+    nulls: list[tuple[str, ...]] = []
+
+    def fake_null(datasets: Any, c: Any) -> float:
+        nulls.append(c.effects)
+        return 5.0  # below BIC_STRONG: the candidate does not show itself
+
+    monkeypatch.setattr(diagnose_module, "_full_fit", lambda datasets, current, effects, c: SimpleNamespace(effects=c.effects))
+    monkeypatch.setattr(diagnose_module, "cross_validation", fake_cv)
+    monkeypatch.setattr(diagnose_module, "_with_errors", lambda datasets, c: None)
+    monkeypatch.setattr(diagnose_module, "shape_values", lambda result: {})
+    monkeypatch.setattr(diagnose_module, "_null_delta_bic", fake_null)
+    weak = ("valve_lag",)
+    monkeypatch.setattr(diagnose_module.Candidate, "shows_itself",
+                        property(lambda self: self.effects != weak or (self.null_delta_bic or 0.0) > diagnose_module.BIC_STRONG))
+
+    def candidate(add: tuple[str, ...], delta_bic: float) -> Any:
+        result = SimpleNamespace(model=SimpleNamespace(flexible=False), values={}, stopped=False, covariance=None, covariance_iid=None, n=1000)
+        return diagnose_module.Candidate(add, 1, result, delta_bic, 0.5)  # type: ignore[arg-type]
+
+    friction, leakage, weakest, lag = (candidate(("friction",), 900.0), candidate(("leakage",), 800.0), candidate(weak, 700.0),
+                                       candidate(("sensor_lag",), 600.0))
+    current = SimpleNamespace(values={}, model=SimpleNamespace(flexible=False))
+    clock = diagnose_module._Clock(lambda _m: None, 1)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        first = diagnose_module._accept([], current, ("heat_transfer", "real_gas"), [friction, leakage, weakest], clock, pool)  # type: ignore[arg-type]
+        assert first is leakage and friction.cv_improves is False
+        assert sorted(calls) == [(), ("friction",), ("leakage",)] and nulls == []
+        calls.clear()
+        # leakage's full fit did not hold its gain: the rest, looked at again.
+        leakage.refit_delta_bic = 3.0
+        again = diagnose_module._accept([], current, ("heat_transfer", "real_gas"), [friction, weakest], clock, pool)  # type: ignore[arg-type]
+        assert again is None
+        assert calls == [] and nulls == [weak]
+        # With a candidate not cross-validated yet among the three looked at.
+        second = diagnose_module._accept([], current, ("heat_transfer", "real_gas"), [friction, weakest, lag], clock, pool)  # type: ignore[arg-type]
+    assert second is lag and lag.cv_before == 100.0 and lag.cv_after == 90.0
+    assert calls == [("sensor_lag",)]
+    assert nulls == [weak]  # its evidence at the null is not fitted again either

@@ -1571,7 +1571,10 @@ def _accept(
     cross-validation, then 9.2 s of that fit). The same computation as
     the one after acceptance, so the result does not depend on it; one
     the cross-validation rejects is cancelled, or finishes unread."""
-    cv_before: float | None = None  # the declared model's: the same for every candidate
+    # The model the candidates extend cross-validated: the same for every
+    # candidate, and kept from a look before (_settle's, where the candidate
+    # accepted then did not hold its gain in its full fit).
+    cv_before = next((c.cv_before for c in ranked if c.cv_before is not None), None)
     for c in ranked[:3]:
         if c.delta_bic <= BIC_STRONG:
             break
@@ -1600,9 +1603,13 @@ def _accept(
             clock.say(f"round {clock.round}/{clock.max_rounds}: {c.effect} not accepted: its BIC change {-c.delta_bic:+.1f} is "
                       f"{-c.scaled_delta_bic:+.1f} {counted_words(c.design_effect)}")
             continue
-        if not c.shows_itself:
+        if not c.shows_itself and c.null_delta_bic is None:
             c.null_delta_bic = _null_delta_bic(datasets, c)
         if not c.shows_itself:
+            continue
+        if c.cv_improves is False:
+            # Rejected by its cross-validation in a look before: the same
+            # fits of the same data would reject it again.
             continue
         clock.tell(f"cross-validating {c.effect}", clock.ACCEPT_FITS)
         if full is not None and c.effects not in full:
