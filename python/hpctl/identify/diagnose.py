@@ -1607,8 +1607,9 @@ def _accept(
             c.null_delta_bic = _null_delta_bic(datasets, c)
         if not c.shows_itself:
             continue
-        if c.cv_improves is False:
-            # Rejected by its cross-validation in a look before: the same
+        if c.cv_after is not None:
+            # Cross-validated in a look before, and rejected there (one it
+            # supported was accepted, and is not looked at again): the same
             # fits of the same data would reject it again.
             continue
         clock.tell(f"cross-validating {c.effect}", clock.ACCEPT_FITS)
