@@ -473,6 +473,19 @@ def test_a_second_look_does_not_cross_validate_again(monkeypatch: pytest.MonkeyP
         assert calls == [] and nulls == [weak]
         # With a candidate not cross-validated yet among the three looked at.
         second = diagnose_module._accept([], current, ("heat_transfer", "real_gas"), [friction, weakest, lag], clock, pool)  # type: ignore[arg-type]
-    assert second is lag and lag.cv_before == 100.0 and lag.cv_after == 90.0
-    assert calls == [("sensor_lag",)]
-    assert nulls == [weak]  # its evidence at the null is not fitted again either
+        assert second is lag and lag.cv_before == 100.0 and lag.cv_after == 90.0
+        assert calls == [("sensor_lag",)]
+        assert nulls == [weak]  # its evidence at the null is not fitted again either
+        # The model they extend as cross-validated before, given (the
+        # singles' for the pairs, or the one refused after its full fit).
+        calls.clear()
+        pair = candidate(("sensor_lag", "friction"), 500.0)
+
+        def pair_cv(datasets: Any, effects: Any, start: Any, pool: Any = None, held: Any = None) -> float:
+            calls.append(tuple(e for e in effects if e not in ("heat_transfer", "real_gas")))
+            return 80.0 if calls[-1] == pair.effects else 100.0
+
+        monkeypatch.setattr(diagnose_module, "cross_validation", pair_cv)
+        third = diagnose_module._accept([], current, ("heat_transfer", "real_gas"), [pair], clock, pool, cv_before=100.0)  # type: ignore[arg-type]
+    assert third is pair and pair.cv_before == 100.0 and pair.cv_after == 80.0
+    assert calls == [("sensor_lag", "friction")]

@@ -1561,8 +1561,10 @@ def _going_on(datasets: Sequence[Dataset], effects: tuple[str, ...], initial: Ma
 def _accept(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], clock: _Clock, pool: Executor,
     ahead: dict[tuple[str, ...], Future[Candidate]] | None = None, full: dict[tuple[str, ...], Future[FitResult]] | None = None,
+    cv_before: float | None = None,
 ) -> Candidate | None:
-    """The best-ranked candidate that the evidence supports, if any.
+    """The best-ranked candidate that the evidence supports, if any;
+    ``cv_before``, where known, the cross-validation of ``current``.
 
     With ``full``: a candidate's :func:`_full_fit` is started in ``pool``
     as its cross-validation begins, its future kept in ``full`` under its
@@ -1573,8 +1575,10 @@ def _accept(
     the cross-validation rejects is cancelled, or finishes unread."""
     # The model the candidates extend cross-validated: the same for every
     # candidate, and kept from a look before (_settle's, where the candidate
-    # accepted then did not hold its gain in its full fit).
-    cv_before = next((c.cv_before for c in ranked if c.cv_before is not None), None)
+    # accepted then did not hold its gain in its full fit; the singles'
+    # for the pairs).
+    if cv_before is None:
+        cv_before = next((c.cv_before for c in ranked if c.cv_before is not None), None)
     for c in ranked[:3]:
         if c.delta_bic <= BIC_STRONG:
             break
@@ -1698,13 +1702,14 @@ def diagnose(
 def _settle(
     datasets: Sequence[Dataset], current: FitResult, judged: FitResult, effects: tuple[str, ...], tried: list[Candidate], clock: _Clock,
     pool: Executor, ahead: dict[tuple[str, ...], Future[Candidate]], full: dict[tuple[str, ...], Future[FitResult]],
+    cv_before: float | None = None,
 ) -> tuple[Candidate | None, FitResult]:
     """The candidate of ``tried`` accepted on ``current`` (judged in its own
     weights: ``judged``), its :attr:`Candidate.result` then its full fit
     (:func:`_full_fit`), with that fit judged in its own weights; the next
     one :func:`_accept` takes wherever a full fit does not hold the gain
-    (None, ``judged``, where none does)."""
-    accepted = _accept(datasets, current, effects, tried, clock, pool, ahead, full)
+    (None, ``judged``, where none does). ``cv_before``: :func:`_accept`'s."""
+    accepted = _accept(datasets, current, effects, tried, clock, pool, ahead, full, cv_before)
     while accepted is not None:
         clock.tell(f"fitting the model with {accepted.effect} (with the input noise)", 2.0)
         started = full.pop(accepted.effects, None)
@@ -1732,7 +1737,9 @@ def _settle(
             clock.say(f"round {clock.round}/{clock.max_rounds}: {accepted.effect} not accepted: its full fit changed the BIC by "
                       f"{accepted.refit_delta_bic:+.1f} (screening: {-accepted.delta_bic:+.1f})")
         rest = [c for c in tried if c is not accepted and c.refit_delta_bic is None]
-        accepted = _accept(datasets, current, effects, rest, clock, pool, ahead, full)
+        # The model they extend as cross-validated for the one refused.
+        known = next((c.cv_before for c in tried if c.cv_before is not None), cv_before)
+        accepted = _accept(datasets, current, effects, rest, clock, pool, ahead, full, known)
     return None, judged
 
 
@@ -1891,7 +1898,8 @@ def _diagnose(
         pairs = pairs_to_try([c.effects[0] for c in tried]) if accepted is None else []
         if pairs:
             tried_pairs = _try_all(datasets, current, effects, pairs, clock, pool, kind="pair", ahead=ahead)
-            accepted, judged_after = _settle(datasets, current, judged, effects, tried_pairs, clock, pool, ahead, full)
+            known = next((c.cv_before for c in tried if c.cv_before is not None), None)
+            accepted, judged_after = _settle(datasets, current, judged, effects, tried_pairs, clock, pool, ahead, full, known)
             tried += tried_pairs
         judgement = None
         unused_futures: list[Future[Candidate] | Future[FitResult]] = [*ahead.values(), *full.values()]
