@@ -554,8 +554,15 @@ def test_a_fit_stopped_short_is_fitted_again_from_the_profiles_lower_point(frict
     restart = refit_from_better(short, [iv], 60)
     assert restart is not None and restart.name == "tau_s" and restart.start == iv.better_found
     assert restart.before == objective(short) and restart.after == objective(restart.result) < restart.before + iv.better_found.rise
-    context = f"seed={seed}: {restart.result.values['tau_s']} vs {result.values['tau_s']} +- {result.stderr['tau_s']}"
-    assert abs(restart.result.values["tau_s"] - result.values["tau_s"]) < 0.1 * result.stderr["tau_s"], context
+    # The restart is fitted as `hpctl fit` fits, the input's noise carried
+    # (its mean effect taken out of the estimate), so it is compared with
+    # the converged fit made the same way: against the fixture's, fitted
+    # without, HPCTL_TEST_SEED=1941965240's restart read 0.1006 errors off,
+    # all of it that correction (fitted again without it from the restart's
+    # end: the fixture's estimate to 1e-10 errors).
+    converged = fit(result.datasets, EFFECTS, initial=result.values)
+    context = f"seed={seed}: {restart.result.values['tau_s']} vs {converged.values['tau_s']} +- {converged.stderr['tau_s']}"
+    assert abs(restart.result.values["tau_s"] - converged.values["tau_s"]) < 0.1 * converged.stderr["tau_s"], context
 
 
 def test_hpctl_fit_says_when_a_profile_found_a_lower_valley_and_reports_the_fit_from_there(tmp_path: Path, friction_rig: Path) -> None:
