@@ -1558,6 +1558,13 @@ def _going_on(datasets: Sequence[Dataset], effects: tuple[str, ...], initial: Ma
                jacobian=accepted_jacobian(flexible, n))
 
 
+def _known_cv_before(candidates: Sequence[Candidate], otherwise: float | None = None) -> float | None:
+    """The cross-validation of the model ``candidates`` extend, where one
+    of them was cross-validated (it is the same for each); ``otherwise``
+    where none was."""
+    return next((c.cv_before for c in candidates if c.cv_before is not None), otherwise)
+
+
 def _accept(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], clock: _Clock, pool: Executor,
     ahead: dict[tuple[str, ...], Future[Candidate]] | None = None, full: dict[tuple[str, ...], Future[FitResult]] | None = None,
@@ -1578,7 +1585,7 @@ def _accept(
     # accepted then did not hold its gain in its full fit; the singles'
     # for the pairs).
     if cv_before is None:
-        cv_before = next((c.cv_before for c in ranked if c.cv_before is not None), None)
+        cv_before = _known_cv_before(ranked)
     for c in ranked[:3]:
         if c.delta_bic <= BIC_STRONG:
             break
@@ -1737,9 +1744,8 @@ def _settle(
             clock.say(f"round {clock.round}/{clock.max_rounds}: {accepted.effect} not accepted: its full fit changed the BIC by "
                       f"{accepted.refit_delta_bic:+.1f} (screening: {-accepted.delta_bic:+.1f})")
         rest = [c for c in tried if c is not accepted and c.refit_delta_bic is None]
-        # The model they extend as cross-validated for the one refused.
-        known = next((c.cv_before for c in tried if c.cv_before is not None), cv_before)
-        accepted = _accept(datasets, current, effects, rest, clock, pool, ahead, full, known)
+        # The model they extend as cross-validated for the one refused (not in rest).
+        accepted = _accept(datasets, current, effects, rest, clock, pool, ahead, full, _known_cv_before(tried, cv_before))
     return None, judged
 
 
@@ -1898,8 +1904,7 @@ def _diagnose(
         pairs = pairs_to_try([c.effects[0] for c in tried]) if accepted is None else []
         if pairs:
             tried_pairs = _try_all(datasets, current, effects, pairs, clock, pool, kind="pair", ahead=ahead)
-            known = next((c.cv_before for c in tried if c.cv_before is not None), None)
-            accepted, judged_after = _settle(datasets, current, judged, effects, tried_pairs, clock, pool, ahead, full, known)
+            accepted, judged_after = _settle(datasets, current, judged, effects, tried_pairs, clock, pool, ahead, full, _known_cv_before(tried))
             tried += tried_pairs
         judgement = None
         unused_futures: list[Future[Candidate] | Future[FitResult]] = [*ahead.values(), *full.values()]
