@@ -871,12 +871,36 @@ class _Clock:
     :data:`ACCEPT_FITS` screening fits), at the rate fits have completed
     so far in this diagnosis (wall time per fit, which counts the fits
     running in parallel). How many rounds follow depends on what is found,
-    so the estimate is for the round."""
+    so the estimate is for the round.
+
+    Once a candidate has gained, what follows the screenings is taken from
+    its own screening's time instead (:meth:`tail_s`): the round's mean
+    fit said it 3-6 x too long where a costly candidate that is not the
+    answer set the mean (the bundled heat run: 86 s said where 28 s were,
+    oil compliance's stiff runs; a foreign leak: 11 s for 1.9 s).
+    Measured on the bundled campaign and heat run and on six foreign-rig
+    cases (seed 11: a leak, a sensor offset, valve lag, oil compliance,
+    friction, none; stop 78): cross-validation and the accepted model's
+    fit took 0.25-1.5 x the accepted candidate's screening where that ran
+    to its end, 2.65-2.8 x its first screening where Broyden's updates
+    ended it at the share (screened again with finite differences: 2.9
+    and 8.8 x that first one, alone)."""
 
     #: Cross-validation (four half-data fits, the declared model's two
     #: shared by the round's candidates) and the accepted model's fit with
-    #: the input noise (about twice a screening fit), in screening fits.
+    #: the input noise (about twice a screening fit), in screening fits:
+    #: before any candidate has gained.
     ACCEPT_FITS = 5.0
+    #: Cross-validation and the accepted model's fit, in the time the
+    #: candidate's screening took (one that ran to its end).
+    TAIL_SHARE = 0.6
+    #: The same in the time of a first screening that Broyden's updates
+    #: ended at the share (:func:`enough_explained`).
+    TAIL_AFTER_SHARE = 2.7
+    #: Its second screening (:data:`RESCREEN`) in that first one's time.
+    RESCREEN_SCREENINGS = 5.0
+    #: The share of the tail left once the accepted model's fit begins.
+    FULL_FIT_SHARE = 0.5
 
     def __init__(self, say: Progress, max_rounds: int) -> None:
         self.say = say
@@ -889,23 +913,68 @@ class _Clock:
         #: (:func:`running_credit`): counted with ``fits``, they make the
         #: rate what the pool does, not what its first finisher did.
         self.credit = 0.0
+        #: Each candidate that gained: (its score, its screening's wall
+        #: time, whether Broyden's updates ended it at the share).
+        self.gained: dict[tuple[str, ...], tuple[float, float, bool]] = {}
+        #: When the second screening of each such candidate was started.
+        self.rescreen_began: dict[tuple[str, ...], float] = {}
 
     def per_fit_s(self) -> float | None:
         if self.fits:
             return self.fit_wall_s / (self.fits + self.credit)
         return self.first_fit_s
 
-    def tell(self, what: str, fits_left: float, running_s: float | None = None) -> None:
-        """``what`` with the time left: ``fits_left`` (cross-validation
-        and the accepted fit counted in) at the clock's rate, or, where
-        the fits still running are known to take longer by what their runs
-        cost (``running_s``, :func:`screening_left_s`), that and
-        :data:`ACCEPT_FITS` at the rate."""
+    def new_round(self, number: int) -> None:
+        """Round ``number`` begins: its candidates are new."""
+        self.round = number
+        self.gained.clear()
+        self.rescreen_began.clear()
+
+    def screened(self, c: Candidate, seconds: float) -> None:
+        """Note ``c``'s screening, ``seconds`` of wall time, if it gained."""
+        if c.delta_bic > BIC_STRONG:
+            self.gained[c.effects] = (c.score, seconds, c.ended_at_share)
+
+    def tail_s(self, effects: tuple[str, ...] | None = None, rescreened: bool = False) -> float | None:
+        """Cross-validation and the accepted model's fit for ``effects``
+        (the best-scored candidate that gained where None), with its second
+        screening's time still to come where it has one and is not
+        ``rescreened``: from its screening's time (the class's note). None
+        where that candidate has not gained."""
+        if effects is None:
+            effects = max(self.gained, key=lambda e: self.gained[e][0], default=None)
+        if effects is None or effects not in self.gained:
+            return None
+        _, seconds, at_share = self.gained[effects]
+        if not at_share:
+            return self.TAIL_SHARE * seconds
+        tail = self.TAIL_AFTER_SHARE * seconds
+        if rescreened:
+            return tail
+        began = self.rescreen_began.get(effects)
+        ran = 0.0 if began is None else time.perf_counter() - began
+        return tail + max(0.0, self.RESCREEN_SCREENINGS * seconds - ran)
+
+    def after_screenings_s(self) -> float | None:
+        """What follows the screenings: :meth:`tail_s`, else
+        :data:`ACCEPT_FITS` at the rate (None where there is none yet)."""
+        tail = self.tail_s()
+        if tail is not None:
+            return tail
         per = self.per_fit_s()
-        if per is None:
+        return None if per is None else per * self.ACCEPT_FITS
+
+    def tell(self, what: str, screenings_left: float, running_s: float | None = None, tail_s: float | None = None) -> None:
+        """``what`` with the time left: ``screenings_left`` at the clock's
+        rate, or, where the fits still running are known to take longer by
+        what their runs cost (``running_s``, :func:`screening_left_s`),
+        that; then ``tail_s`` (:meth:`after_screenings_s` where None)."""
+        per = self.per_fit_s()
+        after = self.after_screenings_s() if tail_s is None else tail_s
+        if per is None or after is None:
             self.say(f"round {self.round}/{self.max_rounds}: {what}")
             return
-        left = per * fits_left if running_s is None else max(per * fits_left, running_s + per * self.ACCEPT_FITS)
+        left = max(per * screenings_left, running_s or 0.0) + after
         self.say(f"round {self.round}/{self.max_rounds}: {what}; about {_fmt_s(left)} left in this round")
 
 
@@ -952,10 +1021,11 @@ def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began:
     clock.fits += 1
     clock.fit_wall_s += now - start
     clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
+    clock.screened(c, now - began[i])
     clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
                + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
                + (f" (ended at {100 * c.explained:.0f} % of the excess explained, to be screened again)" if c.ended_at_share else ""),
-               len(adds) - done - clock.credit + clock.ACCEPT_FITS, _left_by_cost(began, ended, cost, now))
+               len(adds) - done - clock.credit, _left_by_cost(began, ended, cost, now))
     return c
 
 
@@ -1011,14 +1081,14 @@ def _still_running(clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]], be
     again = [e for e, fut in (ahead or {}).items() if not fut.done()]
     if again:
         what += f"; {', '.join('+'.join(e) for e in again)} screened again beside"
-    per = clock.per_fit_s()
+    tail = clock.after_screenings_s()
     by_cost = _left_by_cost(began, ended, cost, now)
-    if per is None:
+    if tail is None:
         after = ""
     elif by_cost is None:
-        after = f"; then about {_fmt_s(per * clock.ACCEPT_FITS)} for cross-validation and the final fit"
+        after = f"; then about {_fmt_s(tail)} for cross-validation and the final fit"
     else:
-        after = f"; about {_fmt_s(by_cost + per * clock.ACCEPT_FITS)} left in this round"
+        after = f"; about {_fmt_s(by_cost + tail)} left in this round"
     clock.say(f"round {clock.round}/{clock.max_rounds}: still fitting {what}{after}")
 
 
@@ -1060,7 +1130,7 @@ def _try_all(
     futures = {pool.submit(timed, i, add): i for i, add in enumerate(adds)}
     out: list[Candidate | None] = [None] * len(adds)
     done = 0
-    clock.tell(f"{kind}s 1-{len(adds)} of {len(adds)} started ({', '.join('+'.join(a) for a in adds)})", len(adds) + clock.ACCEPT_FITS)
+    clock.tell(f"{kind}s 1-{len(adds)} of {len(adds)} started ({', '.join('+'.join(a) for a in adds)})", len(adds))
     pending = set(futures)
     while pending:
         finished, pending = wait(pending, timeout=HEARTBEAT_S, return_when=FIRST_COMPLETED)
@@ -1083,6 +1153,7 @@ def _try_all(
                 # build-up, all of it, finished far above it; BENCHMARKS.md,
                 # stop 69).
                 ahead[c.effects] = pool.submit(_try, datasets, current, effects, c.effects, *RESCREEN)
+                clock.rescreen_began[c.effects] = time.perf_counter()
     clock.credit = 0.0
     ranked = [c for c in out if c is not None]
     for c in ranked:
@@ -1440,8 +1511,9 @@ def _confirmed(datasets: Sequence[Dataset], current: FitResult, effects: tuple[s
     already."""
     if not _rescreened(c):
         return c
-    clock.tell(f"screening {c.effect} again, finite differences far from the optimum", clock.ACCEPT_FITS)
     started = ahead.pop(c.effects, None) if ahead is not None else None
+    clock.rescreen_began.setdefault(c.effects, time.perf_counter())
+    clock.tell(f"screening {c.effect} again, finite differences far from the optimum", 0.0, tail_s=clock.tail_s(c.effects))
     fd = started.result() if started is not None else _try(datasets, current, effects, c.effects, *RESCREEN)
     c.broyden_delta_bic = c.delta_bic
     c.added_params, c.result, c.delta_bic, c.explained, c.screened_by = fd.added_params, fd.result, fd.delta_bic, fd.explained, fd.screened_by
@@ -1565,6 +1637,26 @@ def _known_cv_before(candidates: Sequence[Candidate], otherwise: float | None = 
     return next((c.cv_before for c in candidates if c.cv_before is not None), otherwise)
 
 
+def _weigh(datasets: Sequence[Dataset], c: Candidate) -> float:
+    """``c``'s errors, design effect and the BIC change counted by it
+    (:attr:`Candidate.scaled_delta_bic`, returned), as :func:`_accept`
+    weighs it.
+
+    The BIC counts every residual as an independent draw; a residual
+    correlated over many samples counts the same evidence many times, and
+    a candidate can then gain by taking a little of a structure no effect
+    of the library makes (the foreign rig's bump stop: a sensor offset
+    gained 1,018.7 in BIC at a design effect of 41.4, 0.6 counted; every
+    true effect's design effect at its screening fit was 1.0-9.3, its
+    counted gain 864 or more; docs/foreign-rig.md, stops 74-75). The same
+    correction as _reconsider's. Only ever less evidence: with no design
+    effect the gain is read as it is."""
+    _with_errors(datasets, c)
+    c.design_effect = design_effect(c.result, *c.effects)
+    c.scaled_delta_bic = scaled_delta_bic(c.delta_bic, c.added_params, c.result.n, c.design_effect)
+    return c.scaled_delta_bic
+
+
 def _accept(
     datasets: Sequence[Dataset], current: FitResult, effects: tuple[str, ...], ranked: Sequence[Candidate], clock: _Clock, pool: Executor,
     ahead: dict[tuple[str, ...], Future[Candidate]] | None = None, full: dict[tuple[str, ...], Future[FitResult]] | None = None,
@@ -1597,23 +1689,18 @@ def _accept(
             c.offset_delta_bic = offset_delta_bic(current)
             if c.offset_delta_bic <= BIC_STRONG:
                 continue
-        _with_errors(datasets, c)
-        # The BIC counts every residual as an independent draw; a residual
-        # correlated over many samples counts the same evidence many times,
-        # and a candidate can then gain by taking a little of a structure
-        # no effect of the library makes (the foreign rig's bump stop: a
-        # sensor offset gained 1,018.7 in BIC at a design effect of 41.4,
-        # 0.6 counted; every true effect's design effect at its screening
-        # fit was 1.0-9.3, its counted gain 864 or more; docs/foreign-rig.md,
-        # stops 74-75). The same correction as _reconsider's. Only ever
-        # less evidence: with no design effect the gain is read as it is,
-        # above BIC_STRONG here.
-        c.design_effect = design_effect(c.result, *c.effects)
-        c.scaled_delta_bic = scaled_delta_bic(c.delta_bic, c.added_params, c.result.n, c.design_effect)
-        if c.scaled_delta_bic <= BIC_STRONG:
-            clock.say(f"round {clock.round}/{clock.max_rounds}: {c.effect} not accepted: its BIC change {-c.delta_bic:+.1f} is "
-                      f"{-c.scaled_delta_bic:+.1f} {counted_words(c.design_effect)}")
-            continue
+        if c.scaled_delta_bic is not None:
+            # Weighed in a look before (_settle's, after the one accepted
+            # there lost its gain in its full fit): the same fit, the same
+            # count; one refused then was said then.
+            if c.scaled_delta_bic <= BIC_STRONG:
+                continue
+        else:
+            counted = _weigh(datasets, c)
+            if counted <= BIC_STRONG:
+                clock.say(f"round {clock.round}/{clock.max_rounds}: {c.effect} not accepted: its BIC change {-c.delta_bic:+.1f} is "
+                          f"{-counted:+.1f} {counted_words(c.design_effect)}")
+                continue
         if not c.shows_itself and c.null_delta_bic is None:
             c.null_delta_bic = _null_delta_bic(datasets, c)
         if not c.shows_itself:
@@ -1623,7 +1710,7 @@ def _accept(
             # supported was accepted, and is not looked at again): the same
             # fits of the same data would reject it again.
             continue
-        clock.tell(f"cross-validating {c.effect}", clock.ACCEPT_FITS)
+        clock.tell(f"cross-validating {c.effect}", 0.0, tail_s=clock.tail_s(c.effects, rescreened=True))
         if full is not None and c.effects not in full:
             full[c.effects] = pool.submit(_full_fit, datasets, current, effects, c)
         if cv_before is None:
@@ -1718,7 +1805,10 @@ def _settle(
     (None, ``judged``, where none does). ``cv_before``: :func:`_accept`'s."""
     accepted = _accept(datasets, current, effects, tried, clock, pool, ahead, full, cv_before)
     while accepted is not None:
-        clock.tell(f"fitting the model with {accepted.effect} (with the input noise)", 2.0)
+        # About two screening fits at the rate before any candidate gained.
+        tail = clock.tail_s(accepted.effects, rescreened=True)
+        clock.tell(f"fitting the model with {accepted.effect} (with the input noise)", 2.0 if tail is None else 0.0,
+                   tail_s=0.0 if tail is None else clock.FULL_FIT_SHARE * tail)
         started = full.pop(accepted.effects, None)
         refit = started.result() if started is not None else _full_fit(datasets, current, effects, accepted)
         accepted.refit_delta_bic = refit.bic - current.bic
@@ -1862,7 +1952,7 @@ def _diagnose(
     # are compared in the weights they were fitted with.
     judged = at_own_noise(current)
     for r in range(max_rounds):
-        clock.round = r + 1
+        clock.new_round(r + 1)
         analysis = analyse(judged)
         # The first round screens the library even when the declared model
         # looks like noise: a flexible model can stand in for an effect
