@@ -1027,7 +1027,7 @@ def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began:
     ended[i] = now
     clock.fits += 1
     clock.fit_wall_s += now - start
-    clock.credit = running_credit([ended[k] - began[k] for k in ended], [now - b for k, b in list(began.items()) if k not in ended])
+    clock.credit = running_credit([d for _, d in _took(began, ended)], [e for _, e in _so_far(began, ended, now)])
     clock.screened(c, now - began[i])
     clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
                + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
@@ -1038,8 +1038,18 @@ def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began:
 
 def _left_by_cost(began: dict[int, float], ended: dict[int, float], cost: dict[int, float], now: float) -> float | None:
     """:func:`screening_left_s` of :func:`_try_all`'s fits at ``now``."""
-    return screening_left_s([(ended[i] - began[i], cost.get(i)) for i in list(ended)],
-                            [(now - b, cost.get(i)) for i, b in list(began.items()) if i not in ended])
+    return screening_left_s([(d, cost.get(i)) for i, d in _took(began, ended)], [(e, cost.get(i)) for i, e in _so_far(began, ended, now)])
+
+
+def _took(began: dict[int, float], ended: dict[int, float]) -> list[tuple[int, float]]:
+    """Each finished fit of :func:`_try_all` and how long it took."""
+    return [(i, ended[i] - began[i]) for i in list(ended)]
+
+
+def _so_far(began: dict[int, float], ended: dict[int, float], now: float) -> list[tuple[int, float]]:
+    """Each fit of :func:`_try_all` still running and how long it has run
+    at ``now`` (the dicts are copied first: the workers add to ``began``)."""
+    return [(i, now - b) for i, b in list(began.items()) if i not in ended]
 
 
 def screening_left_s(finished: Sequence[tuple[float, float | None]], running: Sequence[tuple[float, float | None]]) -> float | None:
@@ -1077,10 +1087,10 @@ def _still_running(clock: _Clock, kind: str, adds: Sequence[tuple[str, ...]], be
     their times alone (oil compliance on the bundled heat run, 92 s, where
     the five others took 4-29 s)."""
     now = time.perf_counter()
-    running = sorted(((now - b, "+".join(adds[i])) for i, b in list(began.items()) if i not in ended), reverse=True)
+    running = sorted(((e, "+".join(adds[i])) for i, e in _so_far(began, ended, now)), reverse=True)
     if not running:
         return
-    took = sorted(ended[i] - began[i] for i in list(ended))
+    took = sorted(d for _, d in _took(began, ended))
     what = " and ".join(f"{name} ({_fmt_s(e)} so far)" for e, name in running)
     if took:
         span = _fmt_s(took[0]) if _fmt_s(took[0]) == _fmt_s(took[-1]) else f"{_fmt_s(took[0])} to {_fmt_s(took[-1])}"
