@@ -56,7 +56,7 @@ def round_ends(lines: list[tuple[float, str]]) -> dict[int, float]:
             if current is not None and r != current:
                 ends.setdefault(current, t)
             current = r
-            if line.startswith(f"round {r}/") and ": added " in line:
+            if ": added " in line:
                 ends.setdefault(r, t)
         elif line.startswith("Diagnosis:") and current is not None:
             ends.setdefault(current, t)

@@ -1706,18 +1706,17 @@ def _accept(
             c.offset_delta_bic = offset_delta_bic(current)
             if c.offset_delta_bic <= BIC_STRONG:
                 continue
-        if c.scaled_delta_bic is not None:
-            # Weighed in a look before (_settle's, after the one accepted
-            # there lost its gain in its full fit): the same fit, the same
-            # count; one refused then was said then.
-            if c.scaled_delta_bic <= BIC_STRONG:
-                continue
-        else:
+        if c.scaled_delta_bic is None:
             counted = _weigh(datasets, c)
             if counted <= BIC_STRONG:
                 clock.say(f"round {clock.round}/{clock.max_rounds}: {c.effect} not accepted: its BIC change {-c.delta_bic:+.1f} is "
                           f"{-counted:+.1f} {counted_words(c.design_effect)}")
                 continue
+        elif c.scaled_delta_bic <= BIC_STRONG:
+            # Weighed and refused in a look before (_settle's, after the one
+            # accepted there lost its gain in its full fit), and said then:
+            # the same fit, the same count.
+            continue
         if not c.shows_itself and c.null_delta_bic is None:
             c.null_delta_bic = _null_delta_bic(datasets, c)
         if not c.shows_itself:
