@@ -74,6 +74,9 @@ def main() -> int:
         with tempfile.TemporaryDirectory() as out:
             argv = [sys.executable, "-m", "hpctl", "diagnose", str(folder), "--model", a.model, "--out", out, "--json"]
             lines = stamped(argv + (["--flexible"] if a.flexible else []))
+        if not lines:
+            print(f"== {folder}: hpctl diagnose said nothing")
+            continue
         ends = round_ends(lines)
         print(f"== {folder} ({lines[-1][0]:.1f} s)")
         for t, line in lines:
