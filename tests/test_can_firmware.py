@@ -24,6 +24,7 @@ CI (ci_rules.py).
 """
 
 import math
+import os
 import shutil
 import subprocess
 import time
@@ -60,6 +61,26 @@ def firmware() -> dict[str, Path]:
         if kind == "elf":
             elfs[name] = Path(path)
     return elfs
+
+
+def test_a_process_started_on_one_core_leaves_the_starting_thread_as_it_was():
+    # What pil.Emulator starts QEMU in: the child on one core of the
+    # thread's, the thread back on all of them after, and on an error too.
+    before = os.sched_getaffinity(0)
+    with pil._on_one_core(7):
+        child = subprocess.Popen(["sleep", "5"])
+    try:
+        assert os.sched_getaffinity(0) == before
+        got = os.sched_getaffinity(child.pid)
+        assert got <= before and len(got) == (1 if len(before) > 1 else len(before))
+        if len(before) > 1:
+            assert got == {sorted(before)[7 % len(before)]}
+    finally:
+        child.kill()
+        child.wait()
+    with pytest.raises(RuntimeError), pil._on_one_core(0):
+        raise RuntimeError("in the block")
+    assert os.sched_getaffinity(0) == before
 
 
 def test_free_running_firmware_is_an_slcan_adapter_in_the_safe_state(firmware):
@@ -123,6 +144,11 @@ def run_lock_step(elf: Path, loop: scenario.VehicleLoop) -> None:
     period's frames against the host build fed the same input frames."""
     host = _core.Ecu(loop.corners, "pil")
     with pil.Emulator(elf) as emu:
+        assert emu.proc is not None
+        if len(os.sched_getaffinity(0)) > 1:
+            # QEMU and every thread of it on one core (pil.Emulator's one_core).
+            tasks = list(Path(f"/proc/{emu.proc.pid}/task").iterdir())
+            assert len(tasks) >= 2 and {len(os.sched_getaffinity(int(t.name))) for t in tasks} == {1}
         bus = pil.open_bus(emu.channel)
         try:
             session = pil.PilSession(bus, loop.codec)
