@@ -15,6 +15,7 @@
 # not empty/0/false/no: the rule of tests/ci_rules.py) the run fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each part's header says when it began (bash's SECONDS, from the start): where CI time goes.
 
 case "$(echo "${CI:-}" | tr '[:upper:]' '[:lower:]' | tr -d '[:space:]')" in
     "" | 0 | false | no) ci=0 ;;
@@ -42,15 +43,15 @@ else
     echo "== $fw_says"
 fi
 
-echo "== Python package and test dependencies"
+echo "== Python package and test dependencies (at ${SECONDS} s)"
 python3 -m pip install --quiet --upgrade pip
 # The versions the pinned foreign-rig draws were read with (tests/constraints.txt says why).
 python3 -m pip install --quiet -e ".[test]" -c tests/constraints.txt
 
-echo "== Rust tests (workspace)"
+echo "== Rust tests (workspace) (at ${SECONDS} s)"
 cargo test --workspace --release
 
-echo "== Python tests"
+echo "== Python tests (at ${SECONDS} s)"
 # One pytest worker per core (pytest-xdist): the tests' fits and
 # simulations run on one core each but for short parallel stretches
 # (measured: tests/test_flexible_fit.py 618 s of CPU in 660 s), so a
@@ -61,9 +62,9 @@ echo "== Python tests"
 python3 -m pytest -q -n auto --dist loadfile --durations=30
 
 if [ -z "$firmware_missing" ]; then
-    echo "== Firmware (cross-build, size/panic checks, lints, figures)"
+    echo "== Firmware (cross-build, size/panic checks, lints, figures) (at ${SECONDS} s)"
     scripts/firmware-test.sh
-    echo "== all tests passed"
+    echo "== all tests passed (at ${SECONDS} s)"
 else
-    echo "== all tests passed, firmware SKIPPED: $firmware_missing"
+    echo "== all tests passed (at ${SECONDS} s), firmware SKIPPED: $firmware_missing"
 fi
