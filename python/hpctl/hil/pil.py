@@ -348,10 +348,10 @@ class Emulator:
     holds one byte: QEMU's I/O thread hands each received byte to the vCPU
     thread and waits for it to be read, two thread wake-ups a byte; across
     cores each is an inter-processor wake-up, on the same core a context
-    switch. Measured on a 2-vCPU VM (2026-12-07, ``tests/test_can_firmware.py``'s
-    lock-step scenario, 500 periods): 25.6 -> 12.1 ms a period with eight
-    corners, 14.2 -> 7.5 ms with four (``-accel tcg,thread=single``
-    instead: 29.6 ms, no better). ``icount``'s instruction counts do not
+    switch. Measured on a 2-vCPU VM (2026-12-07, ``scripts/bench_pil.py``:
+    ``tests/test_can_firmware.py``'s lock-step scenario, 500 periods):
+    28.3 -> 13.3 ms a period with eight corners, 15.2 -> 7.7 ms with four
+    (``-accel tcg,thread=single`` instead: no better). ``icount``'s instruction counts do not
     depend on the host's scheduling, so the figures build's are unchanged."""
 
     def __init__(
