@@ -16,6 +16,9 @@ python-can's SLCAN interface, speaking SAE J1939.
   safe). In every period the frames the firmware sends equal, bit for bit,
   those of the host build of the same code (``hp_ctrl::can::ecu::Ecu``
   through ``hpctl._core.Ecu``) fed the same input frames.
+- QEMU runs on one core, every thread of it (``pil.Emulator``'s
+  ``one_core``: about twice as fast), and starting it there leaves the
+  starting thread's cores as they were.
 
 Needs QEMU and a firmware toolchain, rustup's or Debian's
 (scripts/install-firmware-toolchain.sh, docs/firmware.md). Without them
