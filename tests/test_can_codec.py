@@ -66,7 +66,7 @@ def corner_of(name: str) -> int | None:
 def build_codec() -> Path:
     """Builds the example and returns its path (cargo reports it)."""
     out = subprocess.run(
-        ["cargo", "build", "-q", "--release", "-p", "hp-ctrl", "--example", "can_codec", "--message-format=json"],
+        ["cargo", "build", "-q", "--profile", "test-release", "-p", "hp-ctrl", "--example", "can_codec", "--message-format=json"],
         cwd=ROOT,
         check=True,
         capture_output=True,

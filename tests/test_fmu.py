@@ -3,8 +3,9 @@ outside with FMPy: they validate, the unit FMU reproduces the native
 simulation, and the unit FMU with the controller FMU co-simulate the
 seed's 43 mm step as hpctl's closed loop does.
 
-The FMUs are built once per test session (cargo is incremental: after
-`cargo test --workspace --release` the build only packs them)."""
+The FMUs are built once per test session, in the release profile users
+get (cargo is incremental: after a `cargo build --release -p hp-fmu` the
+build only packs them)."""
 
 from __future__ import annotations
 
