@@ -23,24 +23,16 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 from hpctl.hil import pil, scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from firmware_figures import build  # noqa: E402  (the firmware build and its ELFs, as the figures take them)
+
 PIL_BINARY = {4: "hp-fw-pil", 8: "hp-fw-pil8"}
-
-
-def build() -> dict[str, Path]:
-    """The firmware ELFs by binary name (``scripts/firmware-build.sh``'s
-    ``elf NAME PATH`` lines)."""
-    run = subprocess.run([str(ROOT / "scripts" / "firmware-build.sh")], cwd=ROOT, capture_output=True, text=True)
-    if run.returncode not in (0, 1):
-        sys.exit(f"firmware build failed ({run.returncode}): {run.stderr.strip()[-2000:]}")
-    return {name: Path(path) for kind, name, path in (line.split(maxsplit=2) for line in run.stdout.splitlines()) if kind == "elf"}
 
 
 def period_ms(elf: Path, corners: int, periods: int, one_core: bool) -> float:
@@ -64,7 +56,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--corners", default="4,8", help="comma-separated: 4, 8")
     args = ap.parse_args()
-    elfs = build()
+    _, elfs = build()
     print(f"{len(os.sched_getaffinity(0))} cores; {args.periods} periods a row; load {os.getloadavg()[0]:.2f}")
     for corners in (int(c) for c in args.corners.split(",")):
         elf = elfs[PIL_BINARY[corners]]
