@@ -45,6 +45,7 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from typing import Literal
 
 ROOT = Path(__file__).resolve().parent.parent
 SYSCLK_HZ = 25_000_000
@@ -146,7 +147,7 @@ def symbol(elf: Path, name: str) -> int:
     raise SystemExit(f"{elf.name}: no symbol {name}")
 
 
-def pil_stack(elf: Path, corners: int, periods: int = 2000) -> dict[str, float]:
+def pil_stack(elf: Path, corners: Literal[4, 8], periods: int = 2000) -> dict[str, float]:
     """Stack high-water mark of a lock-step production binary after the
     first ``periods`` of the ``drive`` scenario, read through QEMU's
     monitor."""
@@ -184,8 +185,9 @@ def main() -> None:
         figures[name] = {**sizes(elfs[name]), "heap_bytes": heap_bytes(elfs[name]), "corners": CORNERS[name]}
     runs = {4: measure(elfs["hp-fw-figures"]), 8: measure(elfs["hp-fw-figures8"])}
     figures["run4"], figures["run8"] = runs[4], runs[8]
-    for name, corners in (("hp-fw-pil", 4), ("hp-fw-pil8", 8)):
-        figures[name].update(pil_stack(elfs[name], corners))  # type: ignore[union-attr]
+    pil_corners: tuple[tuple[str, Literal[4, 8]], ...] = (("hp-fw-pil", 4), ("hp-fw-pil8", 8))
+    for name, pil_n in pil_corners:
+        figures[name].update(pil_stack(elfs[name], pil_n))  # type: ignore[union-attr]
 
     over: list[str] = []
     print("Firmware figures of the vehicle ECU (budgets: flash <= 32 KiB; RAM <= 4 KiB + 1 KiB per corner;")
