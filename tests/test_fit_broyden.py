@@ -181,6 +181,67 @@ def _same_optimum_in_fewer_runs(seed: int, monkeypatch: pytest.MonkeyPatch) -> N
     assert counts["broyden"] < counts["finite_difference"], context
 
 
+def test_a_screening_starts_from_the_jacobian_of_the_model_it_extends(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A Broyden screening of friction on the model without it (what
+    # diagnose._try fits), given that model (``extends``): its first
+    # Jacobian takes the shared parameters' columns from that model's and
+    # runs only friction's, and it ends at the same optimum (the
+    # screening's BIC resolution) in fewer runs. A "hybrid" fit ignores it:
+    # the same runs, the same end, bit for bit.
+    rng = np.random.default_rng(seed)
+    truth = {"tau_s": float(rng.uniform(1.0, 5.0)), "friction_coulomb_n": float(rng.uniform(200.0, 1200.0))}
+    unit = hpctl.Unit.seed().replace(tau_s=truth["tau_s"]).with_effects(friction=Friction(truth["friction_coulomb_n"], 300.0, 2e-3))
+    base = fit(prepare(virtual_rig.make_records(unit, "sweep", seed=seed % 1000)), MODEL[:2], input_noise=False)
+    assert base.jacobian is not None and base.jacobian.shape == (base.n, len(base.model.params))
+    runs: list[Any] = []
+    real = fit_module.run_many
+
+    def counted(cases: Sequence[Any], *a: Any, **k: Any) -> Any:
+        runs.append(len(cases))
+        return real(cases, *a, **k)
+
+    monkeypatch.setattr(fit_module, "run_many", counted)
+    ftol = screening_ftol(base.n)
+    ends = {}
+    batches = {}
+    for jacobian, extends in (("broyden", None), ("broyden", base), ("hybrid", None), ("hybrid", base)):
+        runs.clear()
+        ends[jacobian, extends is not None] = fit(base.datasets, MODEL, initial=base.values, input_noise=False, ftol=ftol, errors=False,
+                                                  jacobian=jacobian, extends=extends)
+        batches[jacobian, extends is not None] = list(runs)
+    context = f"seed={seed} truth={truth} batches of runs={batches}"
+    plain, seeded = ends["broyden", False], ends["broyden", True]
+    assert abs(seeded.bic - plain.bic) < 1.0, context
+    assert sum(batches["broyden", True]) < sum(batches["broyden", False]), context
+    # The start's Jacobian: friction's columns alone (each a run of the
+    # records it reaches), where the plain one runs every column.
+    n_records = len(base.datasets)
+    new = len(seeded.model.params) - len(base.model.params)
+    assert batches["broyden", True][1] <= new * n_records < batches["broyden", False][1], context
+    assert batches["hybrid", True] == batches["hybrid", False], context
+    assert ends["hybrid", True].values == ends["hybrid", False].values, context
+
+
+def test_a_jacobian_is_taken_only_for_the_residuals_it_was_computed_on() -> None:
+    # Another list of the same records, a fold, a fit without errors: no
+    # columns taken (the residuals' rows would not be the same).
+    from hpctl.identify.fit import _seed_columns
+
+    datasets = prepare(virtual_rig.make_records(hpctl.Unit.seed(), tests=[virtual_rig.effect_tests()["sdof"]], seed=1))
+    base = fit(datasets, MODEL[:2], input_noise=False, place_switches=False)
+    params = fit_module.model_for(base.datasets, MODEL).params
+    taken = _seed_columns(params, base.datasets, None, base)
+    assert taken is not None and taken[1] is base.jacobian
+    shared, _ = taken
+    assert {params[i].name for i in shared} == {p.name for p in base.model.params}
+    assert all(params[i].name == base.model.params[k].name for i, k in shared.items())
+    again = prepare(virtual_rig.make_records(hpctl.Unit.seed(), tests=[virtual_rig.effect_tests()["sdof"]], seed=1))
+    assert _seed_columns(params, again, None, base) is None
+    assert _seed_columns(params, base.datasets, 0, base) is None
+    bare = fit(datasets, MODEL[:2], input_noise=False, errors=False)
+    assert bare.jacobian is None and _seed_columns(params, bare.datasets, None, bare) is None
+
+
 def test_errors_left_out_and_added_at_the_optimum_are_the_fits_own() -> None:
     # A screening fit is fitted without errors; the candidates weighed for
     # acceptance get them from finite differences at their optimum

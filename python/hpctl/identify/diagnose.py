@@ -1417,8 +1417,10 @@ def _try(
     ends = stop if enough is None else (lambda v, r: enough(v, r) or (stop is not None and stop(v, r)))
 
     def attempt(start: Mapping[str, float]) -> FitResult:
+        # A Broyden screening starts from ``current``'s Jacobian, finite
+        # differences only for the effect's own parameters (fit's ``extends``).
         return fit(datasets, effects + add, initial=start, input_noise=False, flexible=current.model.flexible, stop=ends, ftol=ftol,
-                   jacobian=jacobian, errors=False, max_nfev=max_nfev, on_first_run=on_first_run)
+                   jacobian=jacobian, errors=False, max_nfev=max_nfev, on_first_run=on_first_run, extends=current)
 
     def better_from(start: Mapping[str, float], trial: FitResult, or_below: float = 0.0) -> FitResult:
         # Fitted again only from a start better than where the fit ended,

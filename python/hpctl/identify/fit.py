@@ -354,6 +354,11 @@ class FitResult:
     #: the residuals' correlation and uneven spread weaken what a BIC
     #: change says (:func:`hpctl.identify.diagnose.design_effect`).
     covariance_iid: FloatArray | None = field(default=None, repr=False)
+    #: The data rows of the finite-difference Jacobian at the estimate
+    #: (columns in the order of ``model.params``, in the fit's coordinates):
+    #: where a Broyden fit of a model extending this one starts its own
+    #: (``extends``). None for a fit without errors.
+    jacobian: FloatArray | None = field(default=None, repr=False)
 
     @property
     def place_step_max(self) -> float | None:
@@ -457,6 +462,7 @@ def fit(
     errors: bool = True,
     place_switches: bool = True,
     on_first_run: Callable[[float], None] | None = None,
+    extends: FitResult | None = None,
 ) -> FitResult:
     """Fits a model with ``effects`` to the datasets, starting from
     ``initial`` values where given (warm start), else the library defaults;
@@ -513,6 +519,16 @@ def fit(
     (:func:`hpctl.identify.diagnose._confirmed`). Either way the Jacobian
     the errors come from is finite differences at the optimum.
 
+    ``extends``: the fitted model this one extends (a screening fit's
+    candidate on the datasets of that fit). A ``"broyden"`` fit then starts
+    from that model's Jacobian for the parameters both have and finite
+    differences only for the others: one run for oil compliance's modulus
+    where the start's 20-odd stiff runs took 12-19 s of its 50 s screening
+    on the bundled heat run (BENCHMARKS.md, stop 80). The updates and
+    their fall-back to finite differences (:class:`_Secant`) correct the
+    rest as they would an update's; a ``"hybrid"`` fit, whose finite
+    differences far from the optimum choose its path, ignores it.
+
     ``errors=False``: no standard errors (``stderr`` empty) and the input
     noise not carried through, for a fit read only for its prediction or
     its cost (cross-validation's folds, screening fits): a fit stopped by
@@ -549,11 +565,11 @@ def fit(
             run = functools.partial(_fit, datasets, effects, fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, input_noise=input_noise,
                                     held=held, fixed=fixed, tie=tie, stop=stop, ftol=ftol, jacobian=jacobian, errors=errors,
                                     place_switches=place_switches)
-            result = run(initial=initial, on_first_run=on_first_run)
+            result = run(initial=initial, on_first_run=on_first_run, extends=extends)
             if not (errors and fold is None and stop is None and _in_stribeck_valley(result)):
                 return result
             try:
-                again = run(initial={**result.values, **STRIBECK_RESTART}, on_first_run=None)
+                again = run(initial={**result.values, **STRIBECK_RESTART}, on_first_run=None, extends=None)
             except HpctlError as e:
                 # The restart is a second opinion: its failure never costs the first fit.
                 result.message += f"; a restart with the Stribeck peak above the smoothing velocity failed ({e}), the first optimum kept"
@@ -573,7 +589,7 @@ def fit(
 def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
          fold: int | None, flexible: bool, input_noise: bool, held: Mapping[str, float] | None, fixed: Mapping[str, float] | None,
          tie: Tie | None, stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool,
-         on_first_run: Callable[[float], None] | None) -> FitResult:
+         on_first_run: Callable[[float], None] | None, extends: FitResult | None = None) -> FitResult:
     """:func:`fit` without the Stribeck restart. Every argument is given:
     the defaults are :func:`fit`'s alone."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
@@ -639,7 +655,9 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     sizes = [len(residual_block(d, RuntimeError(), fold)) for d in datasets]  # a failed run's block: its size
     blocks = [slice(a, b) for a, b in itertools.pairwise(np.cumsum([0, *sizes]).tolist())]
 
-    def fd_jac(x: FloatArray) -> FloatArray:
+    def fd_jac(x: FloatArray, only: Sequence[int] | None = None) -> FloatArray:
+        # ``only``: those columns alone (the others left zero), for a
+        # Jacobian whose other columns come from elsewhere (``seed_at``).
         f0, ends = evaluate(x)
         steps = []
         xs = []
@@ -655,8 +673,9 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         # (kept in ``runs`` when x was the last point evaluated or the
         # optimiser's iterate; else every column is run).
         at_x = next((v for k, v in runs.values() if k == x.tobytes()), None)
-        taken, outputs = _output_only_plan(model, datasets, params, values_from_x(params, x), perturbed, reaches, at_x)
-        which = [tuple(j for j in r if (i, j) not in taken) for i, r in enumerate(reaches)]
+        wanted = reaches if only is None else [r if i in only else () for i, r in enumerate(reaches)]
+        taken, outputs = _output_only_plan(model, datasets, params, values_from_x(params, x), perturbed, wanted, at_x)
+        which = [tuple(j for j in r if (i, j) not in taken) for i, r in enumerate(wanted)]
         # Those columns computed here while the others run (in Rust,
         # without the GIL): 17 ms of Python a Jacobian on the bundled
         # campaign, a core otherwise idle meanwhile (stop 63).
@@ -681,6 +700,22 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
     updates = jacobian != "finite_difference"
     secant = _Secant(len(prior), far_share=_Secant.FAR_SHARE if jacobian == "hybrid" else None)
 
+    # Not for "hybrid": its finite differences far from the optimum choose
+    # the path, and so the optimum, a screening is judged in.
+    seeds = _seed_columns(params, datasets, fold, extends) if jacobian == "broyden" else None
+
+    def seed_at(x: FloatArray, f: FloatArray) -> FloatArray | None:
+        # A Broyden fit's first Jacobian at a start: the columns of the
+        # parameters it shares with the model it extends taken from that
+        # model's, the others by finite differences.
+        if seeds is None or secant.x is not None:
+            return None
+        shared, rows = seeds
+        jm = fd_jac(x, only=[i for i in range(len(params)) if i not in shared])
+        for i, k in shared.items():
+            jm[: rows.shape[0], i] = rows[:, k]
+        return secant.seed(x, f, jm)
+
     def jac(x: FloatArray) -> FloatArray:
         f = fun(x)
         if runs["last"][0] == x.tobytes():
@@ -689,6 +724,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             # A solve started again where the last one ended (a Broyden
             # fit's confirmation): its finite differences are still good.
             return secant.j
+        if (seeded := seed_at(x, f)) is not None:
+            return seeded
         if updates:
             updated = secant.update(x, f)
             if updated is not None:
@@ -903,7 +940,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         place_step = _place_step(x, lo, hi, jmat[:n_data], jmat[n_data:], r, prior_rows(x) if prior else np.zeros(0), places,
                                  np.concatenate([d.switch_leads for d in datasets]))
     return FitResult(model, values, standard_errors(params, cov), rss, len(r), _stats(datasets, sims), sims, list(datasets), success, message, cov,
-                     place_step, stopped, _iid_covariance(params, x, jmat[:n_data], jmat[n_data:], rss / max(len(r), 1), places))
+                     place_step, stopped, _iid_covariance(params, x, jmat[:n_data], jmat[n_data:], rss / max(len(r), 1), places),
+                     jmat[:n_data] if fold is None else None)
 
 
 #: A flexible fit with friction whose Stribeck velocity ends below this
@@ -1044,6 +1082,21 @@ def _output_only_plan(
         return {(i, j): {**base, "force_n": base["force_n"] + change} for j, base, columns, changes in plans for i, change in zip(columns, changes())}
 
     return {(i, j) for j, _, columns, _ in plans for i in columns}, outputs
+
+
+def _seed_columns(params: Sequence[Param], datasets: Sequence[Dataset], fold: int | None,
+                  extends: FitResult | None) -> tuple[dict[int, int], FloatArray] | None:
+    """Which of ``params``' Jacobian columns a Broyden fit takes from the
+    model it ``extends`` (index here -> index there) and that model's
+    Jacobian's data rows; None where it has none for these residuals (a
+    fold, other datasets, a fit without errors)."""
+    if extends is None or extends.jacobian is None or fold is not None or len(extends.datasets) != len(datasets):
+        return None
+    if not all(a is b for a, b in zip(extends.datasets, datasets)):
+        return None
+    there = {p.name: k for k, p in enumerate(extends.model.params)}
+    shared = {i: there[p.name] for i, p in enumerate(params) if p.name in there}
+    return (shared, extends.jacobian) if shared else None
 
 
 def _beside(background: Callable[[], T], here: Callable[[], U]) -> tuple[T, U]:
@@ -1549,6 +1602,12 @@ class _Secant:
         # Jacobian it is given; nor does fit with the one it ends with): an
         # update makes a new array, so what was handed out never changes
         # (18 MB a copy on the bundled campaign, two an update before).
+        return j
+
+    def seed(self, x: FloatArray, f: FloatArray, j: FloatArray) -> FloatArray:
+        """Starts the updates from ``j`` at ``x``, a Jacobian not all of
+        finite differences (never taken for a confirmation's)."""
+        self.x, self.f, self.j, self.exact = x.copy(), f, j, False
         return j
 
     def exact_at(self, x: FloatArray) -> bool:
