@@ -589,7 +589,7 @@ def fit(
 def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mapping[str, float] | None, fit_damper: bool | None, max_nfev: int,
          fold: int | None, flexible: bool, input_noise: bool, held: Mapping[str, float] | None, fixed: Mapping[str, float] | None,
          tie: Tie | None, stop: Callable[[Mapping[str, float], float], bool] | None, ftol: float, jacobian: str, errors: bool, place_switches: bool,
-         on_first_run: Callable[[float], None] | None, extends: FitResult | None = None) -> FitResult:
+         on_first_run: Callable[[float], None] | None, extends: FitResult | None) -> FitResult:
     """:func:`fit` without the Stribeck restart. Every argument is given:
     the defaults are :func:`fit`'s alone."""
     if not 1e-15 <= ftol < 1.0:  # also refuses NaN
@@ -862,8 +862,9 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
             at = values_from_x(params, x)
             known = all(d.switch_leads.size for d in datasets if switch_samples(d).size)
             placed = estimate_leads(datasets, lambda ds: simulate_all(model, ds, [at])[0], spans=ROUND_SPANS[1:] if known else ROUND_SPANS)
+            # Not ``extends``: these fits' datasets carry the places, other residuals than its Jacobian's.
             again = dict(fit_damper=fit_damper, max_nfev=max_nfev, fold=fold, flexible=flexible, held=held, fixed=fixed, tie=tie, stop=stop, on_first_run=None,
-                         ftol=ftol, jacobian=jacobian, place_switches=False)
+                         ftol=ftol, jacobian=jacobian, place_switches=False, extends=None)
             # The places found at the optimum of the midway model shift the
             # optimum, which shifts the places: a switch whose segment tells
             # its place weakly (a closing with little flow) moved from 0.65
