@@ -714,7 +714,7 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         jm = fd_jac(x, only=[i for i in range(len(params)) if i not in shared])
         for i, k in shared.items():
             jm[: rows.shape[0], i] = rows[:, k]
-        return secant.seed(x, f, jm)
+        return secant.fresh(x, f, jm, exact=False)
 
     def jac(x: FloatArray) -> FloatArray:
         f = fun(x)
@@ -1597,18 +1597,15 @@ class _Secant:
         self.j: FloatArray | None = None
         self.exact = False
 
-    def fresh(self, x: FloatArray, f: FloatArray, j: FloatArray) -> FloatArray:
-        self.x, self.f, self.j, self.exact = x.copy(), f, j, True
+    def fresh(self, x: FloatArray, f: FloatArray, j: FloatArray, exact: bool = True) -> FloatArray:
+        """Starts the updates from ``j`` at ``x``: finite differences, or
+        with ``exact=False`` a Jacobian not all of them (``extends``' columns;
+        never taken for a confirmation's)."""
+        self.x, self.f, self.j, self.exact = x.copy(), f, j, exact
         # The optimiser's to keep without a copy (trust_region writes to no
         # Jacobian it is given; nor does fit with the one it ends with): an
         # update makes a new array, so what was handed out never changes
         # (18 MB a copy on the bundled campaign, two an update before).
-        return j
-
-    def seed(self, x: FloatArray, f: FloatArray, j: FloatArray) -> FloatArray:
-        """Starts the updates from ``j`` at ``x``, a Jacobian not all of
-        finite differences (never taken for a confirmation's)."""
-        self.x, self.f, self.j, self.exact = x.copy(), f, j, False
         return j
 
     def exact_at(self, x: FloatArray) -> bool:
