@@ -222,6 +222,14 @@ def test_a_screening_starts_from_the_jacobian_of_the_model_it_extends(seed: int,
     assert ends["hybrid", True].values == ends["hybrid", False].values, context
 
 
+@pytest.mark.parametrize("extends", [{"tau_s": 2.0}, "seed", 1.0])
+def test_a_fit_refuses_an_extends_that_is_no_fit(extends: Any) -> None:
+    records = virtual_rig.make_records(hpctl.Unit.seed(), tests=[virtual_rig.effect_tests()["sdof"]], seed=1)
+    with pytest.raises(ParameterError, match="extends") as e:
+        fit(prepare(records), ("heat_transfer", "real_gas"), jacobian="broyden", extends=extends)
+    assert isinstance(e.value, ValueError) and "FitResult" in str(e.value)
+
+
 def test_a_jacobian_is_taken_only_for_the_residuals_it_was_computed_on() -> None:
     # Another list of the same records, a fold, a fit without errors: no
     # columns taken (the residuals' rows would not be the same).

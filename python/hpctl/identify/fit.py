@@ -598,6 +598,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         raise bad_argument("max_nfev", max_nfev, f"a whole number of cost evaluations in [1, {MAX_NFEV_LIMIT}]")
     if jacobian not in JACOBIANS:
         raise bad_argument("jacobian", jacobian, f"one of {', '.join(JACOBIANS)}")
+    if extends is not None and not isinstance(extends, FitResult):
+        raise bad_argument("extends", extends, "None or the FitResult of the model this fit extends")
     model = model_for(datasets, effects, fit_damper=fit_damper, flexible=flexible)
     if held:
         fitted = {p.name for p in model.params}
