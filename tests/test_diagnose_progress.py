@@ -280,6 +280,28 @@ def test_the_time_left_weighs_a_running_fit_by_what_its_runs_cost(monkeypatch: p
     assert said[-1][2] is None
 
 
+def test_a_screening_ended_at_the_share_tells_the_tail_by_its_own_runs_cost(monkeypatch: pytest.MonkeyPatch) -> None:
+    # _try_all notes each candidate's first run (fit's on_first_run) with
+    # its screening: the tail of one ended at the share is its runs, 65 of
+    # them and its second screening's 200 (stop 81), however short its first
+    # screening was (it started from the Jacobian of the model it extends).
+    cost = {"friction": 0.05, "leakage": 0.2}
+
+    def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], on_first_run: Any = None, **_: Any) -> Any:
+        on_first_run(cost[add[0]])
+        result = SimpleNamespace(model=SimpleNamespace(flexible=True), stopped=add == ("friction",))
+        return diagnose_module.Candidate(add, 1, result, 900.0 if add == ("friction",) else 50.0, 0.9,  # type: ignore[arg-type]
+                                         ended_at_share=add == ("friction",))
+
+    monkeypatch.setattr(diagnose_module, "_try", fake_try)
+    clock = diagnose_module._Clock(lambda _m: None, 1)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        diagnose_module._try_all([], None, (), [(e,) for e in cost], clock, pool)  # type: ignore[arg-type]
+    assert clock.gained[("friction",)][3] == 0.05 and clock.gained[("leakage",)][3] == 0.2
+    assert clock.tail_s(("friction",), rescreened=True) == pytest.approx(65.0 * 0.05)
+    assert clock.tail_s(("friction",)) == pytest.approx(65.0 * 0.05 + 200.0 * 0.05)
+
+
 def test_a_running_fit_counts_half_when_it_has_run_as_long_as_the_finished_ones_took() -> None:
     assert diagnose_module.running_credit([], [1.0]) == 0.0
     assert diagnose_module.running_credit([2.0], []) == 0.0
@@ -497,9 +519,11 @@ def test_the_rounds_tail_is_told_by_the_candidate_that_gained_not_by_the_mean_fi
     # candidate that is not the answer set the mean (oil compliance's stiff
     # runs on the bundled heat run) it said 86 s where 28 s were (stop 78).
     # Once a candidate gains, the tail is its own screening's time: a share
-    # of a screening that ran to its end, more of a first screening
-    # Broyden's updates ended at the share, with its second screening still
-    # to come until it ends.
+    # of a screening that ran to its end. After a first screening
+    # Broyden's updates ended at the share (started from the Jacobian of the
+    # model it extends, so faster than its second screening by far more on
+    # the heat run than on the campaign: 21 x and 5.8 x, stop 81), its runs
+    # of the model, with its second screening still to come until it ends.
     now = [100.0]
     monkeypatch.setattr(diagnose_module.time, "perf_counter", lambda: now[0])
     lines: list[str] = []
@@ -523,9 +547,12 @@ def test_the_rounds_tail_is_told_by_the_candidate_that_gained_not_by_the_mean_fi
     clock.tell("candidate 2/3 (leakage) fitted", 1.0)
     assert lines[-1].endswith(f"about {diagnose_module._fmt_s(47.0 + clock.TAIL_SHARE * 4.0)} left in this round"), lines
     # The best-scored candidate that gained is the one told by.
-    clock.screened(candidate("heat_buildup", 9_000.0, at_share=True), 6.0)
-    first = clock.TAIL_AFTER_SHARE * 6.0
-    rescreen = clock.RESCREEN_SCREENINGS * 6.0
+    clock.screened(candidate("heat_buildup", 9_000.0, at_share=True), 6.0, 0.25)
+    first = clock.TAIL_AFTER_SHARE_RUNS * 0.25
+    rescreen = clock.RESCREEN_RUNS * 0.25
+    assert clock.tail_s() == pytest.approx(first + rescreen)
+    # Told by its run, not by how long its first screening took.
+    clock.screened(candidate("heat_buildup", 9_000.0, at_share=True), 60.0, 0.25)
     assert clock.tail_s() == pytest.approx(first + rescreen)
     # Its second screening counted down from when it began, as
     # running_credit counts a fit: run as long as expected, half is left;
@@ -537,6 +564,11 @@ def test_the_rounds_tail_is_told_by_the_candidate_that_gained_not_by_the_mean_fi
     assert first < clock.tail_s() < first + rescreen / 10
     assert clock.tail_s(("heat_buildup",), rescreened=True) == pytest.approx(first)
     assert clock.tail_s(("leakage",)) == pytest.approx(clock.TAIL_SHARE * 4.0)
+    # One ended at the share whose run was not timed tells nothing: the
+    # round's rate says the tail while it is the best.
+    clock.screened(candidate("sensor_lag", 20_000.0, at_share=True), 5.0)
+    assert clock.tail_s() is None and clock.tail_s(("sensor_lag",), rescreened=True) is None
+    assert clock.after_screenings_s() == pytest.approx(clock.per_fit_s() * clock.ACCEPT_FITS)
     # Another round's candidates are new.
     clock.new_round(2)
     assert clock.round == 2 and clock.tail_s() is None and not clock.rescreen_began

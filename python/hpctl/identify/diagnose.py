@@ -882,9 +882,19 @@ class _Clock:
     cases (seed 11: a leak, a sensor offset, valve lag, oil compliance,
     friction, none; stop 78): cross-validation and the accepted model's
     fit took 0.25-1.5 x the accepted candidate's screening where that ran
-    to its end, 2.65-2.8 x its first screening where Broyden's updates
-    ended it at the share (screened again with finite differences: 2.9
-    and 8.8 x that first one, alone)."""
+    to its end.
+
+    A first screening Broyden's updates ended at the share says little of
+    its tail: it starts from the Jacobian of the model it extends
+    (``fit``'s ``extends``), while its second screening
+    (:data:`RESCREEN`) starts with finite differences in every column.
+    Its tail is told in runs of its model instead, each as long as the
+    screening's first run (``fit``'s ``on_first_run``): on the bundled
+    campaign (friction, a run 0.086 s) and heat run (heat build-up,
+    0.29 s), the second screening took 162 and 241 runs' time, beside the
+    other screenings and then alone, and cross-validation with the
+    accepted model's fit 63 and 70 (stop 81; in the first screening's own
+    time: 5.8 and 21 x it, 2.3 and 6.3 x)."""
 
     #: Cross-validation (four half-data fits, the declared model's two
     #: shared by the round's candidates) and the accepted model's fit with
@@ -894,11 +904,11 @@ class _Clock:
     #: Cross-validation and the accepted model's fit, in the time the
     #: candidate's screening took (one that ran to its end).
     TAIL_SHARE = 0.6
-    #: The same in the time of a first screening that Broyden's updates
-    #: ended at the share (:func:`enough_explained`).
-    TAIL_AFTER_SHARE = 2.7
-    #: Its second screening (:data:`RESCREEN`) in that first one's time.
-    RESCREEN_SCREENINGS = 5.0
+    #: The same, in runs of its model, after a first screening that
+    #: Broyden's updates ended at the share (:func:`enough_explained`).
+    TAIL_AFTER_SHARE_RUNS = 65.0
+    #: Its second screening (:data:`RESCREEN`), in runs of its model.
+    RESCREEN_RUNS = 200.0
     #: The share of the tail left once the accepted model's fit begins.
     FULL_FIT_SHARE = 0.5
 
@@ -914,8 +924,9 @@ class _Clock:
         #: rate what the pool does, not what its first finisher did.
         self.credit = 0.0
         #: Each candidate that gained: (its score, its screening's wall
-        #: time, whether Broyden's updates ended it at the share).
-        self.gained: dict[tuple[str, ...], tuple[float, float, bool]] = {}
+        #: time, whether Broyden's updates ended it at the share, the wall
+        #: time of its first run where timed).
+        self.gained: dict[tuple[str, ...], tuple[float, float, bool, float | None]] = {}
         #: When the second screening of each such candidate was started.
         self.rescreen_began: dict[tuple[str, ...], float] = {}
 
@@ -930,34 +941,38 @@ class _Clock:
         self.gained.clear()
         self.rescreen_began.clear()
 
-    def screened(self, c: Candidate, seconds: float) -> None:
-        """Note ``c``'s screening, ``seconds`` of wall time, if it gained."""
+    def screened(self, c: Candidate, seconds: float, run_s: float | None = None) -> None:
+        """Note ``c``'s screening, ``seconds`` of wall time, its first run
+        ``run_s`` (None: not timed), if it gained."""
         if c.delta_bic > BIC_STRONG:
-            self.gained[c.effects] = (c.score, seconds, c.ended_at_share)
+            self.gained[c.effects] = (c.score, seconds, c.ended_at_share, run_s)
 
     def tail_s(self, effects: tuple[str, ...] | None = None, rescreened: bool = False) -> float | None:
         """Cross-validation and the accepted model's fit for ``effects``
         (the best-scored candidate that gained where None), with its second
         screening's time still to come where it has one and is not
-        ``rescreened``: from its screening's time (the class's note). None
-        where that candidate has not gained."""
+        ``rescreened``: from its screening's time, or its run's where
+        Broyden's updates ended it at the share (the class's note). None
+        where that candidate has not gained, or has no run timed to tell
+        its tail by."""
         if effects is None:
             effects = max(self.gained, key=lambda e: self.gained[e][0], default=None)
         if effects is None or effects not in self.gained:
             return None
-        _, seconds, at_share = self.gained[effects]
+        _, seconds, at_share, run_s = self.gained[effects]
         if not at_share:
             return self.TAIL_SHARE * seconds
-        tail = self.TAIL_AFTER_SHARE * seconds
+        if run_s is None:
+            return None
+        tail = self.TAIL_AFTER_SHARE_RUNS * run_s
         if rescreened:
             return tail
         # The second screening's time left counted as running_credit counts
         # a fit's: one that has run e of an expected m is e / (e + m) done,
-        # so m^2 / (e + m) is left, never nothing while it runs (the bundled
-        # runs' second screenings, beside the others' fits, took 3-17 x the
-        # first, wall time; 5 x said nothing left once passed, 0.4 x the
-        # round's time then left).
-        expected = self.RESCREEN_SCREENINGS * seconds
+        # so m^2 / (e + m) is left, never nothing while it runs (stop 78:
+        # an expected time said nothing left once passed, 0.4 x the round's
+        # time then left).
+        expected = self.RESCREEN_RUNS * run_s
         began = self.rescreen_began.get(effects)
         ran = 0.0 if began is None else max(0.0, time.perf_counter() - began)
         return tail + (expected * expected / (ran + expected) if expected > 0.0 else 0.0)
@@ -1028,7 +1043,7 @@ def _completed(f: Future[Candidate], i: int, out: list[Candidate | None], began:
     clock.fits += 1
     clock.fit_wall_s += now - start
     clock.credit = running_credit([d for _, d in _took(began, ended)], [e for _, e in _so_far(began, ended, now)])
-    clock.screened(c, now - began[i])
+    clock.screened(c, now - began[i], cost.get(i))
     clock.tell(f"{kind} {done}/{len(adds)} ({c.effect}) fitted, BIC change {-c.delta_bic:+.4g}"
                + (" (stopped heading for its null, no better)" if c.stopped_at_null else "")
                + (f" (ended at {100 * c.explained:.0f} % of the excess explained, to be screened again)" if c.ended_at_share else ""),
