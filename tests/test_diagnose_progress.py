@@ -560,6 +560,13 @@ def test_the_rounds_tail_is_told_by_the_candidate_that_gained_not_by_the_mean_fi
     clock.rescreen_began[("heat_buildup",)] = now[0]
     now[0] += rescreen
     assert clock.tail_s() == pytest.approx(first + rescreen / 2)
+    # It runs beside the screenings still running: only their time beyond
+    # its own adds to the tail.
+    assert clock.beside_s() == pytest.approx(rescreen / 2)
+    clock.tell("candidate 3/4 (friction) fitted", 0.0, running_s=100.0)
+    assert lines[-1].endswith(f"about {diagnose_module._fmt_s(100.0 + first)} left in this round"), lines
+    clock.tell("candidate 3/4 (friction) fitted", 0.0, running_s=rescreen / 4)
+    assert lines[-1].endswith(f"about {diagnose_module._fmt_s(first + rescreen / 2)} left in this round"), lines
     now[0] += 1000.0
     assert first < clock.tail_s() < first + rescreen / 10
     assert clock.tail_s(("heat_buildup",), rescreened=True) == pytest.approx(first)
