@@ -282,9 +282,9 @@ def test_the_time_left_weighs_a_running_fit_by_what_its_runs_cost(monkeypatch: p
 
 def test_a_screening_ended_at_the_share_tells_the_tail_by_its_own_runs_cost(monkeypatch: pytest.MonkeyPatch) -> None:
     # _try_all notes each candidate's first run (fit's on_first_run) with
-    # its screening: the tail of one ended at the share is its runs, 65 of
-    # them and its second screening's 200 (stop 81), however short its first
-    # screening was (it started from the Jacobian of the model it extends).
+    # its screening: the tail of one ended at the share is told in its runs
+    # (stop 81), however short its first screening was (it started from the
+    # Jacobian of the model it extends).
     cost = {"friction": 0.05, "leakage": 0.2}
 
     def fake_try(datasets: Any, current: Any, effects: Any, add: tuple[str, ...], on_first_run: Any = None, **_: Any) -> Any:
@@ -298,8 +298,8 @@ def test_a_screening_ended_at_the_share_tells_the_tail_by_its_own_runs_cost(monk
     with ThreadPoolExecutor(max_workers=2) as pool:
         diagnose_module._try_all([], None, (), [(e,) for e in cost], clock, pool)  # type: ignore[arg-type]
     assert clock.gained[("friction",)][3] == 0.05 and clock.gained[("leakage",)][3] == 0.2
-    assert clock.tail_s(("friction",), rescreened=True) == pytest.approx(65.0 * 0.05)
-    assert clock.tail_s(("friction",)) == pytest.approx(65.0 * 0.05 + 200.0 * 0.05)
+    assert clock.tail_s(("friction",), rescreened=True) == pytest.approx(clock.TAIL_AFTER_SHARE_RUNS * 0.05)
+    assert clock.tail_s(("friction",)) == pytest.approx((clock.TAIL_AFTER_SHARE_RUNS + clock.RESCREEN_RUNS) * 0.05)
 
 
 def test_a_running_fit_counts_half_when_it_has_run_as_long_as_the_finished_ones_took() -> None:

@@ -889,12 +889,15 @@ class _Clock:
     (``fit``'s ``extends``), while its second screening
     (:data:`RESCREEN`) starts with finite differences in every column.
     Its tail is told in runs of its model instead, each as long as the
-    screening's first run (``fit``'s ``on_first_run``): on the bundled
-    campaign (friction, a run 0.086 s) and heat run (heat build-up,
-    0.29 s), the second screening took 162 and 241 runs' time, beside the
-    other screenings and then alone, and cross-validation with the
-    accepted model's fit 63 and 70 (stop 81; in the first screening's own
-    time: 5.8 and 21 x it, 2.3 and 6.3 x)."""
+    screening's first run (``fit``'s ``on_first_run``). On the bundled
+    campaign (friction, a run 0.086 s), the bundled heat run (heat
+    build-up, 0.29 s) and the foreign heat build-up draw 1843644237 (about
+    0.09 s), the second screening took 162, 241 and about 105 runs' time
+    (beside the other screenings, then alone) and cross-validation with
+    the accepted model's fit 63, 70 and about 40: the geometric means are
+    the constants (stop 81). In the first screening's own time the
+    campaign's and the bundled heat run's took 5.8 and 21 x it, 2.3 and
+    6.3 x."""
 
     #: Cross-validation (four half-data fits, the declared model's two
     #: shared by the round's candidates) and the accepted model's fit with
@@ -906,9 +909,9 @@ class _Clock:
     TAIL_SHARE = 0.6
     #: The same, in runs of its model, after a first screening that
     #: Broyden's updates ended at the share (:func:`enough_explained`).
-    TAIL_AFTER_SHARE_RUNS = 65.0
+    TAIL_AFTER_SHARE_RUNS = 57.0
     #: Its second screening (:data:`RESCREEN`), in runs of its model.
-    RESCREEN_RUNS = 200.0
+    RESCREEN_RUNS = 160.0
     #: The share of the tail left once the accepted model's fit begins.
     FULL_FIT_SHARE = 0.5
 
