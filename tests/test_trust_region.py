@@ -201,3 +201,62 @@ def test_the_accepted_fits_tolerance_is_a_tenth_of_a_standard_error(seed: int):
         assert sol.success and float(np.sqrt(d @ np.linalg.solve(cov, d))) < ACCEPTED_STEP_SE
     # Never finer than the fits' own 1e-8 (a short record).
     assert accepted_ftol(100, 3) > accepted_ftol(10**9, 3) == 1e-8
+
+
+@pytest.mark.parametrize("problem", ["rosenbrock", "decay", "decay_bound"])
+def test_the_noise_floors_stop_leaves_smooth_problems_on_scipys_path(problem: str):
+    # A smooth cost's failed trials rise less as the step shrinks, so the
+    # stop (noise_stop) never fires on one: SciPy's path, evaluation for
+    # evaluation.
+    if problem == "rosenbrock":
+        fun, jac, x0, lb, ub, kw = _rosenbrock, _rosenbrock_jac, [2.0, 2.0], [-np.inf, 1.5], [np.inf, np.inf], {"max_nfev": 200}
+    else:
+        (fun, jac), x0, lb = _decay_problem(11), [1.0, 0.2, 0.0], [0.0, 0.0, -1.0]
+        ub, kw = [10.0, 1.0 if problem == "decay_bound" else np.inf, 1.0], {"max_nfev": 100, "ftol": 1e-10}
+    ours = least_squares(fun, np.asarray(x0, float), jac, np.asarray(lb, float), np.asarray(ub, float), noise_stop=True, **kw)
+    theirs = scipy_least_squares(fun, x0, jac=jac, bounds=(lb, ub), method="trf", x_scale="jac", **kw)
+    assert (ours.nfev, ours.njev, ours.status) == (theirs.nfev, theirs.njev, theirs.status)
+    np.testing.assert_allclose(ours.x, theirs.x, rtol=1e-8)
+
+
+def _noisy(fun, eps: float, quantum: float):
+    """``fun`` plus noise that depends on the parameters but not smoothly:
+    a fixed draw for each cell of ``quantum`` in every parameter, as an
+    adaptive integrator's step choice changes the residuals (a nearby
+    parameter, other steps)."""
+
+    def noisy(p):
+        f = fun(p)
+        cell = np.floor(np.asarray(p) / quantum).astype(np.int64)
+        z = np.random.default_rng(np.abs(cell) + [1, 2, 3][: cell.size]).standard_normal(f.size)
+        return f + eps * z
+
+    return noisy
+
+
+def test_a_cost_with_its_own_noise_ends_at_the_noise_not_at_the_budget():
+    # The decay fit with a noise of 1e-3 on each residual that changes with
+    # every 1e-9 of a parameter (the cost's noise about 2e-3 where its
+    # minimum is 0.02): without the stop the loop fights it, shrinking the
+    # region to nothing; with it, the fit ends at status NOISE_FLOOR in
+    # fewer evaluations, within the noise of the smooth cost's minimum.
+    from hpctl.identify.trust_region import NOISE_FLOOR, noise_floor
+
+    fun, jac = _decay_problem(11)
+    noisy = _noisy(fun, 1e-3, 1e-9)
+    lb, ub, x0 = np.array([0.0, 0.0, -1.0]), np.array([10.0, np.inf, 1.0]), np.array([1.0, 0.2, 0.0])
+    best = least_squares(fun, x0, jac, lb, ub, max_nfev=500, ftol=1e-15, xtol=1e-15, gtol=1e-15)
+    rng = np.random.default_rng(5)
+    # The noise the cost carries near the minimum: its spread over points a
+    # hair apart (the smooth cost the same there to 1e-12).
+    spread = float(np.std([0.5 * float(f @ f) for f in (noisy(best.x + 1e-8 * rng.standard_normal(3)) for _ in range(50))]))
+    assert spread > 1e-4
+    fighting = least_squares(noisy, x0, jac, lb, ub, max_nfev=400, ftol=1e-12)
+    stopped = least_squares(noisy, x0, jac, lb, ub, max_nfev=400, ftol=1e-12, noise_stop=True)
+    assert stopped.status == NOISE_FLOOR and fighting.status != NOISE_FLOOR
+    assert stopped.nfev < fighting.nfev, (stopped.nfev, fighting.nfev)
+    smooth = 0.5 * float(fun(stopped.x) @ fun(stopped.x))
+    assert smooth - best.cost <= 3.0 * spread, (smooth, best.cost, spread)
+    # The rule itself: a rise that halves with a halved step is the model's.
+    assert noise_floor((1.0, 4.5), (0.25, 4.3), 1.0) and not noise_floor((1.0, 4.5), (0.25, 1.0), 0.5)
+    assert not noise_floor((1.0, 4.5), (0.75, 4.5), 1.0) and not noise_floor((1.0, 4.5), (0.25, 4.5), 5.0)
