@@ -18,9 +18,6 @@ The loop is SciPy's ``trf_bounds`` (BSD-3-Clause, scipy/optimize/_lsq/trf.py);
 its helpers are imported from SciPy (private modules, unchanged since SciPy
 0.17; ``tests/test_trust_region.py`` compares the whole path with
 ``least_squares``, so a change there fails a test rather than a fit).
-One ending is ours alone, asked for with ``noise_stop``: where the cost's
-own noise hides what a step could gain (:func:`noise_floor`, status
-:data:`NOISE_FLOOR`); without it the path is SciPy's.
 """
 
 from __future__ import annotations
