@@ -122,26 +122,6 @@ def test_a_fit_refuses_an_unknown_jacobian(jacobian: str) -> None:
     assert isinstance(e.value, ValueError) and "broyden" in str(e.value)
 
 
-@pytest.mark.parametrize("jacobian", ["finite_difference", "broyden", "hybrid"])
-def test_only_a_finite_difference_fit_stops_at_the_costs_noise(jacobian: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    # trust_region.noise_floor reads two failed trials whose rise does not
-    # shrink with the step as the cost's own noise. An updated Jacobian
-    # fails for its own reasons (on the bundled heat run a hybrid screening
-    # stopped so at 17 x its optimum's cost, and every fit after it took
-    # another path, stop 81), so only a finite-difference fit asks for it.
-    records = virtual_rig.make_records(hpctl.Unit.seed(), tests=[virtual_rig.effect_tests()["sdof"]], seed=1)
-    asked: list[bool] = []
-    real = fit_module.least_squares
-
-    def recorded(*a: Any, **k: Any) -> Any:
-        asked.append(k["noise_stop"])
-        return real(*a, **k)
-
-    monkeypatch.setattr(fit_module, "least_squares", recorded)
-    fit(prepare(records), ("heat_transfer", "real_gas"), jacobian=jacobian, input_noise=False, errors=False)
-    assert asked and set(asked) == {jacobian == "finite_difference"}
-
-
 def test_broyden_reaches_the_finite_difference_optimum_in_fewer_runs(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
     # Friction, a gas time constant and the damper on the virtual rig's
     # sweep. From the library's start at full precision: the same optimum

@@ -806,14 +806,8 @@ def _fit(datasets: Sequence[Dataset], effects: Sequence[str], *, initial: Mappin
         # residual sum of squares each, ending worse than where it began
         # (foreign rig, friction seed 1: 1.78 x the noise against 1.51 x
         # without friction); scaled, 28 evaluations to 0.88 x.
-        # A finite-difference fit ends where its cost's own noise hides what
-        # a step could gain (trust_region.noise_floor: the bundled
-        # campaign's fit 53 -> 43 Jacobians, the last ten gaining 0.7 in a
-        # cost of 127,274 whose trials rose 4.2-4.5 at any step); one with
-        # updates does not, whose failed trials are its Jacobian's.
         def solve(start: FloatArray, budget: int) -> Solution:
-            return least_squares(fun, start, jac, lo, hi, max_nfev=budget, xtol=1e-8, ftol=ftol, stop=stopped_at if stop is not None else None,
-                                 noise_stop=not updates)
+            return least_squares(fun, start, jac, lo, hi, max_nfev=budget, xtol=1e-8, ftol=ftol, stop=stopped_at if stop is not None else None)
 
         def solve_confirmed(start: FloatArray) -> Solution:
             sol = solve(start, max_nfev)

@@ -51,7 +51,6 @@ MESSAGES = {
     2: "`ftol` termination condition is satisfied.",
     3: "`xtol` termination condition is satisfied.",
     4: "Both `ftol` and `xtol` termination conditions are satisfied.",
-    5: "The cost's own noise reached: a trial step half as long or less raised the cost about as much, more than the step could gain.",
 }
 
 
@@ -132,27 +131,6 @@ def _split(r: FloatArray, k: int) -> tuple[FloatArray, FloatArray]:
     return np.ascontiguousarray(r[:rows, :k]), r[:rows, k].copy()
 
 
-#: :func:`least_squares`'s status where :func:`noise_floor` ended it.
-NOISE_FLOOR = 5
-
-
-def noise_floor(before: tuple[float, float], now: tuple[float, float], predicted: float) -> bool:
-    """Whether two failed trial steps of one iteration, each ``(|step|,
-    the cost's rise)``, say the cost is resolved no further here: the later
-    step half as long or less, its rise at least half the earlier one's,
-    and the reduction it predicted below that rise. A model's error
-    shrinks with the step (by its square or faster; a poor Jacobian's
-    direction, linearly), so a rise that does not is the cost's own noise:
-    the adaptive integration choosing other steps for a nearby parameter
-    (BENCHMARKS.md, stop 81: on the bundled campaign's flexible fit rises
-    of 4.2-4.5 at steps from 0.78 down to 5e-5, 25 evaluations and 12
-    Jacobians after the last gain above that noise). Where the step could
-    gain less than the noise hides, the iterate is the optimum as far as
-    the cost can tell."""
-    (step_before, rise_before), (step_now, rise_now) = before, now
-    return step_now <= 0.5 * step_before and rise_now >= 0.5 * rise_before and predicted < rise_now
-
-
 def least_squares(
     fun: Callable[[FloatArray], FloatArray],
     x0: FloatArray,
@@ -165,7 +143,6 @@ def least_squares(
     xtol: float = 1e-8,
     gtol: float = 1e-8,
     stop: Callable[[FloatArray], bool] | None = None,
-    noise_stop: bool = False,
 ) -> Solution:
     """Minimises ``0.5 |fun(x)|^2`` for ``lb <= x <= ub`` as SciPy's
     ``least_squares(fun, x0, jac=jac, bounds=(lb, ub), method="trf",
@@ -215,7 +192,6 @@ def least_squares(
         v_svd = vt.T
         theta = max(0.995, 1 - g_norm)
         actual_reduction = -1.0
-        failed: tuple[float, float] | None = None  # (|step_h|, the cost's rise) of this iteration's last failed trial
         while actual_reduction <= 0 and nfev < max_nfev:
             p_h, alpha, _ = solve_lsq_trust_region(n, m, uf, s, v_svd, delta, initial_alpha=alpha)
             p = d * p_h
@@ -234,10 +210,6 @@ def least_squares(
             delta_new, ratio = update_tr_radius(delta, actual_reduction, predicted_reduction, step_h_norm, step_h_norm > 0.95 * delta)
             step_norm = float(norm(step))
             status = check_termination(actual_reduction, cost, step_norm, float(norm(x)), ratio, ftol, xtol)
-            if status is None and actual_reduction <= 0:
-                if noise_stop and failed is not None and noise_floor(failed, (step_h_norm, -actual_reduction), predicted_reduction):
-                    status = NOISE_FLOOR
-                failed = (step_h_norm, -actual_reduction)
             if status is not None:
                 break
             alpha *= delta / delta_new
