@@ -950,16 +950,19 @@ class _Clock:
         if c.delta_bic > BIC_STRONG:
             self.gained[c.effects] = (c.score, seconds, c.ended_at_share, run_s)
 
+    def leader(self) -> tuple[str, ...] | None:
+        """The best-scored candidate that gained (None: none has)."""
+        return max(self.gained, key=lambda e: self.gained[e][0], default=None)
+
     def tail_s(self, effects: tuple[str, ...] | None = None, rescreened: bool = False) -> float | None:
         """Cross-validation and the accepted model's fit for ``effects``
-        (the best-scored candidate that gained where None), with its second
-        screening's time still to come where it has one and is not
-        ``rescreened``: from its screening's time, or its run's where
-        Broyden's updates ended it at the share (the class's note). None
-        where that candidate has not gained, or has no run timed to tell
-        its tail by."""
+        (:meth:`leader` where None), with its second screening's time
+        still to come (:meth:`rescreen_left_s`) unless ``rescreened``: from
+        its screening's time, or its run's where Broyden's updates ended it
+        at the share (the class's note). None where that candidate has not
+        gained, or has no run timed to tell its tail by."""
         if effects is None:
-            effects = max(self.gained, key=lambda e: self.gained[e][0], default=None)
+            effects = self.leader()
         if effects is None or effects not in self.gained:
             return None
         _, seconds, at_share, run_s = self.gained[effects]
@@ -967,32 +970,32 @@ class _Clock:
             return self.TAIL_SHARE * seconds
         if run_s is None:
             return None
-        tail = self.TAIL_AFTER_SHARE_RUNS * run_s
-        if rescreened:
-            return tail
-        # The second screening's time left counted as running_credit counts
-        # a fit's: one that has run e of an expected m is e / (e + m) done,
-        # so m^2 / (e + m) is left, never nothing while it runs (stop 78:
-        # an expected time said nothing left once passed, 0.4 x the round's
-        # time then left).
+        return self.TAIL_AFTER_SHARE_RUNS * run_s + (0.0 if rescreened else self.rescreen_left_s(effects))
+
+    def rescreen_left_s(self, effects: tuple[str, ...]) -> float:
+        """The second screening's time left of ``effects``, a candidate
+        that gained and was ended at the share with its run timed (0 for
+        any other), counted as running_credit counts a fit's: one that has
+        run e of an expected m is e / (e + m) done, so m^2 / (e + m) is
+        left, never nothing while it runs (stop 78: an expected time said
+        nothing left once passed, 0.4 x the round's time then left)."""
+        _, _, at_share, run_s = self.gained.get(effects, (0.0, 0.0, False, None))
+        if not at_share or run_s is None or not run_s > 0.0:
+            return 0.0
         expected = self.RESCREEN_RUNS * run_s
         began = self.rescreen_began.get(effects)
         ran = 0.0 if began is None else max(0.0, time.perf_counter() - began)
-        return tail + (expected * expected / (ran + expected) if expected > 0.0 else 0.0)
+        return expected * expected / (ran + expected)
 
     def beside_s(self) -> float:
-        """The part of :meth:`tail_s` (the best-scored candidate that
-        gained) that is its second screening's time left where that has
-        begun: it runs beside the screenings still running (:func:`_try_all`
-        starts it as the first ends), so only the screenings' time beyond
-        it adds to the tail. Counted after them, the bundled heat run's
-        lines while oil compliance's screening ran said 1.4-2.9 x the time
-        left (stop 81)."""
-        effects = max(self.gained, key=lambda e: self.gained[e][0], default=None)
-        if effects is None or effects not in self.rescreen_began:
-            return 0.0
-        whole, after = self.tail_s(effects), self.tail_s(effects, rescreened=True)
-        return 0.0 if whole is None or after is None else whole - after
+        """The :meth:`leader`'s :meth:`rescreen_left_s` where that second
+        screening has begun: it runs beside the screenings still running
+        (:func:`_try_all` starts it as the first ends), so only the
+        screenings' time beyond it adds to the tail. Counted after them,
+        the bundled heat run's lines while oil compliance's screening ran
+        said 1.4-2.9 x the time left (stop 81)."""
+        effects = self.leader()
+        return 0.0 if effects is None or effects not in self.rescreen_began else self.rescreen_left_s(effects)
 
     def after_screenings_s(self) -> float | None:
         """What follows the screenings: :meth:`tail_s`, else
